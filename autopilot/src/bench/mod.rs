@@ -1,0 +1,3 @@
+//! Benchmarks printed by `furrow bench …`: figures, not pass/fail tests.
+
+pub mod sitl;

@@ -1,0 +1,6 @@
+//! Control: turns guidance demands (steering angle, speed) into normalised
+//! actuator commands and servo pulse widths.
+
+pub mod mixer;
+pub mod pid;
+pub mod speed;

@@ -1,0 +1,8 @@
+//! Guidance: the path to follow, the preview-point tracker that steers onto
+//! it, the speed to drive at, and the navigator that ties them together for
+//! the modes.
+
+pub mod navigator;
+pub mod path;
+pub mod speed;
+pub mod tracker;

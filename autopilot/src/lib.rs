@@ -1,0 +1,30 @@
+//! Furrow's autopilot: the pure core and the edges that feed it.
+//!
+//! Layout (the core first, then the edges):
+//! - [`vehicle`]: the [`vehicle::Core`], a plain struct stepped at
+//!   `SCHED_LOOP_RATE` with injected time; it owns the parameters and every
+//!   subsystem below and does no I/O.
+//! - [`sched`]: the scheduler table (task, rate, budget) and its statistics.
+//! - [`geo`]: local frames from latitude/longitude.
+//! - [`estimation`]: the pose estimate from GNSS position and heading.
+//! - [`guidance`]: paths, the preview-point tracker, speed scheduling.
+//! - [`control`]: PID, speed control, actuator mixing.
+//! - [`modes`]: ArduPilot Rover's mode numbers and each mode's behaviour.
+//! - [`telemetry`]: MAVLink messages built from the core's state, and the
+//!   per-link stream rates.
+//! - [`link`] (edge): sockets, serial ports, framing, routing, tlog.
+//! - [`sitl`] (edge): the simulated world stepped with the core, and the
+//!   runner that paces both against the wall clock.
+
+pub mod bench;
+pub mod control;
+pub mod estimation;
+pub mod geo;
+pub mod guidance;
+pub mod link;
+pub mod modes;
+pub mod sched;
+pub mod sitl;
+pub mod telemetry;
+pub mod time;
+pub mod vehicle;

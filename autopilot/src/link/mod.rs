@@ -1,0 +1,20 @@
+//! The MAVLink link layer (an edge: sockets, serial ports and threads live
+//! here, never in the core).
+//!
+//! - [`frame`]: bytes → validated frames and decoded messages (no I/O).
+//! - [`encode`]: messages → bytes with a per-link sequence number.
+//! - [`router`]: ArduPilot's routing rules between links (no I/O).
+//! - [`endpoint`]: the `--mavlink` endpoint syntax.
+//! - [`hub`]: the tokio runtime: one task per link, a hub that routes frames
+//!   and fans the core's messages out, and the tlog recorder. A slow or dead
+//!   link only ever fills its own bounded queue; the core never waits.
+
+pub mod encode;
+pub mod endpoint;
+pub mod frame;
+pub mod hub;
+pub mod router;
+mod serial;
+mod tcp;
+pub mod tlog;
+mod udp;

@@ -1,0 +1,107 @@
+//! A serial link (telemetry radio). The port is blocking, so it gets two
+//! threads that bridge to the hub's channels; the core never touches it.
+
+use std::io::{Read, Write};
+use std::time::Duration;
+
+use tokio::sync::mpsc;
+
+use super::frame::StreamFramer;
+use super::hub::{HubEvent, LinkEncoder, LinkIds, OutItem};
+
+/// Opens the port, retrying every second until it exists (a USB radio
+/// plugged in later), and serves it; reopens after an unplug.
+pub(super) fn spawn(
+    device: String,
+    baud: u32,
+    slot: u8,
+    ids: LinkIds,
+    hub: mpsc::Sender<HubEvent>,
+    sysid: u8,
+) {
+    std::thread::Builder::new()
+        .name(format!("serial {device}"))
+        .spawn(move || {
+            loop {
+                match serialport::new(&device, baud)
+                    .timeout(Duration::from_millis(100))
+                    .open()
+                {
+                    Ok(port) => {
+                        tracing::info!("serial {device} at {baud} baud: open");
+                        serve(port, &device, slot, ids.next(), &hub, sysid);
+                        tracing::warn!("serial {device}: closed; reopening");
+                    }
+                    Err(e) => tracing::debug!("serial {device}: {e}"),
+                }
+                if hub.is_closed() {
+                    return;
+                }
+                std::thread::sleep(Duration::from_secs(1));
+            }
+        })
+        .expect("spawn serial thread");
+}
+
+fn serve(
+    mut port: Box<dyn serialport::SerialPort>,
+    device: &str,
+    slot: u8,
+    link: crate::vehicle::LinkId,
+    hub: &mpsc::Sender<HubEvent>,
+    sysid: u8,
+) {
+    let (tx, mut rx) = mpsc::channel::<OutItem>(super::hub::LINK_QUEUE);
+    if hub
+        .blocking_send(HubEvent::Opened {
+            link,
+            slot,
+            name: format!("serial {device}"),
+            tx,
+        })
+        .is_err()
+    {
+        return;
+    }
+    let Ok(mut writer_port) = port.try_clone() else {
+        let _ = hub.blocking_send(HubEvent::Closed { link });
+        return;
+    };
+    let writer = std::thread::spawn(move || {
+        let mut encoder = LinkEncoder::new(sysid);
+        while let Some(item) = rx.blocking_recv() {
+            if writer_port.write_all(&encoder.encode(&item)).is_err() {
+                return;
+            }
+        }
+    });
+    let mut framer = StreamFramer::new();
+    let mut buf = [0u8; 1024];
+    loop {
+        match port.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => {
+                let mut frames = Vec::new();
+                framer.push(&buf[..n], |f| frames.push(f));
+                for frame in frames {
+                    if hub.blocking_send(HubEvent::Frame { link, frame }).is_err() {
+                        return;
+                    }
+                }
+                let _ = hub.try_send(HubEvent::Stats {
+                    link,
+                    stats: framer.stats(),
+                });
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {
+                if writer.is_finished() {
+                    break;
+                }
+            }
+            Err(_) => break,
+        }
+    }
+    // Dropping the hub's sender (on Closed) ends the writer thread.
+    let _ = hub.blocking_send(HubEvent::Closed { link });
+    let _ = writer.join();
+}

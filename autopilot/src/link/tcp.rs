@@ -1,0 +1,138 @@
+//! TCP links: a server that accepts any number of clients (each its own
+//! link), and a client that reconnects when its server goes away.
+
+use std::time::Duration;
+
+use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite};
+use tokio::net::{TcpListener, TcpStream};
+use tokio::sync::mpsc;
+
+use super::frame::StreamFramer;
+use super::hub::{HubEvent, LinkIds, write_loop};
+
+/// Accepts clients until the runtime stops.
+pub(super) async fn serve(
+    listener: TcpListener,
+    slot: u8,
+    ids: LinkIds,
+    hub: mpsc::Sender<HubEvent>,
+    sysid: u8,
+) {
+    loop {
+        match listener.accept().await {
+            Ok((stream, peer)) => {
+                let _ = stream.set_nodelay(true);
+                let name = format!("tcp client {peer}");
+                tokio::spawn(run_stream(
+                    stream,
+                    ids.next(),
+                    slot,
+                    name,
+                    hub.clone(),
+                    sysid,
+                ));
+            }
+            Err(e) => {
+                // Out of file descriptors and the like: back off, keep serving.
+                tracing::warn!("tcp accept: {e}");
+                tokio::time::sleep(Duration::from_millis(100)).await;
+            }
+        }
+    }
+}
+
+/// Connects to `addr`, and again after every disconnect.
+pub(super) async fn connect_forever(
+    addr: String,
+    slot: u8,
+    ids: LinkIds,
+    hub: mpsc::Sender<HubEvent>,
+    sysid: u8,
+) {
+    loop {
+        match TcpStream::connect(&addr).await {
+            Ok(stream) => {
+                let _ = stream.set_nodelay(true);
+                tracing::info!("tcp connected to {addr}");
+                run_stream(
+                    stream,
+                    ids.next(),
+                    slot,
+                    format!("tcp to {addr}"),
+                    hub.clone(),
+                    sysid,
+                )
+                .await;
+                tracing::info!("tcp to {addr} closed; reconnecting");
+            }
+            Err(e) => tracing::debug!("tcp connect {addr}: {e}"),
+        }
+        tokio::time::sleep(Duration::from_secs(1)).await;
+    }
+}
+
+async fn run_stream(
+    stream: TcpStream,
+    link: crate::vehicle::LinkId,
+    slot: u8,
+    name: String,
+    hub: mpsc::Sender<HubEvent>,
+    sysid: u8,
+) {
+    let (read, write) = stream.into_split();
+    run_link(read, write, link, slot, name, hub, sysid).await;
+}
+
+/// One byte-stream link: registers with the hub, writes what the hub queues
+/// for it, reads and frames what arrives, unregisters when either side ends.
+pub(super) async fn run_link<R, W>(
+    mut read: R,
+    write: W,
+    link: crate::vehicle::LinkId,
+    slot: u8,
+    name: String,
+    hub: mpsc::Sender<HubEvent>,
+    sysid: u8,
+) where
+    R: AsyncRead + Unpin,
+    W: AsyncWrite + Unpin + Send + 'static,
+{
+    let (tx, rx) = mpsc::channel(super::hub::LINK_QUEUE);
+    if hub
+        .send(HubEvent::Opened {
+            link,
+            slot,
+            name: name.clone(),
+            tx,
+        })
+        .await
+        .is_err()
+    {
+        return;
+    }
+    let mut writer = tokio::spawn(write_loop(write, rx, sysid));
+    let mut framer = StreamFramer::new();
+    let mut buf = vec![0u8; 4096];
+    loop {
+        tokio::select! {
+            read = read.read(&mut buf) => match read {
+                Ok(0) | Err(_) => break,
+                Ok(n) => {
+                    let mut frames = Vec::new();
+                    framer.push(&buf[..n], |f| frames.push(f));
+                    for frame in frames {
+                        if hub.send(HubEvent::Frame { link, frame }).await.is_err() {
+                            return;
+                        }
+                    }
+                    let _ = hub.try_send(HubEvent::Stats { link, stats: framer.stats() });
+                }
+            },
+            // The writer ends when the peer stops accepting bytes for good.
+            _ = &mut writer => break,
+        }
+    }
+    writer.abort();
+    tracing::info!("{name}: closed");
+    let _ = hub.send(HubEvent::Closed { link }).await;
+}

@@ -1,0 +1,205 @@
+//! `furrow`: the Furrow autopilot binary.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use autopilot::link::endpoint::Endpoint;
+use autopilot::sitl::runner::{self, SitlOptions, Speedup};
+use autopilot::sitl::simulation::{ModelKind, SimulationConfig};
+use clap::{Parser, Subcommand, ValueEnum};
+use drivers::sim::GeoPoint;
+
+#[derive(Parser)]
+#[command(
+    name = "furrow",
+    version,
+    about = "Furrow: a rover/AGV autopilot that speaks MAVLink"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a simulated rover that ground stations connect to (TCP 5760, UDP to 14550).
+    Sitl(SitlArgs),
+    /// Measure Furrow (prints figures; not a test).
+    Bench {
+        #[command(subcommand)]
+        which: BenchCommand,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// SITL speed with --speedup max, core tick timing and memory.
+    Sitl(autopilot::bench::sitl::SitlBenchArgs),
+}
+
+#[derive(clap::Args)]
+struct SitlArgs {
+    /// Simulated seconds per wall second, or `max` for as fast as possible.
+    #[arg(long, value_parser = parse_speedup)]
+    speedup: Option<Speedup>,
+    /// Start position and heading: LAT,LON,ALT,HDG (degrees, metres, degrees from north).
+    #[arg(long, value_parser = parse_home, default_value = "29.1330,119.6400,40,0")]
+    home: Home,
+    /// Instance number: ports move by 10 per instance (TCP 5760+10·I, UDP 14550+10·I).
+    #[arg(long, short = 'I', default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=5000))]
+    instance: u16,
+    /// Where parameters and missions are kept (default: furrow-data, or furrow-data-I for instance I).
+    #[arg(long)]
+    data_dir: Option<PathBuf>,
+    /// Seed of the simulated sensor noise: the same seed and inputs give the same run.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Vehicle model.
+    #[arg(long, value_enum, default_value_t = Model::Ackermann)]
+    model: Model,
+    /// Extra MAVLink endpoint: udp:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT, serial:DEV:BAUD (repeatable).
+    #[arg(long, value_parser = parse_endpoint)]
+    mavlink: Vec<Endpoint>,
+    /// Record all MAVLink traffic to this telemetry log (.tlog).
+    #[arg(long)]
+    tlog: Option<PathBuf>,
+    /// TCP server port instead of 5760+10·I (0: any free port, printed at start).
+    #[arg(long)]
+    tcp_port: Option<u16>,
+    /// UDP destination port instead of 14550+10·I.
+    #[arg(long)]
+    udp_port: Option<u16>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Model {
+    Ackermann,
+    Differential,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Home {
+    point: GeoPoint,
+    heading_deg: f64,
+}
+
+fn parse_speedup(s: &str) -> Result<Speedup, String> {
+    if s.eq_ignore_ascii_case("max") {
+        return Ok(Speedup::Max);
+    }
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 100_000.0 => Ok(Speedup::Factor(v)),
+        _ => Err(format!(
+            "{s:?} is not a speedup: give a number in (0, 100000] or `max`"
+        )),
+    }
+}
+
+fn parse_home(s: &str) -> Result<Home, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 4 {
+        return Err(format!("{s:?}: expected LAT,LON,ALT,HDG"));
+    }
+    let mut v = [0f64; 4];
+    for (slot, (name, text)) in v
+        .iter_mut()
+        .zip(["LAT", "LON", "ALT", "HDG"].iter().zip(&parts))
+    {
+        *slot = text
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("{s:?}: {name} {text:?} is not a number"))?;
+    }
+    if v[0].abs() > 90.0 || v[1].abs() > 180.0 {
+        return Err(format!(
+            "{s:?}: latitude must be within ±90 and longitude within ±180"
+        ));
+    }
+    if !(-1000.0..=10000.0).contains(&v[2]) {
+        return Err(format!("{s:?}: altitude {} m is out of range", v[2]));
+    }
+    Ok(Home {
+        point: GeoPoint {
+            lat_deg: v[0],
+            lon_deg: v[1],
+            alt_m: v[2],
+        },
+        heading_deg: v[3].rem_euclid(360.0),
+    })
+}
+
+fn parse_endpoint(s: &str) -> Result<Endpoint, String> {
+    s.parse()
+}
+
+fn utc_now_us() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_micros() as i64)
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Sitl(args) => {
+            let data_dir = args.data_dir.unwrap_or_else(|| match args.instance {
+                0 => PathBuf::from("furrow-data"),
+                i => PathBuf::from(format!("furrow-data-{i}")),
+            });
+            runner::run(SitlOptions {
+                sim: SimulationConfig {
+                    home: args.home.point,
+                    home_heading_deg: args.home.heading_deg,
+                    model: match args.model {
+                        Model::Ackermann => ModelKind::Ackermann,
+                        Model::Differential => ModelKind::Differential,
+                    },
+                    seed: args.seed,
+                    utc_start_unix_us: utc_now_us(),
+                },
+                speedup: args.speedup,
+                instance: args.instance,
+                data_dir,
+                tcp_port: args.tcp_port,
+                udp_port: args.udp_port,
+                mavlink: args.mavlink,
+                tlog: args.tlog,
+            })
+        }
+        Command::Bench {
+            which: BenchCommand::Sitl(args),
+        } => autopilot::bench::sitl::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("furrow: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn home_and_speedup_parsing() {
+        let h = parse_home("29.133,119.64,40,-90").unwrap();
+        assert_eq!(h.heading_deg, 270.0);
+        assert!(parse_home("29.133,119.64,40").is_err());
+        assert!(parse_home("91,0,0,0").is_err());
+        assert!(parse_home("a,0,0,0").is_err());
+        assert_eq!(parse_speedup("MAX"), Ok(Speedup::Max));
+        assert_eq!(parse_speedup("50"), Ok(Speedup::Factor(50.0)));
+        assert!(parse_speedup("0").is_err());
+        assert!(parse_speedup("-3").is_err());
+    }
+}

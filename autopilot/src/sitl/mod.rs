@@ -1,0 +1,13 @@
+//! SITL: the same core, with the device drivers replaced by a simulated
+//! world whose devices emit the real bytes, and wall time replaced by
+//! simulated time.
+//!
+//! - [`params`]: the `SIM_*` parameters (settable at run time).
+//! - [`simulation`]: world + NMEA driver + core stepped together, no I/O;
+//!   used by the runner, the benchmarks and the in-process tests.
+//! - [`runner`]: `furrow sitl`: the simulation on its own thread, paced
+//!   against the wall clock by `SIM_SPEEDUP`, wired to the link layer.
+
+pub mod params;
+pub mod runner;
+pub mod simulation;

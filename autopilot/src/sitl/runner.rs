@@ -1,0 +1,242 @@
+//! `furrow sitl`: the simulation on its own thread, paced against the wall
+//! clock, talking to ground stations through the link layer.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use mavlink::dialects::ardupilotmega::MavMessage;
+
+use super::simulation::{Simulation, SimulationConfig, SimulationParams};
+use crate::link::endpoint::Endpoint;
+use crate::link::hub::{self, LinkConfig, ToCore};
+use crate::time::TaskTimer;
+
+/// `--speedup`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Speedup {
+    Factor(f64),
+    Max,
+}
+
+#[derive(Clone, Debug)]
+pub struct SitlOptions {
+    pub sim: SimulationConfig,
+    /// Overrides `SIM_SPEEDUP` at start.
+    pub speedup: Option<Speedup>,
+    pub instance: u16,
+    pub data_dir: PathBuf,
+    /// TCP server port (default 5760 + 10·instance; 0 picks a free port).
+    pub tcp_port: Option<u16>,
+    /// Where the UDP link sends (default 127.0.0.1:14550 + 10·instance).
+    pub udp_port: Option<u16>,
+    pub mavlink: Vec<Endpoint>,
+    pub tlog: Option<PathBuf>,
+}
+
+/// Reads the wall clock for task timing (the edge's clock, injected into
+/// the core).
+pub struct InstantTimer(Instant);
+
+impl Default for InstantTimer {
+    fn default() -> Self {
+        InstantTimer(Instant::now())
+    }
+}
+
+impl TaskTimer for InstantTimer {
+    fn now_us(&mut self) -> u64 {
+        self.0.elapsed().as_micros() as u64
+    }
+}
+
+/// Keeps simulated time at `speedup` × wall time. After a stall it
+/// re-anchors instead of racing to catch up.
+#[derive(Debug, Default)]
+pub struct Pacer {
+    anchor: Option<(Duration, Duration, Option<f64>)>,
+    pub late_restarts: u64,
+}
+
+impl Pacer {
+    const MAX_LAG: Duration = Duration::from_millis(200);
+
+    /// How long to sleep before the step that ends at simulated time `sim`.
+    pub fn delay(
+        &mut self,
+        sim: Duration,
+        wall: Duration,
+        speedup: Option<f64>,
+    ) -> Option<Duration> {
+        let (wall0, sim0, s0) = *self.anchor.get_or_insert((wall, sim, speedup));
+        if s0 != speedup {
+            self.anchor = Some((wall, sim, speedup));
+            return None;
+        }
+        let speedup = speedup?;
+        let target = wall0 + sim.saturating_sub(sim0).div_f64(speedup);
+        if wall > target + Self::MAX_LAG {
+            self.late_restarts += 1;
+            self.anchor = Some((wall, sim, Some(speedup)));
+            return None;
+        }
+        target.checked_sub(wall).filter(|d| !d.is_zero())
+    }
+}
+
+/// Runs until SIGINT/SIGTERM.
+pub fn run(options: SitlOptions) -> Result<(), String> {
+    std::fs::create_dir_all(&options.data_dir)
+        .map_err(|e| format!("data directory {}: {e}", options.data_dir.display()))?;
+    let mut params = SimulationParams::new(options.sim.model);
+    if let Some(speedup) = options.speedup {
+        let value = match speedup {
+            Speedup::Factor(f) => f,
+            Speedup::Max => 0.0,
+        };
+        params
+            .table
+            .set_by_name("SIM_SPEEDUP", value)
+            .map_err(|e| format!("--speedup {value}: {e}"))?;
+    }
+    let mut sim = Simulation::new(&options.sim, params);
+
+    let offset = 10 * options.instance;
+    let tcp_port = options.tcp_port.unwrap_or(5760 + offset);
+    let udp_port = options.udp_port.unwrap_or(14550 + offset);
+    let (links, mut channels) = hub::start(LinkConfig {
+        sysid: sim.core().sysid(),
+        tcp_server: Some(format!("0.0.0.0:{tcp_port}")),
+        udp_out: Some(format!("127.0.0.1:{udp_port}")),
+        extra: options.mavlink.clone(),
+        tlog: options.tlog.clone(),
+    })
+    .map_err(|e| format!("MAVLink links: {e}"))?;
+
+    let shutdown = shutdown_on_signal();
+    let tcp = links.bound.tcp.map_or("none".into(), |a| a.to_string());
+    println!(
+        "furrow sitl ready: tcp {tcp}, udp to 127.0.0.1:{udp_port}, sysid {}",
+        sim.core().sysid()
+    );
+    tracing::info!(
+        "SITL: home {:.7},{:.7} heading {:.1}°, model {:?}, seed {}, data {}",
+        options.sim.home.lat_deg,
+        options.sim.home.lon_deg,
+        options.sim.home_heading_deg,
+        options.sim.model,
+        options.sim.seed,
+        options.data_dir.display()
+    );
+
+    let start = Instant::now();
+    let mut timer = InstantTimer::default();
+    let mut pacer = Pacer::default();
+    let mut dropped_out = 0u64;
+    while !shutdown.load(Ordering::Relaxed) {
+        let inputs = sim.inputs_mut();
+        while let Ok(item) = channels.inbound.try_recv() {
+            match item {
+                ToCore::Event(e) => inputs.link_events.push(e),
+                ToCore::Message(m) => inputs.messages.push(m),
+            }
+        }
+        let outputs = sim.step(start.elapsed(), &mut timer);
+        for out in outputs.mavlink.drain(..) {
+            if let MavMessage::STATUSTEXT(t) = &out.message {
+                tracing::info!("STATUSTEXT: {}", t.text.to_str().unwrap_or("?"));
+            }
+            if channels.outbound.try_send(out).is_err() {
+                dropped_out += 1;
+            }
+        }
+        let next_sim = sim.time() + sim.core().loop_period();
+        if let Some(delay) = pacer.delay(next_sim, start.elapsed(), sim.speedup()) {
+            std::thread::sleep(delay);
+        }
+    }
+    let ticks = sim.core().scheduler().tick_stats();
+    tracing::info!(
+        "SITL stopped after {:.1} s simulated in {:.1} s: tick median {} µs, p99 {} µs, {} overruns, {} pacing restarts, {} messages dropped to links",
+        sim.time().as_secs_f64(),
+        start.elapsed().as_secs_f64(),
+        ticks.histogram.quantile_us(0.5),
+        ticks.histogram.quantile_us(0.99),
+        sim.core().scheduler().total_overruns(),
+        pacer.late_restarts,
+        dropped_out,
+    );
+    drop(links);
+    Ok(())
+}
+
+/// A flag set by SIGINT or SIGTERM, watched from a small thread of its own.
+fn shutdown_on_signal() -> Arc<AtomicBool> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let set = flag.clone();
+    std::thread::Builder::new()
+        .name("signals".into())
+        .spawn(move || {
+            let Ok(rt) = tokio::runtime::Builder::new_current_thread()
+                .enable_all()
+                .build()
+            else {
+                return;
+            };
+            rt.block_on(async {
+                let Ok(mut term) =
+                    tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+                else {
+                    return;
+                };
+                tokio::select! {
+                    _ = tokio::signal::ctrl_c() => {}
+                    _ = term.recv() => {}
+                }
+            });
+            set.store(true, Ordering::Relaxed);
+        })
+        .expect("spawn signal thread");
+    flag
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ms(v: u64) -> Duration {
+        Duration::from_millis(v)
+    }
+
+    #[test]
+    fn real_time_sleeps_until_the_step_is_due() {
+        let mut p = Pacer::default();
+        assert_eq!(
+            p.delay(ms(20), ms(0), Some(1.0)),
+            None,
+            "anchors on the first step"
+        );
+        assert_eq!(p.delay(ms(40), ms(5), Some(1.0)), Some(ms(15)));
+    }
+
+    #[test]
+    fn speedup_scales_and_max_never_sleeps() {
+        let mut p = Pacer::default();
+        p.delay(ms(0), ms(0), Some(10.0));
+        assert_eq!(p.delay(ms(1000), ms(50), Some(10.0)), Some(ms(50)));
+        let mut p = Pacer::default();
+        for k in 0..100 {
+            assert_eq!(p.delay(ms(20 * k), ms(0), None), None);
+        }
+    }
+
+    #[test]
+    fn a_stall_re_anchors_instead_of_racing() {
+        let mut p = Pacer::default();
+        p.delay(ms(0), ms(0), Some(1.0));
+        assert_eq!(p.delay(ms(20), ms(1000), Some(1.0)), None);
+        assert_eq!(p.late_restarts, 1);
+        assert_eq!(p.delay(ms(40), ms(1000), Some(1.0)), Some(ms(20)));
+    }
+}

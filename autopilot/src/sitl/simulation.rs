@@ -1,0 +1,182 @@
+//! The simulated vehicle: world, NMEA driver and core stepped in lockstep
+//! at the core's rate. No threads, no sockets, no clocks: the caller gives
+//! the wall time and the link traffic, so the same seed and the same inputs
+//! give a bit-identical trajectory.
+
+use std::time::Duration;
+
+use drivers::gnss::NmeaReader;
+use drivers::sim::{
+    AckermannConfig, ActuatorDemand, DifferentialConfig, GeoPoint, VehicleModel, World, WorldConfig,
+};
+use params::{ParamTable, ParamTableBuilder};
+
+use super::params::SimParams;
+use crate::time::{Now, TaskTimer};
+use crate::vehicle::{Core, CoreParams, Inputs, Outputs};
+
+/// The simulated vehicle type (`--model`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModelKind {
+    Ackermann,
+    Differential,
+}
+
+/// Everything fixed at the start of a simulation.
+#[derive(Clone, Debug)]
+pub struct SimulationConfig {
+    pub home: GeoPoint,
+    pub home_heading_deg: f64,
+    pub model: ModelKind,
+    pub seed: u64,
+    /// UTC at simulated time zero (the GNSS clock).
+    pub utc_start_unix_us: i64,
+}
+
+impl Default for SimulationConfig {
+    fn default() -> Self {
+        let world = WorldConfig::default();
+        SimulationConfig {
+            home: world.home,
+            home_heading_deg: 0.0,
+            model: ModelKind::Ackermann,
+            seed: 1,
+            utc_start_unix_us: world.utc_start_unix_us,
+        }
+    }
+}
+
+/// The parameter table of a simulated vehicle: the core's parameters plus
+/// `SIM_*`, with the defaults of the chosen model (like ArduPilot's
+/// per-frame defaults files).
+pub struct SimulationParams {
+    pub table: ParamTable,
+    pub core: CoreParams,
+    pub sim: SimParams,
+}
+
+impl SimulationParams {
+    pub fn new(model: ModelKind) -> Self {
+        let mut builder = ParamTableBuilder::new();
+        let core = CoreParams::register(&mut builder);
+        let sim = SimParams::register(&mut builder);
+        // The bench antenna sits 0.5 m ahead of the rear axle.
+        builder.override_default("GPS_POS1_X", 0.5);
+        if model == ModelKind::Differential {
+            let diff = DifferentialConfig::default();
+            builder.override_default("VEH_DRIVE", 1.0);
+            builder.override_default("VEH_TRACK", diff.track_m);
+            builder.override_default("VEH_WHEELBASE", 1.0);
+            builder.override_default("CRUISE_SPEED", diff.wheel_speed_max_mps / 2.0);
+            builder.override_default("WP_SPEED", 1.0);
+        }
+        SimulationParams {
+            table: builder.build(),
+            core,
+            sim,
+        }
+    }
+}
+
+pub struct Simulation {
+    world: World,
+    nmea: NmeaReader,
+    core: Core,
+    sim: SimParams,
+    inputs: Inputs,
+    outputs: Outputs,
+    gnss_bytes: Vec<u8>,
+    param_generation: u64,
+}
+
+impl Simulation {
+    pub fn new(config: &SimulationConfig, params: SimulationParams) -> Self {
+        let vehicle = match config.model {
+            ModelKind::Ackermann => VehicleModel::Ackermann(AckermannConfig::default()),
+            ModelKind::Differential => VehicleModel::Differential(DifferentialConfig::default()),
+        };
+        let world_config = WorldConfig {
+            home: config.home,
+            home_heading_deg: config.home_heading_deg,
+            vehicle,
+            gnss: params.sim.gnss_config(&params.table),
+            utc_start_unix_us: config.utc_start_unix_us,
+            ..WorldConfig::default()
+        };
+        let generation = params.table.generation();
+        Simulation {
+            world: World::new(world_config, config.seed),
+            nmea: NmeaReader::new(),
+            core: Core::new(params.table, params.core),
+            sim: params.sim,
+            inputs: Inputs::default(),
+            outputs: Outputs::default(),
+            gnss_bytes: Vec::new(),
+            param_generation: generation,
+        }
+    }
+
+    /// The inputs of the next step: add link events and messages here.
+    pub fn inputs_mut(&mut self) -> &mut Inputs {
+        &mut self.inputs
+    }
+
+    /// Advances world and core by one core period. `wall` is the wall time
+    /// since start (what GCS-facing timers use). Returns this step's outputs
+    /// (their MAVLink messages accumulate until the caller drains them).
+    pub fn step(&mut self, wall: Duration, timer: &mut dyn TaskTimer) -> &mut Outputs {
+        let period = self.core.loop_period();
+        self.world.step(period, &self.outputs.actuators);
+        let now = Now {
+            boot: self.world.time(),
+            wall,
+        };
+
+        self.gnss_bytes.clear();
+        self.world.take_gnss_bytes(&mut self.gnss_bytes);
+        self.nmea
+            .push(now.boot, &self.gnss_bytes, &mut self.inputs.gnss);
+        self.inputs.battery = Some(self.world.battery());
+
+        self.core.step(now, &self.inputs, &mut self.outputs, timer);
+        self.inputs.clear();
+
+        if self.core.params().generation() != self.param_generation {
+            self.param_generation = self.core.params().generation();
+            self.world
+                .set_gnss_config(self.sim.gnss_config(self.core.params()));
+        }
+        &mut self.outputs
+    }
+
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+
+    pub fn core(&self) -> &Core {
+        &self.core
+    }
+
+    pub fn core_mut(&mut self) -> &mut Core {
+        &mut self.core
+    }
+
+    pub fn nmea(&self) -> &NmeaReader {
+        &self.nmea
+    }
+
+    /// `SIM_SPEEDUP` now (None: as fast as possible).
+    pub fn speedup(&self) -> Option<f64> {
+        self.sim.speedup(self.core.params())
+    }
+
+    /// Simulated time.
+    pub fn time(&self) -> Duration {
+        self.world.time()
+    }
+
+    /// The demand the world received on the last step.
+    pub fn last_demand(&self) -> ActuatorDemand {
+        self.outputs.actuators
+    }
+}

@@ -1,0 +1,147 @@
+//! HEARTBEAT, AUTOPILOT_VERSION and PROTOCOL_VERSION: how a ground station
+//! recognises Furrow as an ArduPilot Rover (DESIGN §4).
+//!
+//! PROTOCOL_VERSION is deprecated (2025-11) but QGroundControl still asks for
+//! it and falls back to MAVLink 1 when it gets no answer.
+#![allow(deprecated)]
+
+use mavlink::dialects::ardupilotmega::{
+    AUTOPILOT_VERSION_DATA, HEARTBEAT_DATA, MavAutopilot, MavModeFlag, MavProtocolCapability,
+    MavState, MavType, PROTOCOL_VERSION_DATA,
+};
+
+use crate::modes::Mode;
+
+/// What HEARTBEAT reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct VehicleStatus {
+    pub mode: Mode,
+    pub armed: bool,
+    /// A failsafe is active (HEARTBEAT system_status CRITICAL).
+    pub failsafe: bool,
+}
+
+/// HEARTBEAT as ArduPilot Rover sends it (`GCS_MAVLINK_Rover::base_mode`,
+/// `vehicle_system_status`).
+pub fn heartbeat(status: &VehicleStatus) -> HEARTBEAT_DATA {
+    let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+    if status.mode.has_manual_input() {
+        base_mode |= MavModeFlag::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED;
+    }
+    if status.mode.is_autopilot() {
+        base_mode |= MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED;
+    }
+    if status.armed && status.mode != Mode::Initialising {
+        base_mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+    }
+    let system_status = if status.failsafe {
+        MavState::MAV_STATE_CRITICAL
+    } else if status.mode == Mode::Initialising {
+        MavState::MAV_STATE_CALIBRATING
+    } else if status.mode == Mode::Hold {
+        MavState::MAV_STATE_STANDBY
+    } else {
+        MavState::MAV_STATE_ACTIVE
+    };
+    HEARTBEAT_DATA {
+        custom_mode: status.mode.number(),
+        mavtype: MavType::MAV_TYPE_GROUND_ROVER,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        base_mode,
+        system_status,
+        mavlink_version: 3,
+    }
+}
+
+/// The protocol capabilities Furrow implements. Bits are added here as the
+/// services land (parameters, missions, fence, rally).
+pub fn capabilities() -> MavProtocolCapability {
+    MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2
+        | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+        | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+}
+
+/// `major.minor.patch` of this build in ArduPilot's packing
+/// (`major<<24 | minor<<16 | patch<<8 | type`, type 0 = development).
+fn packed_version() -> u32 {
+    let part = |s: &str| s.parse::<u32>().unwrap_or(0) & 0xff;
+    let major = part(env!("CARGO_PKG_VERSION_MAJOR"));
+    let minor = part(env!("CARGO_PKG_VERSION_MINOR"));
+    let patch = part(env!("CARGO_PKG_VERSION_PATCH"));
+    (major << 24) | (minor << 16) | (patch << 8)
+}
+
+pub fn autopilot_version(sysid: u8) -> AUTOPILOT_VERSION_DATA {
+    let mut custom = [0u8; 8];
+    let name = b"furrow";
+    custom[..name.len()].copy_from_slice(name);
+    AUTOPILOT_VERSION_DATA {
+        capabilities: capabilities(),
+        uid: u64::from(sysid),
+        flight_sw_version: packed_version(),
+        middleware_sw_version: 0,
+        os_sw_version: 0,
+        board_version: 0,
+        vendor_id: 0,
+        product_id: 0,
+        flight_custom_version: custom,
+        middleware_custom_version: [0; 8],
+        os_custom_version: [0; 8],
+        uid2: [0; 18],
+    }
+}
+
+pub fn protocol_version() -> PROTOCOL_VERSION_DATA {
+    PROTOCOL_VERSION_DATA {
+        version: 200,
+        min_version: 100,
+        max_version: 200,
+        spec_version_hash: [0; 8],
+        library_version_hash: [0; 8],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn armed_guided_rover() {
+        let hb = heartbeat(&VehicleStatus {
+            mode: Mode::Guided,
+            armed: true,
+            failsafe: false,
+        });
+        assert_eq!(hb.custom_mode, 15);
+        assert_eq!(hb.mavtype, MavType::MAV_TYPE_GROUND_ROVER);
+        assert_eq!(hb.autopilot, MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA);
+        assert!(hb.base_mode.contains(
+            MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED | MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED
+        ));
+        assert_eq!(hb.system_status, MavState::MAV_STATE_ACTIVE);
+    }
+
+    #[test]
+    fn disarmed_hold_is_standby() {
+        let hb = heartbeat(&VehicleStatus {
+            mode: Mode::Hold,
+            armed: false,
+            failsafe: false,
+        });
+        assert!(
+            !hb.base_mode
+                .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)
+        );
+        assert_eq!(hb.system_status, MavState::MAV_STATE_STANDBY);
+        let hb = heartbeat(&VehicleStatus {
+            mode: Mode::Manual,
+            armed: false,
+            failsafe: true,
+        });
+        assert!(
+            hb.base_mode
+                .contains(MavModeFlag::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED)
+        );
+        assert_eq!(hb.system_status, MavState::MAV_STATE_CRITICAL);
+    }
+}

@@ -1,0 +1,343 @@
+//! The command protocol: COMMAND_LONG and COMMAND_INT share one handler and
+//! every command gets exactly one COMMAND_ACK on the link it came from.
+//!
+//! Deprecated commands and frames (GET_HOME_POSITION, the `*_INT` frames…)
+//! are still sent by ground stations in the field, so they are answered.
+#![allow(deprecated)]
+
+use std::time::Duration;
+
+use mavlink::dialects::ardupilotmega::{
+    COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, MESSAGE_INTERVAL_DATA, MavCmd, MavFrame,
+    MavMessage, MavModeFlag, MavResult,
+};
+
+use super::{Core, Destination, Inbound};
+use crate::geo::GeoPoint;
+use crate::modes::Mode;
+use crate::telemetry::streams::{MessageInterval, StreamMsg};
+
+/// COMPONENT_ARM_DISARM param2 that skips the checks.
+const FORCE_ARM_MAGIC: f32 = 21196.0;
+/// MAV_DO_REPOSITION_FLAGS_CHANGE_MODE.
+const REPOSITION_CHANGE_MODE: i32 = 1;
+
+/// A position carried by a command, as it arrived.
+#[derive(Clone, Copy, Debug)]
+enum CommandPosition {
+    /// COMMAND_INT: degrees × 1e7 and the frame they are in.
+    Int {
+        lat_e7: i32,
+        lon_e7: i32,
+        frame: MavFrame,
+    },
+    /// COMMAND_LONG: params 5 and 6 in degrees.
+    Float { lat_deg: f32, lon_deg: f32 },
+}
+
+/// COMMAND_LONG and COMMAND_INT in one shape.
+#[derive(Clone, Copy, Debug)]
+struct Command {
+    command: MavCmd,
+    params: [f32; 4],
+    position: CommandPosition,
+    z: f32,
+}
+
+impl Command {
+    fn is_int(&self) -> bool {
+        matches!(self.position, CommandPosition::Int { .. })
+    }
+
+    /// The command's location in a global frame, if it is one.
+    fn location(&self, alt_m: f64) -> Result<Option<GeoPoint>, MavResult> {
+        let point = match self.position {
+            CommandPosition::Int {
+                lat_e7,
+                lon_e7,
+                frame,
+            } => {
+                let global = matches!(
+                    frame,
+                    MavFrame::MAV_FRAME_GLOBAL
+                        | MavFrame::MAV_FRAME_GLOBAL_INT
+                        | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT
+                        | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+                );
+                if !global {
+                    return Err(MavResult::MAV_RESULT_COMMAND_UNSUPPORTED_MAV_FRAME);
+                }
+                if lat_e7 == 0 && lon_e7 == 0 {
+                    return Ok(None);
+                }
+                GeoPoint::from_e7(lat_e7, lon_e7, alt_m)
+            }
+            CommandPosition::Float { lat_deg, lon_deg } => {
+                if lat_deg == 0.0 && lon_deg == 0.0 {
+                    return Ok(None);
+                }
+                GeoPoint::new(f64::from(lat_deg), f64::from(lon_deg), alt_m)
+            }
+        };
+        if point.is_valid() {
+            Ok(Some(point))
+        } else {
+            Err(MavResult::MAV_RESULT_DENIED)
+        }
+    }
+}
+
+impl Core {
+    pub(super) fn handle_command_long(&mut self, inbound: &Inbound, c: &COMMAND_LONG_DATA) {
+        let command = Command {
+            command: c.command,
+            params: [c.param1, c.param2, c.param3, c.param4],
+            position: CommandPosition::Float {
+                lat_deg: c.param5,
+                lon_deg: c.param6,
+            },
+            z: c.param7,
+        };
+        self.run_command(inbound, command);
+    }
+
+    pub(super) fn handle_command_int(&mut self, inbound: &Inbound, c: &COMMAND_INT_DATA) {
+        let command = Command {
+            command: c.command,
+            params: [c.param1, c.param2, c.param3, c.param4],
+            position: CommandPosition::Int {
+                lat_e7: c.x,
+                lon_e7: c.y,
+                frame: c.frame,
+            },
+            z: c.z,
+        };
+        self.run_command(inbound, command);
+    }
+
+    fn run_command(&mut self, inbound: &Inbound, command: Command) {
+        self.counters.commands += 1;
+        let mut follow_up = Vec::new();
+        let result = self.execute(inbound, &command, &mut follow_up);
+        let ack = COMMAND_ACK_DATA {
+            command: command.command,
+            result,
+            progress: 0,
+            result_param2: 0,
+            target_system: inbound.header.system_id as u8,
+            target_component: inbound.header.component_id,
+        };
+        self.send(
+            Destination::Link(inbound.link),
+            MavMessage::COMMAND_ACK(ack),
+        );
+        for (dest, message) in follow_up {
+            self.send(dest, message);
+        }
+    }
+
+    fn execute(
+        &mut self,
+        inbound: &Inbound,
+        c: &Command,
+        follow_up: &mut Vec<(Destination, MavMessage)>,
+    ) -> MavResult {
+        let [p1, p2, _p3, _p4] = c.params;
+        match c.command {
+            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
+                let force = p2 == FORCE_ARM_MAGIC;
+                let ok = if p1 == 1.0 {
+                    self.arm(force)
+                } else if p1 == 0.0 {
+                    self.disarm()
+                } else {
+                    return MavResult::MAV_RESULT_DENIED;
+                };
+                if ok {
+                    MavResult::MAV_RESULT_ACCEPTED
+                } else {
+                    MavResult::MAV_RESULT_FAILED
+                }
+            }
+            MavCmd::MAV_CMD_DO_SET_MODE => {
+                let flags = MavModeFlag::from_bits_truncate(p1 as u8);
+                if !flags.contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED) {
+                    return MavResult::MAV_RESULT_DENIED;
+                }
+                self.set_mode_result(p2 as u32)
+            }
+            MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => self.set_mode_result(Mode::Rtl.number()),
+            MavCmd::MAV_CMD_DO_REPOSITION => self.do_reposition(c),
+            MavCmd::MAV_CMD_DO_SET_HOME => self.do_set_home(c),
+            MavCmd::MAV_CMD_DO_CHANGE_SPEED => self.do_change_speed(p1, p2),
+            MavCmd::MAV_CMD_REQUEST_MESSAGE => {
+                let response = if c.z == 2.0 {
+                    Destination::AllLinks
+                } else {
+                    Destination::Link(inbound.link)
+                };
+                match self.build_requested(p1 as u32) {
+                    Some(message) => {
+                        follow_up.push((response, message));
+                        MavResult::MAV_RESULT_ACCEPTED
+                    }
+                    None if self.can_build(p1 as u32) => MavResult::MAV_RESULT_FAILED,
+                    None => MavResult::MAV_RESULT_UNSUPPORTED,
+                }
+            }
+            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => self.set_message_interval(inbound, p1, p2),
+            MavCmd::MAV_CMD_GET_MESSAGE_INTERVAL => {
+                let Some(msg) = StreamMsg::from_message_id(p1 as u32) else {
+                    return MavResult::MAV_RESULT_UNSUPPORTED;
+                };
+                let interval_us = self.message_interval_us(inbound, msg);
+                follow_up.push((
+                    Destination::Link(inbound.link),
+                    MavMessage::MESSAGE_INTERVAL(MESSAGE_INTERVAL_DATA {
+                        interval_us,
+                        message_id: msg.message_id() as u16,
+                    }),
+                ));
+                MavResult::MAV_RESULT_ACCEPTED
+            }
+            MavCmd::MAV_CMD_GET_HOME_POSITION => match self.build_home_position() {
+                Some(home) => {
+                    follow_up.push((Destination::Link(inbound.link), home));
+                    MavResult::MAV_RESULT_ACCEPTED
+                }
+                None => MavResult::MAV_RESULT_FAILED,
+            },
+            MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES
+            | MavCmd::MAV_CMD_REQUEST_PROTOCOL_VERSION => {
+                let id = if c.command == MavCmd::MAV_CMD_REQUEST_PROTOCOL_VERSION {
+                    300
+                } else {
+                    148
+                };
+                if let Some(message) = self.build_requested(id) {
+                    follow_up.push((Destination::Link(inbound.link), message));
+                }
+                MavResult::MAV_RESULT_ACCEPTED
+            }
+            _ => MavResult::MAV_RESULT_UNSUPPORTED,
+        }
+    }
+
+    fn set_mode_result(&mut self, number: u32) -> MavResult {
+        let Some(mode) = Mode::from_number(number) else {
+            self.warn_unknown_mode(number);
+            return MavResult::MAV_RESULT_DENIED;
+        };
+        match self.request_mode(mode) {
+            Ok(()) => MavResult::MAV_RESULT_ACCEPTED,
+            Err(super::modes::ModeRefusal::NotAvailable) => MavResult::MAV_RESULT_DENIED,
+            Err(_) => MavResult::MAV_RESULT_FAILED,
+        }
+    }
+
+    /// DO_REPOSITION (COMMAND_INT only, as positional commands must be):
+    /// drive to the point in GUIDED, switching to GUIDED if param 2 allows.
+    fn do_reposition(&mut self, c: &Command) -> MavResult {
+        if !c.is_int() {
+            return MavResult::MAV_RESULT_COMMAND_INT_ONLY;
+        }
+        let change_mode = (c.params[1] as i32) & REPOSITION_CHANGE_MODE != 0;
+        if self.mode != Mode::Guided && !change_mode {
+            return MavResult::MAV_RESULT_DENIED;
+        }
+        let target = match c.location(self.estimator.gnss().alt_msl_m) {
+            Ok(Some(p)) => p,
+            Ok(None) => return MavResult::MAV_RESULT_DENIED,
+            Err(e) => return e,
+        };
+        if self.mode != Mode::Guided && self.request_mode(Mode::Guided).is_err() {
+            return MavResult::MAV_RESULT_FAILED;
+        }
+        let speed = c.params[0];
+        if speed > 0.0 && speed.is_finite() {
+            self.speed_override_mps = Some(f64::from(speed));
+        }
+        if self.navigate_to(target, None) {
+            MavResult::MAV_RESULT_ACCEPTED
+        } else {
+            MavResult::MAV_RESULT_FAILED
+        }
+    }
+
+    /// DO_SET_HOME: param 1 = 1 uses the current position, else the command's
+    /// location (param 7 / z altitude, 0 keeps the current altitude).
+    fn do_set_home(&mut self, c: &Command) -> MavResult {
+        if c.params[0] == 1.0 {
+            return if self.set_home_to_current(true) {
+                MavResult::MAV_RESULT_ACCEPTED
+            } else {
+                MavResult::MAV_RESULT_FAILED
+            };
+        }
+        let alt = if c.z != 0.0 && c.z.is_finite() {
+            f64::from(c.z)
+        } else {
+            self.estimator.gnss().alt_msl_m
+        };
+        match c.location(alt) {
+            Ok(Some(home)) => {
+                self.set_home(home, true);
+                MavResult::MAV_RESULT_ACCEPTED
+            }
+            Ok(None) => MavResult::MAV_RESULT_DENIED,
+            Err(e) => e,
+        }
+    }
+
+    /// DO_CHANGE_SPEED: ground (or air, treated as ground) speed for the
+    /// current mode; -1 keeps it, -2 returns to the default.
+    fn do_change_speed(&mut self, speed_type: f32, speed_mps: f32) -> MavResult {
+        if !(speed_type == 0.0 || speed_type == 1.0) {
+            return MavResult::MAV_RESULT_DENIED;
+        }
+        if speed_mps == -2.0 {
+            self.speed_override_mps = None;
+        } else if speed_mps > 0.0 && speed_mps.is_finite() {
+            self.speed_override_mps = Some(f64::from(speed_mps));
+        } else if speed_mps != -1.0 {
+            return MavResult::MAV_RESULT_DENIED;
+        }
+        MavResult::MAV_RESULT_ACCEPTED
+    }
+
+    fn set_message_interval(&mut self, inbound: &Inbound, id: f32, interval_us: f32) -> MavResult {
+        let Some(msg) = StreamMsg::from_message_id(id as u32) else {
+            return MavResult::MAV_RESULT_UNSUPPORTED;
+        };
+        let interval = if interval_us == 0.0 {
+            None
+        } else if interval_us < 0.0 {
+            Some(MessageInterval::Disabled)
+        } else if interval_us.is_finite() {
+            Some(MessageInterval::Every(
+                Duration::from_micros(interval_us as u64).max(Duration::from_millis(2)),
+            ))
+        } else {
+            return MavResult::MAV_RESULT_DENIED;
+        };
+        match self.links.get_mut(&inbound.link) {
+            Some(streams) => {
+                streams.set_message_interval(msg, interval);
+                MavResult::MAV_RESULT_ACCEPTED
+            }
+            None => MavResult::MAV_RESULT_FAILED,
+        }
+    }
+
+    /// MESSAGE_INTERVAL's encoding: -1 disabled, otherwise µs.
+    fn message_interval_us(&self, inbound: &Inbound, msg: StreamMsg) -> i32 {
+        let Some(streams) = self.links.get(&inbound.link) else {
+            return -1;
+        };
+        let slot = streams.slot();
+        match streams.interval(msg, |g| self.slot_rate_hz(slot, g)) {
+            Some(d) => d.as_micros().min(i32::MAX as u128) as i32,
+            None => -1,
+        }
+    }
+}

@@ -1,0 +1,222 @@
+//! Each tick: the mode decides what to do, guidance turns it into a steering
+//! angle and speed, control into normalised actuator commands.
+
+use drivers::sim::ActuatorDemand;
+use mavlink::dialects::ardupilotmega::MavSeverity;
+
+use super::Core;
+use crate::control::mixer::{self, DriveTrain};
+use crate::control::pid::PidGains;
+use crate::control::speed::SpeedControlConfig;
+use crate::guidance::navigator::{NavConfig, NavDemand};
+use crate::guidance::speed::SpeedLimits;
+use crate::guidance::tracker::TrackerConfig;
+use crate::modes::Mode;
+
+/// The normalised commands of the last tick and what went to the actuators.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriveState {
+    /// [-1, 1], positive right.
+    pub steering: f64,
+    /// [-1, 1], negative reverse.
+    pub throttle: f64,
+    pub actuators: ActuatorDemand,
+}
+
+impl DriveState {
+    pub fn neutral(drive: DriveTrain) -> Self {
+        DriveState {
+            steering: 0.0,
+            throttle: 0.0,
+            actuators: mixer::neutral(drive),
+        }
+    }
+}
+
+/// What the mode asks of the drive train this tick.
+enum Demand {
+    Stop,
+    Manual { steering: f64, throttle: f64 },
+    Navigate(NavDemand),
+}
+
+impl Core {
+    pub(super) fn nav_config(&self) -> NavConfig {
+        let t = &self.params;
+        let pv = &self.p.preview;
+        let nav = &self.p.nav;
+        let gains = |p: f32, i: f32, d: f32, imax: f32| PidGains {
+            kp: f64::from(p),
+            ki: f64::from(i),
+            kd: f64::from(d),
+            imax: f64::from(imax),
+        };
+        let cruise = match self.mode {
+            Mode::Rtl if nav.rtl_speed_mps.get(t) > 0.0 => nav.rtl_speed_mps.get(t),
+            _ => nav.wp_speed_mps.get(t),
+        };
+        let accel = f64::from(nav.accel_max_mps2.get(t));
+        NavConfig {
+            tracker: TrackerConfig {
+                lateral: gains(
+                    pv.lat_p.get(t),
+                    pv.lat_i.get(t),
+                    pv.lat_d.get(t),
+                    pv.lat_imax_m.get(t),
+                ),
+                yaw: gains(
+                    pv.yaw_p.get(t),
+                    pv.yaw_i.get(t),
+                    pv.yaw_d.get(t),
+                    pv.yaw_imax_rad.get(t),
+                ),
+                preview_min_m: f64::from(pv.dist_m.get(t)),
+                preview_s: f64::from(pv.dist_k_s.get(t)),
+                steer_max_rad: f64::from(self.p.vehicle.steer_max_deg.get(t)).to_radians(),
+                wheelbase_m: f64::from(self.p.vehicle.wheelbase_m.get(t)),
+            },
+            speed: SpeedLimits {
+                cruise_mps: self.speed_override_mps.unwrap_or(f64::from(cruise)),
+                // Plan stops at 80 % of the speed controller's limit so the
+                // lagging vehicle still makes the stop.
+                decel_mps2: 0.8 * self.decel_limit_mps2().min(accel.max(0.1) * 4.0),
+                approach_mps: 0.1,
+            },
+            wp_radius_m: f64::from(nav.wp_radius_m.get(t)),
+        }
+    }
+
+    fn decel_limit_mps2(&self) -> f64 {
+        let nav = &self.p.nav;
+        let decel = f64::from(nav.decel_max_mps2.get(&self.params));
+        if decel > 0.0 {
+            decel
+        } else {
+            f64::from(nav.accel_max_mps2.get(&self.params))
+        }
+    }
+
+    fn speed_control_config(&self) -> SpeedControlConfig {
+        let t = &self.params;
+        let nav = &self.p.nav;
+        SpeedControlConfig {
+            gains: PidGains {
+                kp: f64::from(nav.speed_p.get(t)),
+                ki: f64::from(nav.speed_i.get(t)),
+                kd: f64::from(nav.speed_d.get(t)),
+                imax: f64::from(nav.speed_imax.get(t)),
+            },
+            cruise_speed_mps: f64::from(nav.cruise_speed_mps.get(t)),
+            cruise_throttle: f64::from(nav.cruise_throttle_pct.get(t)) / 100.0,
+            accel_max_mps2: f64::from(nav.accel_max_mps2.get(t)),
+            decel_max_mps2: self.decel_limit_mps2(),
+        }
+    }
+
+    /// The mode's work for this tick.
+    pub(super) fn update_mode(&mut self, dt_s: f64) {
+        if self.mode.requires_position() && !self.estimator.estimate().position_valid {
+            // ArduPilot Rover's EKF failsafe: a mode that needs a position
+            // cannot drive without one.
+            self.send_text(
+                MavSeverity::MAV_SEVERITY_CRITICAL,
+                "Position lost: switching to HOLD",
+            );
+            self.enter_mode(Mode::Hold);
+        }
+
+        let demand = match self.mode {
+            Mode::Manual => self.manual_demand(),
+            Mode::Guided | Mode::Rtl => {
+                let was_arrived = self.navigator.arrived();
+                let config = self.nav_config();
+                let estimate = *self.estimator.estimate();
+                let nav = self.navigator.update(&estimate, &config, dt_s);
+                if self.navigator.arrived() && !was_arrived && self.navigator.target().is_some() {
+                    let text = match self.mode {
+                        Mode::Rtl => "Reached destination: home".to_string(),
+                        _ => format!(
+                            "Reached destination: {:.2} m",
+                            self.navigator.status().wp_dist_m
+                        ),
+                    };
+                    self.send_text(MavSeverity::MAV_SEVERITY_INFO, &text);
+                }
+                // Arrived (or nothing to do): stop outright, so no integrator
+                // keeps the wheels creeping.
+                if self.navigator.target().is_some() && !self.navigator.arrived() {
+                    Demand::Navigate(nav)
+                } else {
+                    Demand::Stop
+                }
+            }
+            _ => Demand::Stop,
+        };
+        self.apply_demand(demand, dt_s);
+    }
+
+    fn manual_demand(&self) -> Demand {
+        let timeout = f64::from(self.p.system.rc_override_time_s.get(&self.params));
+        let fresh = self
+            .manual
+            .updated_wall
+            .is_some_and(|t| self.now.wall.saturating_sub(t).as_secs_f64() <= timeout);
+        if fresh {
+            Demand::Manual {
+                steering: self.manual.steering,
+                throttle: self.manual.throttle,
+            }
+        } else {
+            Demand::Stop
+        }
+    }
+
+    fn apply_demand(&mut self, demand: Demand, dt_s: f64) {
+        let measured = self.estimator.estimate().speed_mps;
+        let (steering, throttle) = match demand {
+            Demand::Stop => {
+                self.speed_control.reset(0.0);
+                (0.0, 0.0)
+            }
+            Demand::Manual { steering, throttle } => {
+                self.speed_control.reset(measured);
+                (steering, throttle)
+            }
+            Demand::Navigate(nav) => {
+                let config = self.speed_control_config();
+                let throttle = self
+                    .speed_control
+                    .update(&config, nav.speed_mps, measured, dt_s);
+                (self.steering_for(nav, measured), throttle)
+            }
+        };
+        self.drive = DriveState {
+            steering,
+            throttle,
+            actuators: mixer::mix(self.drive_train, steering, throttle),
+        };
+    }
+
+    /// Normalised steering for a steering-angle demand. Skid steering turns
+    /// the same curvature (tan δ / wheelbase) into a wheel-speed difference.
+    fn steering_for(&self, nav: NavDemand, measured_mps: f64) -> f64 {
+        let steer_max = f64::from(self.p.vehicle.steer_max_deg.get(&self.params)).to_radians();
+        match self.drive_train {
+            DriveTrain::Ackermann => nav.steer_rad / steer_max,
+            DriveTrain::Differential => {
+                let wheelbase = f64::from(self.p.vehicle.wheelbase_m.get(&self.params));
+                let track = f64::from(self.p.vehicle.track_m.get(&self.params));
+                let speed = if measured_mps.abs() > 0.05 {
+                    measured_mps
+                } else {
+                    nav.speed_mps
+                };
+                let yaw_rate = speed * nav.steer_rad.tan() / wheelbase;
+                let nav_config = self.speed_control_config();
+                let full_speed = nav_config.cruise_speed_mps / nav_config.cruise_throttle.max(1e-3);
+                // left − right = 2·steering (mixer), (left − right)·full = yaw_rate·track
+                yaw_rate * track / (2.0 * full_speed)
+            }
+        }
+    }
+}

@@ -1,0 +1,83 @@
+//! What crosses the core's boundary in one step.
+
+use drivers::gnss::GnssSample;
+use drivers::sim::{ActuatorDemand, BatterySample};
+use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::{MavHeader, MavlinkVersion};
+
+/// One MAVLink link (a TCP client, the UDP peer, a serial port…), numbered by
+/// the link layer in the order links appear.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct LinkId(pub u16);
+
+/// A link came or went. `stream_slot` picks the `SRn_*` defaults it starts
+/// with (TCP server 0, UDP 1, extra endpoints 2, 3).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum LinkEvent {
+    Opened { link: LinkId, stream_slot: u8 },
+    Closed { link: LinkId },
+}
+
+/// A decoded message addressed to this vehicle (or broadcast).
+#[derive(Clone, Debug)]
+pub struct Inbound {
+    pub link: LinkId,
+    pub header: MavHeader,
+    pub version: MavlinkVersion,
+    pub message: MavMessage,
+}
+
+/// Where an outgoing message goes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Destination {
+    /// Every link (STATUSTEXT, PARAM_VALUE after a set, HOME_POSITION on change).
+    AllLinks,
+    /// One link: a reply to a request, or that link's telemetry stream.
+    Link(LinkId),
+}
+
+#[derive(Clone, Debug)]
+pub struct Outbound {
+    pub dest: Destination,
+    pub message: MavMessage,
+}
+
+/// Inputs of one core step. The caller clears and refills it every tick.
+#[derive(Default)]
+pub struct Inputs {
+    pub link_events: Vec<LinkEvent>,
+    pub messages: Vec<Inbound>,
+    pub gnss: Vec<GnssSample>,
+    pub battery: Option<BatterySample>,
+}
+
+impl Inputs {
+    pub fn clear(&mut self) {
+        self.link_events.clear();
+        self.messages.clear();
+        self.gnss.clear();
+        self.battery = None;
+    }
+}
+
+/// Outputs of one core step.
+pub struct Outputs {
+    /// What the drive train should do now (neutral when disarmed).
+    pub actuators: ActuatorDemand,
+    /// Servo channel pulse widths (µs), as SERVO_OUTPUT_RAW reports them.
+    pub servo_pwm_us: [u16; 16],
+    pub mavlink: Vec<Outbound>,
+}
+
+impl Default for Outputs {
+    fn default() -> Self {
+        Outputs {
+            actuators: ActuatorDemand::Ackermann {
+                steering: 0.0,
+                throttle: 0.0,
+            },
+            servo_pwm_us: [0; 16],
+            mavlink: Vec::new(),
+        }
+    }
+}

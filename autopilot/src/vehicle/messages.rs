@@ -1,0 +1,145 @@
+//! Inbound MAVLink messages.
+//!
+//! SET_MODE and the `*_INT` frames are superseded but MAVProxy, pymavlink and
+//! Mission Planner still send them.
+#![allow(deprecated)]
+
+use mavlink::Message;
+use mavlink::dialects::ardupilotmega::{
+    MANUAL_CONTROL_DATA, MavFrame, MavMessage, MavModeFlag, PositionTargetTypemask,
+    RC_CHANNELS_OVERRIDE_DATA, SET_POSITION_TARGET_GLOBAL_INT_DATA,
+};
+
+use super::{COMPONENT_ID, Core, Inbound};
+use crate::control::mixer::from_pwm_us;
+use crate::geo::GeoPoint;
+use crate::modes::Mode;
+
+/// RC_CHANNELS_OVERRIDE: 0 releases a channel, UINT16_MAX leaves it alone.
+const RC_RELEASE: u16 = 0;
+const RC_IGNORE: u16 = u16::MAX;
+
+impl Core {
+    /// Whether a message is for this vehicle: broadcast or addressed to our
+    /// system and (any or our) component.
+    pub fn is_for_us(&self, message: &MavMessage) -> bool {
+        let system_ok = message
+            .target_system_id()
+            .is_none_or(|s| s == 0 || s == self.sysid);
+        let component_ok = message
+            .target_component_id()
+            .is_none_or(|c| c == 0 || c == COMPONENT_ID);
+        system_ok && component_ok
+    }
+
+    pub(super) fn handle_message(&mut self, inbound: &Inbound) {
+        if !self.is_for_us(&inbound.message) {
+            self.counters.messages_not_for_us += 1;
+            return;
+        }
+        self.counters.messages_handled += 1;
+        let from_gcs = inbound.header.system_id == u32::from(self.gcs_sysid());
+        match &inbound.message {
+            MavMessage::HEARTBEAT(_) if from_gcs => {
+                self.last_gcs_heartbeat_wall = Some(self.now.wall)
+            }
+            MavMessage::COMMAND_LONG(c) => self.handle_command_long(inbound, c),
+            MavMessage::COMMAND_INT(c) => self.handle_command_int(inbound, c),
+            MavMessage::SET_MODE(m) => {
+                // SET_MODE carries ArduPilot's custom mode; there is no ACK
+                // for it in the spec (the DO_SET_MODE command has one).
+                if m.base_mode
+                    .contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
+                {
+                    match Mode::from_number(m.custom_mode) {
+                        Some(mode) => {
+                            let _ = self.request_mode(mode);
+                        }
+                        None => self.warn_unknown_mode(m.custom_mode),
+                    }
+                }
+            }
+            MavMessage::MANUAL_CONTROL(m) if from_gcs => self.handle_manual_control(m),
+            MavMessage::RC_CHANNELS_OVERRIDE(m) if from_gcs => self.handle_rc_override(m),
+            MavMessage::SET_POSITION_TARGET_GLOBAL_INT(m) => self.handle_position_target(m),
+            MavMessage::REQUEST_DATA_STREAM(r) => {
+                if let Some(streams) = self.links.get_mut(&inbound.link) {
+                    streams.request_data_stream(
+                        r.req_stream_id as u8,
+                        r.req_message_rate,
+                        r.start_stop != 0,
+                    );
+                }
+            }
+            _ => {}
+        }
+    }
+
+    pub(super) fn gcs_sysid(&self) -> u8 {
+        self.p.system.gcs_sysid.get(&self.params).clamp(1, 255) as u8
+    }
+
+    pub(super) fn warn_unknown_mode(&mut self, number: u32) {
+        self.send_text(
+            mavlink::dialects::ardupilotmega::MavSeverity::MAV_SEVERITY_WARNING,
+            &format!("Unknown mode {number}"),
+        );
+    }
+
+    /// ArduPilot Rover: steering from `y`, throttle from `z`, both
+    /// -1000..1000 (0 = centre / stop); INT16_MAX means "not in use".
+    fn handle_manual_control(&mut self, m: &MANUAL_CONTROL_DATA) {
+        let axis = |v: i16| (v != i16::MAX).then(|| (f64::from(v) / 1000.0).clamp(-1.0, 1.0));
+        if let Some(s) = axis(m.y) {
+            self.manual.steering = s;
+        }
+        if let Some(t) = axis(m.z) {
+            self.manual.throttle = t;
+        }
+        self.manual.updated_wall = Some(self.now.wall);
+    }
+
+    /// Channel 1 steering, channel 3 throttle (ArduPilot Rover's RCMAP).
+    fn handle_rc_override(&mut self, m: &RC_CHANNELS_OVERRIDE_DATA) {
+        let channel = |pwm: u16| match pwm {
+            RC_IGNORE => None,
+            RC_RELEASE => Some(0.0),
+            pwm => Some(from_pwm_us(pwm)),
+        };
+        if let Some(s) = channel(m.chan1_raw) {
+            self.manual.steering = s;
+        }
+        if let Some(t) = channel(m.chan3_raw) {
+            self.manual.throttle = t;
+        }
+        self.manual.updated_wall = Some(self.now.wall);
+    }
+
+    /// GUIDED position targets, as ArduPilot Rover accepts them: only in
+    /// GUIDED, global frames, position not masked out.
+    fn handle_position_target(&mut self, m: &SET_POSITION_TARGET_GLOBAL_INT_DATA) {
+        if self.mode != Mode::Guided {
+            return;
+        }
+        let global = matches!(
+            m.coordinate_frame,
+            MavFrame::MAV_FRAME_GLOBAL
+                | MavFrame::MAV_FRAME_GLOBAL_INT
+                | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT
+                | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+                | MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT
+                | MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT_INT
+        );
+        let position_ignored = m.type_mask.intersects(
+            PositionTargetTypemask::POSITION_TARGET_TYPEMASK_X_IGNORE
+                | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_Y_IGNORE,
+        );
+        if !global || position_ignored {
+            return;
+        }
+        let target = GeoPoint::from_e7(m.lat_int, m.lon_int, self.estimator.gnss().alt_msl_m);
+        if target.is_valid() && !(m.lat_int == 0 && m.lon_int == 0) {
+            self.navigate_to(target, self.speed_override_mps);
+        }
+    }
+}

@@ -1,0 +1,286 @@
+//! The core: a plain struct stepped at `SCHED_LOOP_RATE` with injected time.
+//! It owns the parameters, the estimator, guidance, control and the mode
+//! logic, answers MAVLink messages and builds telemetry. It does no I/O: the
+//! caller hands it this tick's inputs and takes its outputs.
+
+mod arming;
+mod commands;
+mod drive;
+mod io;
+mod messages;
+mod modes;
+pub mod params;
+mod telemetry;
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use ::params::ParamTable;
+use drivers::sim::BatterySample;
+use mavlink::dialects::ardupilotmega::{MavMessage, MavSeverity};
+
+use crate::control::mixer::{self, DriveTrain};
+use crate::control::speed::SpeedController;
+use crate::estimation::{Estimator, EstimatorConfig};
+use crate::geo::{GeoPoint, LocalFrame};
+use crate::guidance::navigator::Navigator;
+use crate::modes::Mode;
+use crate::sched::{Scheduler, TASKS, TaskId};
+use crate::telemetry::statustext::statustext;
+use crate::telemetry::streams::LinkStreams;
+use crate::time::{Now, TaskTimer};
+
+pub use drive::DriveState;
+pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs};
+pub use params::CoreParams;
+
+/// MAVLink component id of the autopilot (MAV_COMP_ID_AUTOPILOT1).
+pub const COMPONENT_ID: u8 = 1;
+
+/// Operator input from MANUAL_CONTROL or RC_CHANNELS_OVERRIDE.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct ManualInput {
+    steering: f64,
+    throttle: f64,
+    /// Wall time of the last update (input is GCS-paced).
+    updated_wall: Option<Duration>,
+}
+
+/// Counters a status view and the tests read.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CoreCounters {
+    pub messages_handled: u64,
+    pub messages_not_for_us: u64,
+    pub commands: u64,
+}
+
+pub struct Core {
+    params: ParamTable,
+    p: CoreParams,
+    /// Fixed at start: both are reboot-required parameters.
+    sysid: u8,
+    drive_train: DriveTrain,
+    sched: Scheduler,
+    estimator: Estimator,
+    navigator: Navigator,
+    speed_control: SpeedController,
+    mode: Mode,
+    armed: bool,
+    home: Option<GeoPoint>,
+    home_set_by_gcs: bool,
+    /// DO_CHANGE_SPEED for the current mode; cleared on a mode change.
+    speed_override_mps: Option<f64>,
+    manual: ManualInput,
+    drive: DriveState,
+    links: BTreeMap<LinkId, LinkStreams>,
+    battery: Option<BatterySample>,
+    last_gcs_heartbeat_wall: Option<Duration>,
+    statustext_id: u16,
+    last_boot: Option<Duration>,
+    now: Now,
+    outbox: Vec<Outbound>,
+    counters: CoreCounters,
+}
+
+impl Core {
+    /// A core with `params` (built with [`CoreParams::register`]) and the
+    /// handles `p` into it.
+    pub fn new(params: ParamTable, p: CoreParams) -> Self {
+        let sysid = p.system.sysid.get(&params).clamp(1, 255) as u8;
+        let drive_train = match p.vehicle.drive_train.get(&params) {
+            1 => DriveTrain::Differential,
+            _ => DriveTrain::Ackermann,
+        };
+        let initial = Mode::from_number(p.system.initial_mode.get(&params).max(0) as u32)
+            .filter(|m| m.is_available() && !m.requires_position())
+            .unwrap_or(Mode::Hold);
+        Core {
+            sysid,
+            drive_train,
+            sched: Scheduler::new(),
+            estimator: Estimator::new(),
+            navigator: Navigator::default(),
+            speed_control: SpeedController::default(),
+            mode: initial,
+            armed: false,
+            home: None,
+            home_set_by_gcs: false,
+            speed_override_mps: None,
+            manual: ManualInput::default(),
+            drive: DriveState::neutral(drive_train),
+            links: BTreeMap::new(),
+            battery: None,
+            last_gcs_heartbeat_wall: None,
+            statustext_id: 0,
+            last_boot: None,
+            now: Now::default(),
+            outbox: Vec::new(),
+            counters: CoreCounters::default(),
+            params,
+            p,
+        }
+    }
+
+    /// One tick: runs every due task of [`TASKS`] in order. Outbound
+    /// messages are appended to `out.mavlink`; actuators are set every tick.
+    pub fn step(
+        &mut self,
+        now: Now,
+        inputs: &Inputs,
+        out: &mut Outputs,
+        timer: &mut dyn TaskTimer,
+    ) {
+        let tick_start = timer.now_us();
+        let dt_s = self
+            .last_boot
+            .map(|b| now.boot.saturating_sub(b).as_secs_f64())
+            .unwrap_or(0.0);
+        self.last_boot = Some(now.boot);
+        self.now = now;
+        for (i, spec) in TASKS.iter().enumerate() {
+            if !self.sched.is_due(i, now.boot, now.wall) {
+                continue;
+            }
+            let started = timer.now_us();
+            match spec.id {
+                TaskId::LinkEvents => self.handle_link_events(&inputs.link_events),
+                TaskId::GcsReceive => {
+                    for message in &inputs.messages {
+                        self.handle_message(message);
+                    }
+                }
+                TaskId::ReadSensors => self.read_sensors(inputs),
+                TaskId::UpdateMode => self.update_mode(dt_s),
+                TaskId::SetServos => self.set_servos(out),
+                TaskId::GcsStreams => self.send_streams(),
+                TaskId::Heartbeat => self.send_heartbeat(),
+                TaskId::OneSecond => {}
+            }
+            self.sched.record(i, timer.now_us().saturating_sub(started));
+        }
+        out.mavlink.append(&mut self.outbox);
+        self.sched
+            .record_tick(timer.now_us().saturating_sub(tick_start));
+    }
+
+    pub fn params(&self) -> &ParamTable {
+        &self.params
+    }
+
+    pub fn params_mut(&mut self) -> &mut ParamTable {
+        &mut self.params
+    }
+
+    pub fn param_handles(&self) -> &CoreParams {
+        &self.p
+    }
+
+    pub fn sysid(&self) -> u8 {
+        self.sysid
+    }
+
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    pub fn is_armed(&self) -> bool {
+        self.armed
+    }
+
+    pub fn home(&self) -> Option<GeoPoint> {
+        self.home
+    }
+
+    pub fn estimator(&self) -> &Estimator {
+        &self.estimator
+    }
+
+    pub fn navigator(&self) -> &Navigator {
+        &self.navigator
+    }
+
+    pub fn scheduler(&self) -> &Scheduler {
+        &self.sched
+    }
+
+    pub fn counters(&self) -> CoreCounters {
+        self.counters
+    }
+
+    /// The loop rate the caller must step at.
+    pub fn loop_period(&self) -> Duration {
+        let hz = self.p.system.loop_rate_hz.get(&self.params).clamp(10, 400);
+        Duration::from_secs_f64(1.0 / f64::from(hz))
+    }
+
+    fn frame(&self) -> Option<LocalFrame> {
+        self.estimator.frame().copied()
+    }
+
+    fn handle_link_events(&mut self, events: &[LinkEvent]) {
+        for event in events {
+            match *event {
+                LinkEvent::Opened { link, stream_slot } => {
+                    self.links.insert(link, LinkStreams::new(stream_slot));
+                }
+                LinkEvent::Closed { link } => {
+                    self.links.remove(&link);
+                }
+            }
+        }
+    }
+
+    fn read_sensors(&mut self, inputs: &Inputs) {
+        let config = EstimatorConfig {
+            antenna_body_m: (
+                f64::from(self.p.vehicle.antenna_x_m.get(&self.params)),
+                f64::from(self.p.vehicle.antenna_y_m.get(&self.params)),
+            ),
+        };
+        self.estimator.update(self.now.boot, &config, &inputs.gnss);
+        if let Some(b) = inputs.battery {
+            self.battery = Some(b);
+        }
+        if self.home.is_none() && self.estimator.estimate().position_valid {
+            self.set_home_to_current(false);
+        }
+    }
+
+    /// Sets home to the current position and announces it.
+    fn set_home_to_current(&mut self, by_gcs: bool) -> bool {
+        let (Some(frame), true) = (self.frame(), self.estimator.estimate().position_valid) else {
+            return false;
+        };
+        let mut home = frame.to_geodetic(&self.estimator.estimate().position);
+        home.alt_m = self.estimator.gnss().alt_msl_m;
+        self.set_home(home, by_gcs);
+        true
+    }
+
+    fn set_home(&mut self, home: GeoPoint, by_gcs: bool) {
+        self.home = Some(home);
+        self.home_set_by_gcs |= by_gcs;
+        if let Some(msg) = self.build_home_position() {
+            self.send(Destination::AllLinks, msg);
+        }
+    }
+
+    fn set_servos(&mut self, out: &mut Outputs) {
+        if !self.armed {
+            self.drive = DriveState::neutral(self.drive_train);
+        }
+        out.actuators = self.drive.actuators;
+        out.servo_pwm_us = mixer::servo_pwm(&self.drive.actuators);
+    }
+
+    fn send(&mut self, dest: Destination, message: MavMessage) {
+        self.outbox.push(Outbound { dest, message });
+    }
+
+    /// Broadcasts a STATUSTEXT (chunked when longer than 50 characters).
+    fn send_text(&mut self, severity: MavSeverity, text: &str) {
+        for chunk in statustext(severity, text, &mut self.statustext_id) {
+            self.send(Destination::AllLinks, MavMessage::STATUSTEXT(chunk));
+        }
+    }
+}

@@ -1,0 +1,226 @@
+//! The core's parameters, declared once per subsystem. ArduPilot Rover's
+//! names, units and meanings where the concept matches (DESIGN §4); Furrow's
+//! own prefixes otherwise (`PVW_` preview tracker, `VEH_` vehicle geometry).
+
+use params::{
+    Param, ParamDef, ParamFlags, ParamName, ParamTableBuilder, ParamType, declare_params,
+};
+
+use crate::telemetry::streams::StreamGroup;
+
+declare_params! {
+    /// Identity and scheduling.
+    pub struct SystemParams {
+        sysid: i16 = "SYSID_THISMAV" => {
+            default: 1, range: 1, 255, unit: "", flags: [reboot_required],
+            desc: "MAVLink system id of this vehicle",
+        },
+        gcs_sysid: i16 = "SYSID_MYGCS" => {
+            default: 255, range: 1, 255, unit: "",
+            desc: "System id of the ground station allowed to drive (manual input, GCS failsafe)",
+        },
+        loop_rate_hz: i16 = "SCHED_LOOP_RATE" => {
+            default: 50, range: 10, 400, unit: "Hz", flags: [reboot_required],
+            desc: "Core tick rate",
+        },
+        initial_mode: i8 = "INITIAL_MODE" => {
+            default: 4, range: 0, 16, unit: "",
+            desc: "Mode at start (ArduPilot Rover numbers; default HOLD)",
+        },
+        rc_override_time_s: f32 = "RC_OVERRIDE_TIME" => {
+            default: 3.0, range: 0.0, 120.0, unit: "s",
+            desc: "Manual input (MANUAL_CONTROL, RC override) is dropped after this silence",
+        },
+        arming_check: i32 = "ARMING_CHECK" => {
+            default: 1, range: 0, 65535, unit: "",
+            desc: "Arming checks bitmask: 0 none, 1 all",
+        },
+    }
+}
+
+declare_params! {
+    /// Vehicle geometry and drive train.
+    pub struct VehicleParams {
+        drive_train: i8 = "VEH_DRIVE" => {
+            default: 0, range: 0, 1, unit: "", flags: [reboot_required],
+            desc: "Drive train: 0 Ackermann steering, 1 differential (skid) steering",
+        },
+        wheelbase_m: f32 = "VEH_WHEELBASE" => {
+            default: 2.9, range: 0.1, 20.0, unit: "m",
+            desc: "Distance between front and rear axles",
+        },
+        track_m: f32 = "VEH_TRACK" => {
+            default: 1.6, range: 0.1, 10.0, unit: "m",
+            desc: "Distance between left and right wheels",
+        },
+        steer_max_deg: f32 = "VEH_STEER_MAX" => {
+            default: 30.0, range: 1.0, 60.0, unit: "deg",
+            desc: "Largest centre steering angle the tracker commands",
+        },
+        antenna_x_m: f32 = "GPS_POS1_X" => {
+            default: 0.0, range: -10.0, 10.0, unit: "m",
+            desc: "GNSS antenna position forward of the rear axle centre",
+        },
+        antenna_y_m: f32 = "GPS_POS1_Y" => {
+            default: 0.0, range: -10.0, 10.0, unit: "m",
+            desc: "GNSS antenna position right of the rear axle centre",
+        },
+    }
+}
+
+declare_params! {
+    /// Waypoint navigation and speed control.
+    pub struct NavParams {
+        wp_speed_mps: f32 = "WP_SPEED" => {
+            default: 2.0, range: 0.0, 10.0, unit: "m/s",
+            desc: "Speed in AUTO and GUIDED",
+        },
+        wp_radius_m: f32 = "WP_RADIUS" => {
+            default: 2.0, range: 0.0, 100.0, unit: "m",
+            desc: "A waypoint within this distance counts as reached",
+        },
+        rtl_speed_mps: f32 = "RTL_SPEED" => {
+            default: 0.0, range: 0.0, 10.0, unit: "m/s",
+            desc: "Speed in RTL (0: WP_SPEED)",
+        },
+        cruise_speed_mps: f32 = "CRUISE_SPEED" => {
+            default: 2.0, range: 0.1, 20.0, unit: "m/s",
+            desc: "Speed reached at CRUISE_THROTTLE (throttle feed-forward)",
+        },
+        cruise_throttle_pct: f32 = "CRUISE_THROTTLE" => {
+            default: 50.0, range: 1.0, 100.0, unit: "%",
+            desc: "Throttle that gives CRUISE_SPEED",
+        },
+        accel_max_mps2: f32 = "ATC_ACCEL_MAX" => {
+            default: 1.0, range: 0.1, 10.0, unit: "m/s/s",
+            desc: "Acceleration limit of the speed demand",
+        },
+        decel_max_mps2: f32 = "ATC_DECEL_MAX" => {
+            default: 0.0, range: 0.0, 10.0, unit: "m/s/s",
+            desc: "Deceleration limit of the speed demand (0: ATC_ACCEL_MAX)",
+        },
+        speed_p: f32 = "ATC_SPEED_P" => {
+            default: 0.2, range: 0.0, 2.0, unit: "",
+            desc: "Speed controller P gain (throttle per m/s)",
+        },
+        speed_i: f32 = "ATC_SPEED_I" => {
+            default: 0.2, range: 0.0, 2.0, unit: "",
+            desc: "Speed controller I gain",
+        },
+        speed_d: f32 = "ATC_SPEED_D" => {
+            default: 0.0, range: 0.0, 0.5, unit: "",
+            desc: "Speed controller D gain",
+        },
+        speed_imax: f32 = "ATC_SPEED_IMAX" => {
+            default: 1.0, range: 0.0, 1.0, unit: "",
+            desc: "Speed controller integrator limit (throttle fraction)",
+        },
+    }
+}
+
+declare_params! {
+    /// The preview-point tracker (seed 000 §2.4).
+    pub struct PreviewParams {
+        dist_m: f32 = "PVW_DIST" => {
+            default: 2.0, range: 0.2, 20.0, unit: "m",
+            desc: "Preview distance at standstill",
+        },
+        dist_k_s: f32 = "PVW_DIST_K" => {
+            default: 0.5, range: 0.0, 5.0, unit: "s",
+            desc: "Preview distance added per m/s of speed",
+        },
+        lat_p: f32 = "PVW_LAT_P" => {
+            default: 1.0, range: 0.0, 10.0, unit: "",
+            desc: "Lateral PID P gain (m of correction per m of offset)",
+        },
+        lat_i: f32 = "PVW_LAT_I" => {
+            default: 0.0, range: 0.0, 10.0, unit: "",
+            desc: "Lateral PID I gain",
+        },
+        lat_d: f32 = "PVW_LAT_D" => {
+            default: 0.0, range: 0.0, 10.0, unit: "",
+            desc: "Lateral PID D gain",
+        },
+        lat_imax_m: f32 = "PVW_LAT_IMAX" => {
+            default: 0.5, range: 0.0, 5.0, unit: "m",
+            desc: "Lateral PID integrator limit",
+        },
+        yaw_p: f32 = "PVW_YAW_P" => {
+            default: 0.5, range: 0.0, 10.0, unit: "",
+            desc: "Yaw PID P gain (rad of steering per rad of heading error)",
+        },
+        yaw_i: f32 = "PVW_YAW_I" => {
+            default: 0.0, range: 0.0, 10.0, unit: "",
+            desc: "Yaw PID I gain",
+        },
+        yaw_d: f32 = "PVW_YAW_D" => {
+            default: 0.0, range: 0.0, 10.0, unit: "",
+            desc: "Yaw PID D gain",
+        },
+        yaw_imax_rad: f32 = "PVW_YAW_IMAX" => {
+            default: 0.2, range: 0.0, 1.0, unit: "rad",
+            desc: "Yaw PID integrator limit",
+        },
+    }
+}
+
+/// `SRn_*`: default telemetry rates per link slot (Hz), one group per
+/// ArduPilot stream (`SRn_POSITION`, `SRn_EXTRA1`, …).
+#[derive(Clone, Copy, Debug)]
+pub struct StreamRateParams {
+    slots: [[Param<i16>; StreamGroup::COUNT]; StreamRateParams::SLOTS],
+}
+
+impl StreamRateParams {
+    pub const SLOTS: usize = 4;
+
+    pub fn register(builder: &mut ParamTableBuilder) -> Self {
+        let slots = std::array::from_fn(|slot| {
+            std::array::from_fn(|g| {
+                let group = StreamGroup::ALL[g];
+                let index = builder.add(ParamDef {
+                    name: ParamName::new(format!("SR{slot}_{}", group.param_suffix()))
+                        .expect("valid stream parameter name"),
+                    ty: ParamType::Int16,
+                    default: f64::from(group.default_rate_hz()),
+                    min: 0.0,
+                    max: 50.0,
+                    unit: "Hz",
+                    description: group.description(),
+                    flags: ParamFlags::default(),
+                });
+                Param::from_index(index)
+            })
+        });
+        StreamRateParams { slots }
+    }
+
+    /// The parameter holding the rate of `group` on links of `slot`.
+    pub fn rate(&self, slot: u8, group: StreamGroup) -> Param<i16> {
+        let slot = usize::from(slot).min(Self::SLOTS - 1);
+        self.slots[slot][group as usize]
+    }
+}
+
+/// All of the core's parameter handles.
+#[derive(Clone, Copy, Debug)]
+pub struct CoreParams {
+    pub system: SystemParams,
+    pub vehicle: VehicleParams,
+    pub nav: NavParams,
+    pub preview: PreviewParams,
+    pub streams: StreamRateParams,
+}
+
+impl CoreParams {
+    /// Declares every core parameter, in the table's order.
+    pub fn register(builder: &mut ParamTableBuilder) -> Self {
+        CoreParams {
+            system: SystemParams::register(builder),
+            vehicle: VehicleParams::register(builder),
+            nav: NavParams::register(builder),
+            preview: PreviewParams::register(builder),
+            streams: StreamRateParams::register(builder),
+        }
+    }
+}

@@ -1,0 +1,117 @@
+//! GUIDED and RTL in simulated time, through MAVLink messages.
+
+mod common;
+
+use autopilot::modes::Mode;
+use autopilot::sitl::simulation::ModelKind;
+use common::Harness;
+use mavlink::dialects::ardupilotmega::{MavCmd, MavResult};
+
+#[test]
+fn guided_goto_40_m_reaches_and_holds_then_rtl_returns() {
+    let mut h = Harness::new(1, ModelKind::Ackermann);
+    h.run_for(2.0);
+    h.set_mode(15);
+    h.arm();
+    h.step();
+    assert_eq!(h.sim.core().mode(), Mode::Guided);
+    assert!(h.sim.core().is_armed(), "{:?}", h.texts());
+
+    h.goto_local(28.28, 28.28);
+    let reached = h.run_until(120.0, |s| s.core().navigator().arrived());
+    assert!(reached, "did not arrive: {:?}", h.sim.world().truth());
+    h.run_for(5.0);
+    let err = h.distance_to(28.28, 28.28);
+    assert!(
+        err < 2.0,
+        "stopped {err:.3} m from the target (WP_RADIUS 2 m)"
+    );
+    let speed = h.sim.world().truth().speed_mps.abs();
+    assert!(speed < 0.01, "holding, speed {speed}");
+
+    h.set_mode(11);
+    let home = h.run_until(120.0, |s| s.core().navigator().arrived());
+    assert!(home, "RTL did not arrive");
+    h.run_for(3.0);
+    assert!(
+        h.distance_to(0.0, 0.0) < 2.0,
+        "RTL ended {:.2} m from home",
+        h.distance_to(0.0, 0.0)
+    );
+    assert!(h.texts().iter().any(|t| t.contains("Reached destination")));
+}
+
+#[test]
+fn arming_without_a_fix_is_refused_with_a_reason() {
+    let mut h = Harness::new(1, ModelKind::Ackermann);
+    h.sim
+        .core_mut()
+        .params_mut()
+        .set_by_name("SIM_GPS_DISABLE", 1.0)
+        .unwrap();
+    h.run_for(2.0);
+    h.arm();
+    h.step();
+    assert!(!h.sim.core().is_armed());
+    assert_eq!(
+        h.acks(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM),
+        vec![MavResult::MAV_RESULT_FAILED]
+    );
+    assert!(
+        h.texts().iter().any(|t| t == "PreArm: No position fix"),
+        "{:?}",
+        h.texts()
+    );
+}
+
+#[test]
+fn disarmed_outputs_are_neutral_and_the_vehicle_does_not_move() {
+    let mut h = Harness::new(1, ModelKind::Ackermann);
+    h.run_for(1.0);
+    h.set_mode(15);
+    h.goto_local(20.0, 0.0);
+    h.run_for(10.0);
+    assert!(h.distance_to(0.0, 0.0) < 1e-9);
+    assert_eq!(
+        h.sim.last_demand(),
+        drivers::sim::ActuatorDemand::Ackermann {
+            steering: 0.0,
+            throttle: 0.0
+        }
+    );
+}
+
+#[test]
+fn differential_rover_drives_guided_too() {
+    let mut h = Harness::new(3, ModelKind::Differential);
+    h.run_for(2.0);
+    h.set_mode(15);
+    h.arm();
+    h.step();
+    h.goto_local(-15.0, 20.0);
+    assert!(
+        h.run_until(120.0, |s| s.core().navigator().arrived()),
+        "{:?}",
+        h.sim.world().truth()
+    );
+    h.run_for(3.0);
+    assert!(
+        h.distance_to(-15.0, 20.0) < 2.0,
+        "{:.2}",
+        h.distance_to(-15.0, 20.0)
+    );
+}
+
+#[test]
+fn unavailable_modes_are_denied() {
+    let mut h = Harness::new(1, ModelKind::Ackermann);
+    h.run_for(1.0);
+    h.set_mode(1); // ACRO
+    h.set_mode(99);
+    h.step();
+    assert_eq!(
+        h.acks(MavCmd::MAV_CMD_DO_SET_MODE),
+        vec![MavResult::MAV_RESULT_DENIED, MavResult::MAV_RESULT_DENIED]
+    );
+    assert_eq!(h.sim.core().mode(), Mode::Hold);
+}

@@ -1,0 +1,13 @@
+//! Furrow device drivers and the simulated world.
+//!
+//! - [`gnss`]: GNSS sample types and the NMEA 0183 stream parser that the real
+//!   serial driver and SITL both feed.
+//! - [`sim`]: the SITL world (vehicle physics, battery) whose simulated GNSS
+//!   receiver writes the same NMEA bytes a real RTK receiver would, so SITL
+//!   exercises the real parser.
+//!
+//! Everything here is pure and deterministic: time is passed in as a
+//! [`std::time::Duration`] since start, randomness comes from a caller's seed.
+
+pub mod gnss;
+pub mod sim;

@@ -1,0 +1,188 @@
+//! The simulated receiver: epoch schedule, measurement noise, NMEA bytes.
+
+use std::time::Duration;
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+use super::geo::LocalFrame;
+use super::nmea_out::{EpochReport, write_epoch};
+use super::{GnssSimConfig, VehicleTruth};
+
+/// Below this antenna speed a receiver's course is noise: leave it empty.
+const COURSE_MIN_SPEED_MPS: f64 = 0.05;
+
+#[derive(Clone, Debug)]
+pub(crate) struct GnssSim {
+    rng: ChaCha8Rng,
+    /// Gauss–Markov position error (north, east) and the epoch it belongs to.
+    walk_m: Option<(f64, f64, Duration)>,
+    last_epoch: Option<Duration>,
+    next_epoch: Option<Duration>,
+    bytes: Vec<u8>,
+}
+
+/// No receiver is faster; a mistyped rate must not flood the byte buffer.
+const MAX_RATE_HZ: f64 = 1000.0;
+
+/// Epoch k of a receiver at `rate_hz`, rounded to the nanosecond.
+fn epoch_time(k: u64, rate_hz: f64) -> Duration {
+    Duration::from_nanos((k as f64 * 1e9 / rate_hz).round() as u64)
+}
+
+/// The first epoch at or after `t`, if the rate allows any.
+fn first_epoch_from(t: Duration, rate_hz: f64) -> Option<Duration> {
+    if !(rate_hz.is_finite() && rate_hz > 0.0) {
+        return None;
+    }
+    let rate_hz = rate_hz.min(MAX_RATE_HZ);
+    let mut k = (t.as_secs_f64() * rate_hz).floor() as u64;
+    // The float guess can be one off either way.
+    while k > 0 && epoch_time(k - 1, rate_hz) >= t {
+        k -= 1;
+    }
+    while epoch_time(k, rate_hz) < t {
+        k += 1;
+    }
+    Some(epoch_time(k, rate_hz))
+}
+
+impl GnssSim {
+    pub(crate) fn new(seed: u64, cfg: &GnssSimConfig) -> Self {
+        Self {
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            walk_m: None,
+            last_epoch: None,
+            next_epoch: first_epoch_from(Duration::ZERO, cfg.rate_hz),
+            bytes: Vec::new(),
+        }
+    }
+
+    /// The next epoch due, if it is no later than `t`.
+    pub(crate) fn due(&self, t: Duration) -> Option<Duration> {
+        self.next_epoch.filter(|&epoch| epoch <= t)
+    }
+
+    /// A new configuration (possibly a new rate): the schedule continues from
+    /// `now` on the new rate's grid, never repeating an epoch already sent.
+    pub(crate) fn reschedule(&mut self, cfg: &GnssSimConfig, now: Duration) {
+        let after_last = self
+            .last_epoch
+            .map_or(Duration::ZERO, |t| t + Duration::from_nanos(1));
+        self.next_epoch = first_epoch_from(now.max(after_last), cfg.rate_hz);
+    }
+
+    /// Emit the epoch at `epoch_t` for the vehicle in state `truth`.
+    pub(crate) fn emit(
+        &mut self,
+        epoch_t: Duration,
+        truth: &VehicleTruth,
+        cfg: &GnssSimConfig,
+        frame: LocalFrame,
+        utc_start_unix_us: i64,
+    ) {
+        self.last_epoch = Some(epoch_t);
+        self.next_epoch = first_epoch_from(epoch_t + Duration::from_nanos(1), cfg.rate_hz);
+        if !cfg.enabled {
+            return;
+        }
+        // Always six draws per epoch, in this order, whatever is reported.
+        let mut normal = || -> f64 { self.rng.sample(StandardNormal) };
+        let white = (normal(), normal());
+        let innovation = (normal(), normal());
+        let alt_noise = normal();
+        let heading_noise = normal();
+        let (walk_n, walk_e) = self.advance_walk(epoch_t, innovation, cfg);
+
+        let (ax, ay) = cfg.antenna_body_m;
+        let (sin_yaw, cos_yaw) = truth.yaw_rad.sin_cos();
+        let antenna_n =
+            truth.north_m + ax * cos_yaw - ay * sin_yaw + cfg.pos_sigma_m * white.0 + walk_n;
+        let antenna_e =
+            truth.east_m + ax * sin_yaw + ay * cos_yaw + cfg.pos_sigma_m * white.1 + walk_e;
+        let mut position = frame.to_geodetic(antenna_n, antenna_e, 0.0);
+        position.alt_m += cfg.alt_sigma_m * alt_noise;
+
+        // Antenna velocity in the body frame: v + ω × r, ω about body z (down).
+        let w = truth.yaw_rate_rad_s;
+        let (vx, vy) = (truth.speed_mps - w * ay, w * ax);
+        let speed_mps = vx.hypot(vy);
+        let course_deg = (speed_mps >= COURSE_MIN_SPEED_MPS)
+            .then(|| (truth.yaw_rad + vy.atan2(vx)).to_degrees());
+        let heading_deg = cfg
+            .heading_enabled
+            .then(|| truth.yaw_rad.to_degrees() + cfg.heading_sigma_deg * heading_noise);
+
+        let t_us = i64::try_from(epoch_t.as_micros()).unwrap_or(i64::MAX);
+        let report = EpochReport {
+            utc_unix_us: utc_start_unix_us.saturating_add(t_us),
+            quality: cfg.quality,
+            position,
+            satellites: cfg.satellites,
+            hdop: cfg.hdop,
+            speed_mps,
+            course_deg,
+            sigma_horizontal_m: cfg.horizontal_sigma_m(),
+            sigma_alt_m: cfg.alt_sigma_m,
+            heading_deg,
+        };
+        write_epoch(&cfg.talker, &report, &mut self.bytes);
+    }
+
+    /// First-order Gauss–Markov: x ← φx + σ√(1−φ²)·n with φ = exp(−Δt/τ), so
+    /// its σ stays the configured one whatever the epoch spacing. It starts
+    /// from its stationary distribution.
+    fn advance_walk(
+        &mut self,
+        epoch_t: Duration,
+        innovation: (f64, f64),
+        cfg: &GnssSimConfig,
+    ) -> (f64, f64) {
+        let sigma = cfg.pos_walk_sigma_m;
+        let (n, e) = match self.walk_m {
+            None => (sigma * innovation.0, sigma * innovation.1),
+            Some((n, e, t)) => {
+                let dt_s = epoch_t.saturating_sub(t).as_secs_f64();
+                let phi = if cfg.pos_walk_tau_s > 0.0 {
+                    (-dt_s / cfg.pos_walk_tau_s).exp()
+                } else {
+                    0.0
+                };
+                let gain = sigma * (1.0 - phi * phi).sqrt();
+                (phi * n + gain * innovation.0, phi * e + gain * innovation.1)
+            }
+        };
+        self.walk_m = Some((n, e, epoch_t));
+        (n, e)
+    }
+
+    pub(crate) fn take_bytes(&mut self, out: &mut Vec<u8>) {
+        out.append(&mut self.bytes);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn epochs_fall_on_the_grid() {
+        assert_eq!(first_epoch_from(Duration::ZERO, 10.0), Some(Duration::ZERO));
+        let just_after = Duration::from_millis(100) + Duration::from_nanos(1);
+        assert_eq!(
+            first_epoch_from(just_after, 10.0),
+            Some(Duration::from_millis(200))
+        );
+        assert_eq!(
+            first_epoch_from(Duration::from_millis(300), 10.0),
+            Some(Duration::from_millis(300))
+        );
+        assert_eq!(
+            first_epoch_from(Duration::from_millis(1), 3.0),
+            Some(Duration::from_nanos(333_333_333))
+        );
+        assert_eq!(first_epoch_from(Duration::ZERO, 0.0), None);
+        assert_eq!(first_epoch_from(Duration::ZERO, f64::NAN), None);
+    }
+}

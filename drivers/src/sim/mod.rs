@@ -1,0 +1,27 @@
+//! The SITL world. Its simulated devices emit what real ones do: the GNSS
+//! receiver writes NMEA bytes for [`crate::gnss::NmeaReader`].
+//!
+//! Frames: NED about the home point (`north_m`, `east_m`); yaw 0 = north,
+//! clockwise, in [-π, π); body x forward, y right; the vehicle reference point
+//! is the rear axle centre (Ackermann) or the wheel-axle centre
+//! (differential); steering positive = right.
+
+mod actuator;
+mod battery;
+mod config;
+mod geo;
+mod gnss_sim;
+mod nmea_out;
+mod vehicle;
+mod world;
+
+#[cfg(test)]
+mod tests;
+
+pub use battery::BatterySample;
+pub use config::{
+    AckermannConfig, ActuatorDemand, BatterySimConfig, DifferentialConfig, GeoPoint, GnssSimConfig,
+    VehicleModel, WorldConfig,
+};
+pub use vehicle::VehicleTruth;
+pub use world::World;

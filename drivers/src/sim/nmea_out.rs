@@ -1,0 +1,186 @@
+//! NMEA 0183 output of the simulated receiver: GGA, RMC, GST, HDT per epoch,
+//! formatted like a high-precision RTK receiver (7 decimals of arc minutes,
+//! ≈ 0.2 mm) and kept within 82 characters per sentence.
+
+use std::fmt::Write as _;
+
+use chrono::{DateTime, Datelike};
+
+use super::GeoPoint;
+use crate::gnss::{FixQuality, nmea_checksum};
+
+const KNOTS_PER_MPS: f64 = 3600.0 / 1852.0;
+const US_PER_DAY: i64 = 86_400_000_000;
+/// Units of 1e-7 arc minute per degree.
+const TICKS_PER_DEG: u64 = 600_000_000;
+const TICKS_PER_MIN: u64 = 10_000_000;
+
+/// Everything one receiver epoch reports.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct EpochReport {
+    pub utc_unix_us: i64,
+    pub quality: FixQuality,
+    /// Antenna position as measured (with noise).
+    pub position: GeoPoint,
+    pub satellites: u8,
+    pub hdop: f32,
+    pub speed_mps: f64,
+    /// Direction of motion; `None` when nearly stationary.
+    pub course_deg: Option<f64>,
+    pub sigma_horizontal_m: f64,
+    pub sigma_alt_m: f64,
+    pub heading_deg: Option<f64>,
+}
+
+/// Appends the epoch's sentences to `out`, each ending in CR LF.
+pub(crate) fn write_epoch(talker: &str, report: &EpochReport, out: &mut Vec<u8>) {
+    let talker = if talker.len() == 2 && talker.bytes().all(|b| b.is_ascii_alphanumeric()) {
+        talker
+    } else {
+        "GN"
+    };
+    let (time, date) = utc_fields(report.utc_unix_us);
+    let has_fix = report.quality != FixQuality::NoFix;
+    let (lat, lon) = if has_fix {
+        (
+            coordinate(report.position.lat_deg, 2, ['N', 'S']),
+            coordinate(report.position.lon_deg, 3, ['E', 'W']),
+        )
+    } else {
+        (",".to_owned(), ",".to_owned())
+    };
+
+    let hdop = if report.hdop.is_finite() {
+        format!("{:.1}", report.hdop)
+    } else {
+        String::new()
+    };
+    let alt = if has_fix {
+        format!("{:.3}", report.position.alt_m)
+    } else {
+        String::new()
+    };
+    let gga = format!(
+        "{time},{lat},{lon},{},{:02},{hdop},{alt},M,0.0,M,,",
+        report.quality.gga_digit(),
+        report.satellites,
+    );
+    sentence(talker, "GGA", &gga, out);
+
+    let rmc = if has_fix {
+        let course = report.course_deg.map(milli_degrees).unwrap_or_default();
+        format!(
+            "{time},A,{lat},{lon},{:.3},{course},{date},,,{}",
+            report.speed_mps * KNOTS_PER_MPS,
+            report.quality.faa_mode(),
+        )
+    } else {
+        format!("{time},V,,,,,,,{date},,,N")
+    };
+    sentence(talker, "RMC", &rmc, out);
+    if !has_fix {
+        return;
+    }
+
+    let sigma = report.sigma_horizontal_m;
+    let gst = format!(
+        "{time},{sigma:.4},{sigma:.4},{sigma:.4},0.0,{sigma:.4},{sigma:.4},{:.4}",
+        report.sigma_alt_m
+    );
+    sentence(talker, "GST", &gst, out);
+
+    if let Some(heading_deg) = report.heading_deg {
+        sentence(
+            talker,
+            "HDT",
+            &format!("{},T", milli_degrees(heading_deg)),
+            out,
+        );
+    }
+}
+
+fn sentence(talker: &str, kind: &str, fields: &str, out: &mut Vec<u8>) {
+    let body = format!("{talker}{kind},{fields}");
+    let mut line = String::with_capacity(body.len() + 6);
+    let _ = write!(line, "${body}*{:02X}\r\n", nmea_checksum(body.as_bytes()));
+    out.extend_from_slice(line.as_bytes());
+}
+
+/// `ddmm.mmmmmmm,N` (latitude, 2 degree digits) or `dddmm.mmmmmmm,E`.
+/// Rounded once, in integer ticks, so 59.99999999′ carries into the degrees.
+fn coordinate(value_deg: f64, degree_digits: usize, hemispheres: [char; 2]) -> String {
+    let hemisphere = if value_deg < 0.0 {
+        hemispheres[1]
+    } else {
+        hemispheres[0]
+    };
+    let ticks = (value_deg.abs() * TICKS_PER_DEG as f64).round() as u64;
+    let (deg, rem) = (ticks / TICKS_PER_DEG, ticks % TICKS_PER_DEG);
+    format!(
+        "{deg:0degree_digits$}{:02}.{:07},{hemisphere}",
+        rem / TICKS_PER_MIN,
+        rem % TICKS_PER_MIN
+    )
+}
+
+/// An angle in [0, 360) with 3 decimals; rounding never yields "360.000".
+fn milli_degrees(angle_deg: f64) -> String {
+    let milli = ((angle_deg * 1000.0).round() as i64).rem_euclid(360_000);
+    format!("{}.{:03}", milli / 1000, milli % 1000)
+}
+
+/// (`hhmmss.ss`, `ddmmyy`), truncated to the centisecond as receivers stamp.
+fn utc_fields(utc_unix_us: i64) -> (String, String) {
+    let of_day_us = utc_unix_us.rem_euclid(US_PER_DAY);
+    let centis = of_day_us / 10_000;
+    let time = format!(
+        "{:02}{:02}{:02}.{:02}",
+        centis / 360_000,
+        centis / 6_000 % 60,
+        centis / 100 % 60,
+        centis % 100
+    );
+    let date = DateTime::from_timestamp_micros(utc_unix_us)
+        .map(|utc| {
+            format!(
+                "{:02}{:02}{:02}",
+                utc.day(),
+                utc.month(),
+                utc.year().rem_euclid(100)
+            )
+        })
+        .unwrap_or_default();
+    (time, date)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn coordinates_round_in_ticks_and_carry() {
+        assert_eq!(coordinate(29.133, 2, ['N', 'S']), "2907.9800000,N");
+        assert_eq!(coordinate(-33.5, 2, ['N', 'S']), "3330.0000000,S");
+        assert_eq!(coordinate(119.64, 3, ['E', 'W']), "11938.4000000,E");
+        assert_eq!(coordinate(-0.5, 3, ['E', 'W']), "00030.0000000,W");
+        // 59.999999999′ rounds up to the next whole degree.
+        assert_eq!(coordinate(10.0 - 1e-12, 2, ['N', 'S']), "1000.0000000,N");
+    }
+
+    #[test]
+    fn angles_wrap_after_rounding() {
+        assert_eq!(milli_degrees(359.9996), "0.000");
+        assert_eq!(milli_degrees(-0.25), "359.750");
+        assert_eq!(milli_degrees(12.3456), "12.346");
+    }
+
+    #[test]
+    fn utc_time_and_date() {
+        // 2025-01-01T00:00:00Z + 1 h 2 min 3.456789 s.
+        let us = 1_735_689_600_000_000 + 3_723_456_789;
+        assert_eq!(
+            utc_fields(us),
+            ("010203.45".to_owned(), "010125".to_owned())
+        );
+    }
+}

@@ -1,0 +1,162 @@
+//! The SITL world: one vehicle on the WGS-84 ellipsoid, its battery, and its
+//! GNSS receiver, advanced in simulated time.
+
+use std::time::Duration;
+
+use super::battery::{Battery, BatterySample};
+use super::geo::LocalFrame;
+use super::gnss_sim::GnssSim;
+use super::vehicle::{self, VehicleTruth, wrap_pi};
+use super::{ActuatorDemand, GeoPoint, GnssSimConfig, VehicleModel, WorldConfig};
+
+/// The physics rate used when the configured one is unusable (≤ 0, NaN).
+const FALLBACK_PHYSICS_RATE_HZ: f64 = 400.0;
+/// A mistyped rate must not turn one step into billions of sub-steps.
+const MAX_PHYSICS_RATE_HZ: f64 = 100_000.0;
+
+#[derive(Clone, Debug)]
+pub struct World {
+    config: WorldConfig,
+    frame: LocalFrame,
+    time: Duration,
+    truth: VehicleTruth,
+    battery: Battery,
+    gnss: GnssSim,
+}
+
+impl World {
+    /// The vehicle starts at home (its reference point), heading
+    /// `home_heading_deg`, at rest. The same seed gives the same noise.
+    pub fn new(config: WorldConfig, seed: u64) -> Self {
+        let truth = VehicleTruth {
+            yaw_rad: wrap_pi(config.home_heading_deg.to_radians()),
+            ..VehicleTruth::default()
+        };
+        Self {
+            frame: LocalFrame::new(config.home),
+            gnss: GnssSim::new(seed, &config.gnss),
+            config,
+            time: Duration::ZERO,
+            truth,
+            battery: Battery::default(),
+        }
+    }
+
+    pub fn time(&self) -> Duration {
+        self.time
+    }
+
+    /// Advance by `dt` with `demand` held. Physics runs in sub-steps of
+    /// 1/`physics_rate_hz` (the last one shorter, so time lands exactly); GNSS
+    /// epochs fall at exact multiples of 1/`rate_hz` and sample the state at
+    /// that instant, inside a sub-step if need be.
+    pub fn step(&mut self, dt: Duration, demand: &ActuatorDemand) {
+        let end = self.time + dt;
+        let now_state = self.truth;
+        self.emit_due_epochs(&now_state, self.time, demand);
+        let sub_step = self.sub_step();
+        while self.time < end {
+            let h = sub_step.min(end - self.time);
+            let start = self.truth;
+            let motion = vehicle::step(
+                &self.config.vehicle,
+                &mut self.truth,
+                demand,
+                h.as_secs_f64(),
+            );
+            self.battery.step(
+                &self.config.battery,
+                motion.speed_mps,
+                motion.accel_mps2,
+                h.as_secs_f64(),
+            );
+            let sub_step_start = self.time;
+            self.time += h;
+            self.emit_due_epochs(&start, sub_step_start, demand);
+        }
+    }
+
+    /// Emit every epoch due by now; `start` is the state at `start_t`, the
+    /// beginning of the sub-step just taken (or now, before any).
+    fn emit_due_epochs(
+        &mut self,
+        start: &VehicleTruth,
+        start_t: Duration,
+        demand: &ActuatorDemand,
+    ) {
+        while let Some(epoch_t) = self.gnss.due(self.time) {
+            let state = if epoch_t >= self.time {
+                self.truth
+            } else {
+                // Re-integrate the part of the sub-step up to the epoch.
+                let mut state = *start;
+                let into_s = epoch_t.saturating_sub(start_t).as_secs_f64();
+                vehicle::step(&self.config.vehicle, &mut state, demand, into_s);
+                state
+            };
+            self.gnss.emit(
+                epoch_t,
+                &state,
+                &self.config.gnss,
+                self.frame,
+                self.config.utc_start_unix_us,
+            );
+        }
+    }
+
+    fn sub_step(&self) -> Duration {
+        let rate = self.config.physics_rate_hz;
+        let rate = if rate.is_finite() && rate > 0.0 {
+            rate.min(MAX_PHYSICS_RATE_HZ)
+        } else {
+            FALLBACK_PHYSICS_RATE_HZ
+        };
+        Duration::from_nanos((1e9 / rate).round() as u64)
+    }
+
+    /// Append everything the receiver sent since the last call, then forget it.
+    pub fn take_gnss_bytes(&mut self, out: &mut Vec<u8>) {
+        self.gnss.take_bytes(out);
+    }
+
+    pub fn truth(&self) -> &VehicleTruth {
+        &self.truth
+    }
+
+    /// The reference point on the ground, in WGS-84.
+    pub fn truth_geodetic(&self) -> GeoPoint {
+        self.local_to_geodetic(self.truth.north_m, self.truth.east_m)
+    }
+
+    /// The point `north_m`, `east_m` on the home tangent plane (down = 0).
+    pub fn local_to_geodetic(&self, north_m: f64, east_m: f64) -> GeoPoint {
+        self.frame.to_geodetic(north_m, east_m, 0.0)
+    }
+
+    /// (north, east) of `p` in the home NED frame.
+    pub fn geodetic_to_local(&self, p: &GeoPoint) -> (f64, f64) {
+        let (north_m, east_m, _) = self.frame.to_local(p);
+        (north_m, east_m)
+    }
+
+    pub fn battery(&self) -> BatterySample {
+        self.battery.sample(&self.config.battery)
+    }
+
+    pub fn config(&self) -> &WorldConfig {
+        &self.config
+    }
+
+    /// Takes effect at the next epoch (a new rate starts its grid from now).
+    pub fn set_gnss_config(&mut self, gnss: GnssSimConfig) {
+        self.gnss.reschedule(&gnss, self.time);
+        self.config.gnss = gnss;
+    }
+
+    /// Keeps the pose and carries the motion over as far as the new model
+    /// allows.
+    pub fn set_vehicle_model(&mut self, model: VehicleModel) {
+        vehicle::adapt(&model, &mut self.truth);
+        self.config.vehicle = model;
+    }
+}
