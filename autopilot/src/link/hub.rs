@@ -112,6 +112,8 @@ impl LinkIds {
     }
 }
 
+// Frames are the common case; boxing them would allocate per message.
+#[allow(clippy::large_enum_variant)]
 pub(super) enum HubEvent {
     Opened {
         link: LinkId,
@@ -134,6 +136,7 @@ pub(super) enum HubEvent {
 
 /// What the core thread receives.
 #[derive(Debug)]
+#[allow(clippy::large_enum_variant)]
 pub enum ToCore {
     Event(LinkEvent),
     Message(Inbound),
@@ -331,17 +334,18 @@ struct LinkEntry {
     tx: mpsc::Sender<OutItem>,
     rx_stats: FrameStats,
     dropped_out: u64,
-    reported: (FrameStats, u64),
+    /// (unframed bytes, undecodable frames, tx dropped) at the last report.
+    reported: (u64, u64, u64),
 }
 
 struct Hub {
-    sysid: u8,
     links: BTreeMap<LinkId, LinkEntry>,
     router: Router,
     to_core: mpsc::Sender<ToCore>,
     tlog: Option<mpsc::Sender<TlogRecord>>,
     tlog_encoder: LinkEncoder,
     dropped_to_core: u64,
+    reported_to_core: u64,
 }
 
 impl Hub {
@@ -351,13 +355,13 @@ impl Hub {
         tlog: Option<mpsc::Sender<TlogRecord>>,
     ) -> Self {
         Hub {
-            sysid,
             links: BTreeMap::new(),
             router: Router::new(sysid, COMPONENT_ID),
             to_core,
             tlog,
             tlog_encoder: LinkEncoder::new(sysid),
             dropped_to_core: 0,
+            reported_to_core: 0,
         }
     }
 
@@ -366,7 +370,7 @@ impl Hub {
         mut events: mpsc::Receiver<HubEvent>,
         mut from_core: mpsc::Receiver<Outbound>,
     ) {
-        let mut report = tokio::time::interval(Duration::from_secs(10));
+        let mut report = tokio::time::interval(Duration::from_secs(2));
         loop {
             tokio::select! {
                 event = events.recv() => match event {
@@ -500,19 +504,27 @@ impl Hub {
         if let Some(entry) = self.links.get_mut(&link)
             && entry.tx.try_send(item).is_err()
         {
+            if entry.dropped_out == 0 {
+                tracing::warn!(
+                    "link {} ({}): not keeping up, dropping messages",
+                    link.0,
+                    entry.name
+                );
+            }
             entry.dropped_out += 1;
         }
     }
 
-    /// Logs links whose counters changed since the last report.
+    /// Logs links whose error counters changed since the last report: quiet
+    /// while all is well, prompt when a link delivers garbage or cannot keep up.
     fn report(&mut self) {
         for (id, entry) in &mut self.links {
-            let now = (entry.rx_stats, entry.dropped_out);
-            if now == entry.reported {
+            let s = entry.rx_stats;
+            let errors = (s.bytes_unframed, s.decode_errors, entry.dropped_out);
+            if errors == entry.reported {
                 continue;
             }
-            let s = entry.rx_stats;
-            tracing::info!(
+            tracing::warn!(
                 "link {} ({}): rx {} frames ({} MAVLink 1), {} bytes unframed, {} undecodable; {} tx dropped",
                 id.0,
                 entry.name,
@@ -522,15 +534,15 @@ impl Hub {
                 s.decode_errors,
                 entry.dropped_out
             );
-            entry.reported = now;
+            entry.reported = errors;
         }
-        if self.dropped_to_core > 0 {
+        if self.dropped_to_core != self.reported_to_core {
             tracing::warn!(
-                "{} inbound messages dropped: core queue full",
+                "{} inbound messages dropped so far: core queue full",
                 self.dropped_to_core
             );
+            self.reported_to_core = self.dropped_to_core;
         }
-        let _ = self.sysid;
     }
 }
 

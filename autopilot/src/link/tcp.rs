@@ -71,6 +71,12 @@ pub(super) async fn connect_forever(
     }
 }
 
+/// Kernel send buffer of a TCP link. Small on purpose: telemetry queued in a
+/// multi-megabyte buffer is stale by the time a slow client reads it; with
+/// this, a client that stops reading fills its own queue in the hub (which
+/// then drops and counts) within seconds.
+const SEND_BUFFER_BYTES: usize = 32 * 1024;
+
 async fn run_stream(
     stream: TcpStream,
     link: crate::vehicle::LinkId,
@@ -79,6 +85,9 @@ async fn run_stream(
     hub: mpsc::Sender<HubEvent>,
     sysid: u8,
 ) {
+    if let Err(e) = socket2::SockRef::from(&stream).set_send_buffer_size(SEND_BUFFER_BYTES) {
+        tracing::debug!("{name}: SO_SNDBUF: {e}");
+    }
     let (read, write) = stream.into_split();
     run_link(read, write, link, slot, name, hub, sysid).await;
 }

@@ -46,7 +46,7 @@ pub fn statustext(severity: MavSeverity, text: &str, next_id: &mut u16) -> Vec<S
             }
         })
         .collect();
-    if bytes.len() % CHUNK == 0 {
+    if bytes.len().is_multiple_of(CHUNK) {
         // A full last chunk has no NUL: an empty chunk ends the text.
         chunks.push(STATUSTEXT_DATA {
             severity,

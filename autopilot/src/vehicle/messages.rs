@@ -45,18 +45,17 @@ impl Core {
             }
             MavMessage::COMMAND_LONG(c) => self.handle_command_long(inbound, c),
             MavMessage::COMMAND_INT(c) => self.handle_command_int(inbound, c),
-            MavMessage::SET_MODE(m) => {
-                // SET_MODE carries ArduPilot's custom mode; there is no ACK
-                // for it in the spec (the DO_SET_MODE command has one).
+            // SET_MODE carries ArduPilot's custom mode; the spec has no ACK
+            // for it (the DO_SET_MODE command has one).
+            MavMessage::SET_MODE(m)
                 if m.base_mode
-                    .contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
-                {
-                    match Mode::from_number(m.custom_mode) {
-                        Some(mode) => {
-                            let _ = self.request_mode(mode);
-                        }
-                        None => self.warn_unknown_mode(m.custom_mode),
+                    .contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED) =>
+            {
+                match Mode::from_number(m.custom_mode) {
+                    Some(mode) => {
+                        let _ = self.request_mode(mode);
                     }
+                    None => self.warn_unknown_mode(m.custom_mode),
                 }
             }
             MavMessage::MANUAL_CONTROL(m) if from_gcs => self.handle_manual_control(m),

@@ -130,7 +130,7 @@ impl Harness {
                 type_mask: PositionTargetTypemask::from_bits_truncate(0b0000_1111_1111_1000),
                 target_system: 1,
                 target_component: 1,
-                coordinate_frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                coordinate_frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
             },
         ));
     }

@@ -1,0 +1,102 @@
+"""Small helpers a pymavlink script would have."""
+
+import math
+import time
+
+from pymavlink import mavutil
+
+mavlink = mavutil.mavlink
+EARTH_A = 6378137.0
+EARTH_E2 = 6.69437999014e-3
+
+
+def radii(lat_deg):
+    s = math.sin(math.radians(lat_deg))
+    w = math.sqrt(1.0 - EARTH_E2 * s * s)
+    return EARTH_A * (1.0 - EARTH_E2) / w**3, EARTH_A / w
+
+
+def offset(lat, lon, north_m, east_m):
+    """Point north_m/east_m from (lat, lon); exact to well under a millimetre
+    over tens of metres."""
+    m, n = radii(lat)
+    return lat + math.degrees(north_m / m), lon + math.degrees(east_m / (n * math.cos(math.radians(lat))))
+
+
+def distance(lat1, lon1, lat2, lon2):
+    m, n = radii((lat1 + lat2) / 2)
+    dn = math.radians(lat2 - lat1) * m
+    de = math.radians(lon2 - lon1) * n * math.cos(math.radians((lat1 + lat2) / 2))
+    return math.hypot(dn, de)
+
+
+def recv(m, mtype, timeout=10, cond=None):
+    """The next message of a type (satisfying cond), or None."""
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        msg = m.recv_match(type=mtype, blocking=True, timeout=max(0.05, deadline - time.time()))
+        if msg is not None and (cond is None or cond(msg)):
+            return msg
+    return None
+
+
+def command(m, cmd, *params, timeout=5):
+    """COMMAND_LONG and its ACK."""
+    p = list(params) + [0] * (7 - len(params))
+    m.mav.command_long_send(m.target_system, m.target_component, cmd, 0, *p)
+    return recv(m, "COMMAND_ACK", timeout, lambda a: a.command == cmd)
+
+
+def position(m, timeout=10):
+    p = recv(m, "GLOBAL_POSITION_INT", timeout)
+    assert p is not None, "no GLOBAL_POSITION_INT"
+    return p.lat * 1e-7, p.lon * 1e-7
+
+
+def home(m):
+    ack = command(m, mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_HOME_POSITION)
+    assert ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED
+    h = recv(m, "HOME_POSITION")
+    assert h is not None
+    return h.latitude * 1e-7, h.longitude * 1e-7
+
+
+def goto(m, lat, lon):
+    """A GUIDED position target, as MAVProxy's `guided` and MAVSDK send it."""
+    mask = 0b0000_1111_1111_1000  # position only
+    m.mav.set_position_target_global_int_send(
+        0, m.target_system, m.target_component,
+        mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mask,
+        int(round(lat * 1e7)), int(round(lon * 1e7)), 0,
+        0, 0, 0, 0, 0, 0, 0, 0)
+
+
+def wait_mode(m, name, timeout=10):
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        if recv(m, "HEARTBEAT", 2) is not None and m.flightmode == name:
+            return True
+    return False
+
+
+def message_rate(m, mtype, seconds):
+    """Messages of a type per second, counted over `seconds` of wall time."""
+    count = 0
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        msg = m.recv_match(type=mtype, blocking=True, timeout=0.1)
+        if msg is not None:
+            count += 1
+    return count / seconds
+
+
+def message_rates(connections, mtype, seconds):
+    """Rates of a message type on several links, counted in the same window."""
+    counts = [0] * len(connections)
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        for i, m in enumerate(connections):
+            while m.recv_match(type=mtype, blocking=False) is not None:
+                counts[i] += 1
+        time.sleep(0.005)
+    return [c / seconds for c in counts]
