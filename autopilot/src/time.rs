@@ -25,11 +25,11 @@ impl Now {
     }
 }
 
-/// Reads a monotonic microsecond counter to time scheduler tasks. Injected so
+/// Reads a monotonic nanosecond counter to time scheduler tasks. Injected so
 /// the core never reads a clock itself; the readings only feed statistics and
 /// never change what the core computes.
 pub trait TaskTimer {
-    fn now_us(&mut self) -> u64;
+    fn now_ns(&mut self) -> u64;
 }
 
 /// A timer that never advances: for tests and replays.
@@ -37,7 +37,7 @@ pub trait TaskTimer {
 pub struct FrozenTimer;
 
 impl TaskTimer for FrozenTimer {
-    fn now_us(&mut self) -> u64 {
+    fn now_ns(&mut self) -> u64 {
         0
     }
 }

@@ -178,13 +178,13 @@ impl Scheduler {
     }
 
     /// Records how long task `i` took.
-    pub fn record(&mut self, i: usize, elapsed_us: u64) {
-        self.stats[i].record(elapsed_us);
+    pub fn record(&mut self, i: usize, elapsed_ns: u64) {
+        self.stats[i].record(elapsed_ns);
     }
 
     /// Records how long a whole step took (the figure the benchmark prints).
-    pub fn record_tick(&mut self, elapsed_us: u64) {
-        self.tick.record(elapsed_us);
+    pub fn record_tick(&mut self, elapsed_ns: u64) {
+        self.tick.record(elapsed_ns);
     }
 
     pub fn task_stats(&self) -> impl Iterator<Item = (&'static TaskSpec, &TaskStats)> {
@@ -254,8 +254,8 @@ mod tests {
     fn overruns_are_counted_against_the_budget() {
         let mut s = Scheduler::new();
         let i = index_of(TaskId::SetServos);
-        s.record(i, 50);
-        s.record(i, 150);
+        s.record(i, 50_000);
+        s.record(i, 150_000);
         assert_eq!(s.total_overruns(), 1);
     }
 }

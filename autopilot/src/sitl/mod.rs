@@ -8,6 +8,7 @@
 //! - [`runner`]: `furrow sitl`: the simulation on its own thread, paced
 //!   against the wall clock by `SIM_SPEEDUP`, wired to the link layer.
 
+pub mod gcs;
 pub mod params;
 pub mod runner;
 pub mod simulation;

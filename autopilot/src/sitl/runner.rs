@@ -46,8 +46,8 @@ impl Default for InstantTimer {
 }
 
 impl TaskTimer for InstantTimer {
-    fn now_us(&mut self) -> u64 {
-        self.0.elapsed().as_micros() as u64
+    fn now_ns(&mut self) -> u64 {
+        self.0.elapsed().as_nanos() as u64
     }
 }
 
@@ -116,8 +116,13 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
 
     let shutdown = shutdown_on_signal();
     let tcp = links.bound.tcp.map_or("none".into(), |a| a.to_string());
+    let udp = links
+        .bound
+        .udp_local
+        .map_or("none".into(), |a| a.to_string());
+    // One line on stdout that scripts and tests parse for the bound ports.
     println!(
-        "furrow sitl ready: tcp {tcp}, udp to 127.0.0.1:{udp_port}, sysid {}",
+        "furrow sitl ready: tcp {tcp}, udp {udp} to 127.0.0.1:{udp_port}, sysid {}",
         sim.core().sysid()
     );
     tracing::info!(
@@ -158,11 +163,11 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
     }
     let ticks = sim.core().scheduler().tick_stats();
     tracing::info!(
-        "SITL stopped after {:.1} s simulated in {:.1} s: tick median {} µs, p99 {} µs, {} overruns, {} pacing restarts, {} messages dropped to links",
+        "SITL stopped after {:.1} s simulated in {:.1} s: tick median {:.2} µs, p99 {:.2} µs, {} overruns, {} pacing restarts, {} messages dropped to links",
         sim.time().as_secs_f64(),
         start.elapsed().as_secs_f64(),
-        ticks.histogram.quantile_us(0.5),
-        ticks.histogram.quantile_us(0.99),
+        ticks.histogram.quantile_ns(0.5) as f64 / 1000.0,
+        ticks.histogram.quantile_ns(0.99) as f64 / 1000.0,
         sim.core().scheduler().total_overruns(),
         pacer.late_restarts,
         dropped_out,

@@ -130,7 +130,7 @@ impl Core {
         out: &mut Outputs,
         timer: &mut dyn TaskTimer,
     ) {
-        let tick_start = timer.now_us();
+        let tick_start = timer.now_ns();
         let dt_s = self
             .last_boot
             .map(|b| now.boot.saturating_sub(b).as_secs_f64())
@@ -141,7 +141,7 @@ impl Core {
             if !self.sched.is_due(i, now.boot, now.wall) {
                 continue;
             }
-            let started = timer.now_us();
+            let started = timer.now_ns();
             match spec.id {
                 TaskId::LinkEvents => self.handle_link_events(&inputs.link_events),
                 TaskId::GcsReceive => {
@@ -156,11 +156,11 @@ impl Core {
                 TaskId::Heartbeat => self.send_heartbeat(),
                 TaskId::OneSecond => {}
             }
-            self.sched.record(i, timer.now_us().saturating_sub(started));
+            self.sched.record(i, timer.now_ns().saturating_sub(started));
         }
         out.mavlink.append(&mut self.outbox);
         self.sched
-            .record_tick(timer.now_us().saturating_sub(tick_start));
+            .record_tick(timer.now_ns().saturating_sub(tick_start));
     }
 
     pub fn params(&self) -> &ParamTable {

@@ -182,7 +182,8 @@ impl Core {
         let tick = self.sched.tick_stats();
         let period_us = self.loop_period().as_micros() as f64;
         let load = if tick.runs > 0 {
-            (tick.histogram.quantile_us(0.5) as f64 / period_us * 1000.0).min(1000.0) as u16
+            (tick.histogram.quantile_ns(0.5) as f64 / 1000.0 / period_us * 1000.0).min(1000.0)
+                as u16
         } else {
             0
         };
