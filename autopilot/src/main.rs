@@ -89,9 +89,7 @@ fn parse_speedup(s: &str) -> Result<Speedup, String> {
     }
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 && v <= 100_000.0 => Ok(Speedup::Factor(v)),
-        _ => Err(format!(
-            "{s:?} is not a speedup: give a number in (0, 100000] or `max`"
-        )),
+        _ => Err(format!("{s:?} is not a speedup: give a number in (0, 100000] or `max`")),
     }
 }
 
@@ -101,10 +99,7 @@ fn parse_home(s: &str) -> Result<Home, String> {
         return Err(format!("{s:?}: expected LAT,LON,ALT,HDG"));
     }
     let mut v = [0f64; 4];
-    for (slot, (name, text)) in v
-        .iter_mut()
-        .zip(["LAT", "LON", "ALT", "HDG"].iter().zip(&parts))
-    {
+    for (slot, (name, text)) in v.iter_mut().zip(["LAT", "LON", "ALT", "HDG"].iter().zip(&parts)) {
         *slot = text
             .parse::<f64>()
             .ok()
@@ -112,9 +107,7 @@ fn parse_home(s: &str) -> Result<Home, String> {
             .ok_or_else(|| format!("{s:?}: {name} {text:?} is not a number"))?;
     }
     if v[0].abs() > 90.0 || v[1].abs() > 180.0 {
-        return Err(format!(
-            "{s:?}: latitude must be within ±90 and longitude within ±180"
-        ));
+        return Err(format!("{s:?}: latitude must be within ±90 and longitude within ±180"));
     }
     if !(-1000.0..=10000.0).contains(&v[2]) {
         return Err(format!("{s:?}: altitude {} m is out of range", v[2]));
@@ -141,9 +134,7 @@ fn utc_now_us() -> i64 {
 
 fn main() -> ExitCode {
     tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
-        )
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();

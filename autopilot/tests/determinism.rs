@@ -42,13 +42,7 @@ fn same_seed_same_trajectory_other_seed_differs() {
         a.iter().zip(&b).position(|(x, y)| x != y)
     );
     let moved = f64::from_bits(a[2999][0]).hypot(f64::from_bits(a[2999][1]));
-    assert!(
-        moved > 5.0,
-        "the scripted run must actually drive ({moved} m)"
-    );
+    assert!(moved > 5.0, "the scripted run must actually drive ({moved} m)");
     let c = trajectory(8);
-    assert!(
-        a != c,
-        "a different seed must change the noise and so the trajectory"
-    );
+    assert!(a != c, "a different seed must change the noise and so the trajectory");
 }

@@ -159,10 +159,7 @@ impl ParamDef {
             ));
         }
         if self.ty != ParamType::Real32 && self.ty.quantize(self.default) != self.default {
-            return Err(format!(
-                "{}: default {} is not an integer",
-                self.name, self.default
-            ));
+            return Err(format!("{}: default {} is not an integer", self.name, self.default));
         }
         Ok(())
     }
@@ -177,14 +174,8 @@ mod tests {
         assert!(ParamName::new("WP_SPEED").is_ok());
         assert!(ParamName::new("SR0_POSITION").is_ok());
         assert_eq!(ParamName::new(""), Err(ParamNameError::Empty));
-        assert_eq!(
-            ParamName::new("ABCDEFGHIJKLMNOPQ"),
-            Err(ParamNameError::TooLong(17))
-        );
-        assert_eq!(
-            ParamName::new("wp_speed"),
-            Err(ParamNameError::BadChar('w'))
-        );
+        assert_eq!(ParamName::new("ABCDEFGHIJKLMNOPQ"), Err(ParamNameError::TooLong(17)));
+        assert_eq!(ParamName::new("wp_speed"), Err(ParamNameError::BadChar('w')));
         assert_eq!(ParamName::new("0ABC"), Err(ParamNameError::BadChar('0')));
     }
 

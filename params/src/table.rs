@@ -200,9 +200,7 @@ impl ParamTable {
 
     /// Parameters whose value differs from the default, in table order.
     pub fn non_defaults(&self) -> impl Iterator<Item = (&ParamName, f64)> {
-        self.iter()
-            .filter(|(d, v)| *v != d.default)
-            .map(|(d, v)| (&d.name, v))
+        self.iter().filter(|(d, v)| *v != d.default).map(|(d, v)| (&d.name, v))
     }
 }
 
@@ -235,22 +233,13 @@ mod tests {
     fn set_validates_and_keeps_old_value_on_refusal() {
         let mut t = table();
         assert_eq!(t.set_by_name("WP_SPEED", 3.5), Ok(3.5));
-        assert_eq!(
-            t.set_by_name("WP_SPEED", f64::NAN),
-            Err(SetError::NotFinite)
-        );
+        assert_eq!(t.set_by_name("WP_SPEED", f64::NAN), Err(SetError::NotFinite));
         assert_eq!(
             t.set_by_name("WP_SPEED", 11.0),
-            Err(SetError::OutOfRange {
-                min: 0.0,
-                max: 10.0
-            })
+            Err(SetError::OutOfRange { min: 0.0, max: 10.0 })
         );
         assert_eq!(t.value_of("WP_SPEED"), Some(3.5));
-        assert!(matches!(
-            t.set_by_name("NOPE", 1.0),
-            Err(SetError::UnknownName(_))
-        ));
+        assert!(matches!(t.set_by_name("NOPE", 1.0), Err(SetError::UnknownName(_))));
     }
 
     #[test]

@@ -18,10 +18,7 @@ pub fn furrow_bin() -> PathBuf {
     }
     let exe = std::env::current_exe().expect("test executable path");
     // target/<profile>/deps/<test> → target/<profile>/furrow
-    let profile_dir = exe
-        .parent()
-        .and_then(|d| d.parent())
-        .expect("target/<profile>");
+    let profile_dir = exe.parent().and_then(|d| d.parent()).expect("target/<profile>");
     profile_dir.join("furrow")
 }
 
@@ -47,9 +44,7 @@ impl Sitl {
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
-            .unwrap_or_else(|e| {
-                panic!("starting {}: {e} (build it first)", furrow_bin().display())
-            });
+            .unwrap_or_else(|e| panic!("starting {}: {e} (build it first)", furrow_bin().display()));
         let mut line = String::new();
         BufReader::new(child.stdout.take().expect("stdout"))
             .read_line(&mut line)
@@ -78,9 +73,7 @@ impl Sitl {
     /// A TCP connection with a MAVLink reader (5 s read timeout).
     pub fn connect(&self) -> (TcpStream, MavlinkReader<TcpStream>) {
         let stream = TcpStream::connect(self.tcp).expect("connect");
-        stream
-            .set_read_timeout(Some(Duration::from_secs(5)))
-            .expect("timeout");
+        stream.set_read_timeout(Some(Duration::from_secs(5))).expect("timeout");
         let reader = MavlinkReader::new(stream.try_clone().expect("clone"));
         (stream, reader)
     }
@@ -106,10 +99,7 @@ pub fn wait_for<R: std::io::Read>(
             Ok((h, m)) if pred(&h, &m) => return Some(m),
             Ok(_) => {}
             Err(mavlink::error::MessageReadError::Io(e))
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                ) => {}
+                if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {}
             Err(mavlink::error::MessageReadError::Io(_)) => return None,
             Err(_) => {}
         }

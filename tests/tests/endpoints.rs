@@ -6,9 +6,7 @@ use std::io::Write;
 use std::net::{TcpListener, UdpSocket};
 use std::time::Duration;
 
-use mavlink::dialects::ardupilotmega::{
-    COMMAND_LONG_DATA, HEARTBEAT_DATA, MavCmd, MavMessage, MavResult,
-};
+use mavlink::dialects::ardupilotmega::{COMMAND_LONG_DATA, HEARTBEAT_DATA, MavCmd, MavMessage, MavResult};
 use mavlink::{MavlinkReader, MavlinkVersion};
 use serialport::{SerialPort, TTYPort};
 use tests::{Sitl, encode, wait_for};
@@ -35,15 +33,11 @@ fn serial_endpoint_speaks_mavlink_both_ways() {
         target_component: 1,
         ..COMMAND_LONG_DATA::DEFAULT
     });
-    master
-        .write_all(&encode(MavlinkVersion::V2, &request))
-        .unwrap();
+    master.write_all(&encode(MavlinkVersion::V2, &request)).unwrap();
     let ack = wait_for(&mut reader, Duration::from_secs(5), |_, m| {
         matches!(m, MavMessage::COMMAND_ACK(_))
     });
-    assert!(
-        matches!(ack, Some(MavMessage::COMMAND_ACK(a)) if a.result == MavResult::MAV_RESULT_ACCEPTED)
-    );
+    assert!(matches!(ack, Some(MavMessage::COMMAND_ACK(a)) if a.result == MavResult::MAV_RESULT_ACCEPTED));
 }
 
 #[test]
@@ -52,9 +46,7 @@ fn tcp_client_endpoint_connects_out() {
     let port = server.local_addr().unwrap().port();
     let _sitl = Sitl::start(9, &["--mavlink", &format!("tcp:127.0.0.1:{port}")]);
     let (stream, _) = server.accept().expect("furrow connects");
-    stream
-        .set_read_timeout(Some(Duration::from_secs(5)))
-        .unwrap();
+    stream.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
     let mut reader = MavlinkReader::new(stream);
     assert!(wait_for(&mut reader, Duration::from_secs(5), |_, m| is_heartbeat(m)).is_some());
 }
@@ -67,21 +59,14 @@ fn udpin_endpoint_answers_its_sender() {
     };
     let _sitl = Sitl::start(9, &["--mavlink", &format!("udpin:127.0.0.1:{port}")]);
     let gcs = UdpSocket::bind("127.0.0.1:0").unwrap();
-    gcs.set_read_timeout(Some(Duration::from_millis(500)))
-        .unwrap();
-    let hb = encode(
-        MavlinkVersion::V2,
-        &MavMessage::HEARTBEAT(HEARTBEAT_DATA::DEFAULT),
-    );
+    gcs.set_read_timeout(Some(Duration::from_millis(500))).unwrap();
+    let hb = encode(MavlinkVersion::V2, &MavMessage::HEARTBEAT(HEARTBEAT_DATA::DEFAULT));
     let mut buf = [0u8; 2048];
     for _ in 0..20 {
         gcs.send_to(&hb, ("127.0.0.1", port)).unwrap();
         if let Ok(n) = gcs.recv(&mut buf) {
             let mut reader = MavlinkReader::new(&buf[..n]);
-            if reader
-                .read_message::<MavMessage>(MavlinkVersion::V2)
-                .is_ok()
-            {
+            if reader.read_message::<MavMessage>(MavlinkVersion::V2).is_ok() {
                 return;
             }
         }
@@ -102,11 +87,7 @@ fn instance_offsets_the_ports_by_ten() {
         .spawn()
         .unwrap();
     let mut line = String::new();
-    std::io::BufRead::read_line(
-        &mut std::io::BufReader::new(child.stdout.take().unwrap()),
-        &mut line,
-    )
-    .unwrap();
+    std::io::BufRead::read_line(&mut std::io::BufReader::new(child.stdout.take().unwrap()), &mut line).unwrap();
     let _ = child.kill();
     let _ = child.wait();
     assert!(line.contains("tcp 0.0.0.0:9930"), "{line}");

@@ -5,9 +5,7 @@ use std::io::Write;
 use std::net::UdpSocket;
 use std::time::Duration;
 
-use mavlink::dialects::ardupilotmega::{
-    COMMAND_LONG_DATA, HEARTBEAT_DATA, MavCmd, MavMessage, MavResult, MavType,
-};
+use mavlink::dialects::ardupilotmega::{COMMAND_LONG_DATA, HEARTBEAT_DATA, MavCmd, MavMessage, MavResult, MavType};
 use mavlink::{MavlinkReader, MavlinkVersion};
 use tests::{Sitl, encode, wait_for};
 
@@ -40,9 +38,7 @@ fn mavlink1_request_gets_a_mavlink2_answer_over_tcp() {
         Duration::from_secs(5),
         |_, m| matches!(m, MavMessage::COMMAND_ACK(a) if a.command == MavCmd::MAV_CMD_REQUEST_MESSAGE),
     );
-    assert!(
-        matches!(ack, Some(MavMessage::COMMAND_ACK(a)) if a.result == MavResult::MAV_RESULT_ACCEPTED)
-    );
+    assert!(matches!(ack, Some(MavMessage::COMMAND_ACK(a)) if a.result == MavResult::MAV_RESULT_ACCEPTED));
     assert!(
         wait_for(&mut reader, Duration::from_secs(5), |_, m| matches!(
             m,
@@ -63,8 +59,7 @@ fn udp_link_answers_the_address_that_talks_to_it() {
         mavtype: MavType::MAV_TYPE_GCS,
         ..HEARTBEAT_DATA::DEFAULT
     });
-    gcs.send_to(&encode(MavlinkVersion::V2, &hb), sitl.udp_local)
-        .unwrap();
+    gcs.send_to(&encode(MavlinkVersion::V2, &hb), sitl.udp_local).unwrap();
     let mut buf = [0u8; 2048];
     let mut heard = false;
     for _ in 0..50 {

@@ -32,10 +32,7 @@ pub struct SitlBenchArgs {
 
 pub fn run(args: &SitlBenchArgs) -> Result<(), String> {
     if !(args.seconds.is_finite() && args.seconds > 0.0) {
-        return Err(format!(
-            "--seconds {}: must be a positive number",
-            args.seconds
-        ));
+        return Err(format!("--seconds {}: must be a positive number", args.seconds));
     }
     if !(args.process_seconds.is_finite() && args.process_seconds > 0.0) {
         return Err(format!(
@@ -125,12 +122,8 @@ fn real_process(seconds: f64) -> Result<(), String> {
         .map_err(|e| format!("starting furrow sitl: {e}"))?;
     let result = watch(&mut child, seconds);
     // SIGINT so it prints its tick report, then collect stderr.
-    let _ = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status();
-    let output = child
-        .wait_with_output()
-        .map_err(|e| format!("furrow sitl: {e}"))?;
+    let _ = Command::new("kill").args(["-INT", &child.id().to_string()]).status();
+    let output = child.wait_with_output().map_err(|e| format!("furrow sitl: {e}"))?;
     let _ = std::fs::remove_dir_all(&data);
     let (sim_ratio, rss_kb, peak_kb) = result?;
     println!("furrow sitl --speedup max, a ground station on TCP, {seconds:.0} s wall:");
@@ -184,8 +177,7 @@ fn watch(child: &mut std::process::Child, seconds: f64) -> Result<(f64, u64, u64
     let (t0, b0) = latest(Instant::now() + Duration::from_secs(1))?;
     let (t1, b1) = latest(t0 + Duration::from_secs_f64(seconds))?;
     let ratio = f64::from(b1.wrapping_sub(b0)) / 1000.0 / (t1 - t0).as_secs_f64();
-    let status =
-        std::fs::read_to_string(format!("/proc/{}/status", child.id())).unwrap_or_default();
+    let status = std::fs::read_to_string(format!("/proc/{}/status", child.id())).unwrap_or_default();
     let field = |name: &str| {
         status
             .lines()

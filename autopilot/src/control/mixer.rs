@@ -20,11 +20,7 @@ const PWM_MAX_US: f64 = 2000.0;
 
 /// A normalised value in [-1, 1] as a pulse width around 1500 µs.
 pub fn to_pwm_us(value: f64) -> u16 {
-    let v = if value.is_finite() {
-        value.clamp(-1.0, 1.0)
-    } else {
-        0.0
-    };
+    let v = if value.is_finite() { value.clamp(-1.0, 1.0) } else { 0.0 };
     (PWM_TRIM_US + v * (PWM_MAX_US - PWM_TRIM_US))
         .clamp(PWM_MIN_US, PWM_MAX_US)
         .round() as u16
@@ -95,8 +91,7 @@ mod tests {
 
     #[test]
     fn skid_steering_keeps_the_turn_when_saturated() {
-        let ActuatorDemand::Differential { left, right } = mix(DriveTrain::Differential, 0.5, 1.0)
-        else {
+        let ActuatorDemand::Differential { left, right } = mix(DriveTrain::Differential, 0.5, 1.0) else {
             panic!()
         };
         assert_eq!(left, 1.0);

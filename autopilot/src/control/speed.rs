@@ -33,16 +33,9 @@ impl SpeedController {
     }
 
     /// Throttle in [-1, 1] for `desired_mps` given the measured speed.
-    pub fn update(
-        &mut self,
-        config: &SpeedControlConfig,
-        desired_mps: f64,
-        measured_mps: f64,
-        dt_s: f64,
-    ) -> f64 {
+    pub fn update(&mut self, config: &SpeedControlConfig, desired_mps: f64, measured_mps: f64, dt_s: f64) -> f64 {
         let step = desired_mps - self.limited_mps;
-        let slowing =
-            desired_mps.abs() < self.limited_mps.abs() || desired_mps * self.limited_mps < 0.0;
+        let slowing = desired_mps.abs() < self.limited_mps.abs() || desired_mps * self.limited_mps < 0.0;
         let limit = if slowing {
             config.decel_max_mps2
         } else {
@@ -56,9 +49,7 @@ impl SpeedController {
             1.0
         };
         let feed_forward = self.limited_mps / full_throttle_speed.max(1e-3);
-        let correction = self
-            .pid
-            .update(&config.gains, self.limited_mps - measured_mps, dt_s);
+        let correction = self.pid.update(&config.gains, self.limited_mps - measured_mps, dt_s);
         (feed_forward + correction.output()).clamp(-1.0, 1.0)
     }
 }
@@ -96,10 +87,7 @@ mod tests {
         for _ in 0..50 {
             c.update(&config(), 2.0, 0.0, 0.02);
         }
-        assert!(
-            (c.limited_demand_mps() - 1.0).abs() < 1e-9,
-            "1 m/s² for 1 s"
-        );
+        assert!((c.limited_demand_mps() - 1.0).abs() < 1e-9, "1 m/s² for 1 s");
     }
 
     #[test]

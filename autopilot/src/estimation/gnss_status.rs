@@ -56,9 +56,7 @@ impl GnssStatus {
 
     /// Whether a usable position fix arrived within `max_age` of `now`.
     pub fn has_fix(&self, now: Duration, max_age: Duration) -> bool {
-        let fresh = self
-            .last_fix_t
-            .is_some_and(|t| now.saturating_sub(t) <= max_age);
+        let fresh = self.last_fix_t.is_some_and(|t| now.saturating_sub(t) <= max_age);
         fresh && self.quality.is_some_and(|q| q != FixQuality::NoFix)
     }
 

@@ -115,9 +115,7 @@ impl Estimator {
             GnssSample::Velocity(v) if v.speed_mps.is_finite() => {
                 let course = v.course_deg.filter(|c| c.is_finite()).map(f64::to_radians);
                 let (vn, ve) = match course {
-                    Some(c) if v.speed_mps >= 0.05 => {
-                        (v.speed_mps * c.cos(), v.speed_mps * c.sin())
-                    }
+                    Some(c) if v.speed_mps >= 0.05 => (v.speed_mps * c.cos(), v.speed_mps * c.sin()),
                     _ => (0.0, 0.0),
                 };
                 self.velocity = Some((v.t, vn, ve));
@@ -143,11 +141,7 @@ impl Estimator {
             _ if ground_speed >= MIN_COURSE_SPEED_MPS => (true, vel_e.atan2(vel_n)),
             _ => (false, self.estimate.yaw_rad),
         };
-        let yaw_rate = if heading_valid {
-            self.yaw_rate_rad_s
-        } else {
-            0.0
-        };
+        let yaw_rate = if heading_valid { self.yaw_rate_rad_s } else { 0.0 };
 
         let (position_valid, position) = match self.antenna_ned {
             Some((t, antenna)) if fresh(t) => {
@@ -170,11 +164,7 @@ impl Estimator {
             yaw_rate_rad_s: yaw_rate,
             vel_north_mps: vel_n,
             vel_east_mps: vel_e,
-            speed_mps: if heading_valid {
-                along_heading
-            } else {
-                ground_speed
-            },
+            speed_mps: if heading_valid { along_heading } else { ground_speed },
             position_valid,
             heading_valid,
             horiz_sigma_m: self.gnss.horizontal_sigma_m(),
@@ -215,11 +205,7 @@ mod tests {
         let mut est = Estimator::new();
         // Origin at the first fix, vehicle facing east: the reference point
         // is 0.5 m west of the antenna.
-        est.update(
-            Duration::ZERO,
-            &config,
-            &[heading(0, 90.0), fix(0, 29.133, 119.64)],
-        );
+        est.update(Duration::ZERO, &config, &[heading(0, 90.0), fix(0, 29.133, 119.64)]);
         let e = est.estimate();
         assert!(e.position_valid && e.heading_valid);
         assert!((e.position.east_m + 0.5).abs() < 1e-9, "{:?}", e.position);
@@ -237,11 +223,7 @@ mod tests {
             speed_mps: 1.0,
             course_deg: Some(180.0),
         });
-        est.update(
-            Duration::ZERO,
-            &config,
-            &[heading(0, 0.0), fix(0, 29.133, 119.64), vel],
-        );
+        est.update(Duration::ZERO, &config, &[heading(0, 0.0), fix(0, 29.133, 119.64), vel]);
         est.update(Duration::from_millis(50), &config, &[]);
         let e = est.estimate();
         assert!((e.position.north_m + 0.05).abs() < 1e-6, "{:?}", e.position);
@@ -257,11 +239,7 @@ mod tests {
             antenna_body_m: (0.0, 0.0),
         };
         let mut est = Estimator::new();
-        est.update(
-            Duration::ZERO,
-            &config,
-            &[heading(0, 0.0), fix(0, 29.133, 119.64)],
-        );
+        est.update(Duration::ZERO, &config, &[heading(0, 0.0), fix(0, 29.133, 119.64)]);
         est.update(Duration::from_millis(1500), &config, &[]);
         assert!(!est.estimate().position_valid);
     }

@@ -108,10 +108,7 @@ impl LocalFrame {
     /// The WGS-84 position of a local point, at the origin's altitude: the
     /// exact inverse of [`LocalFrame::to_local`].
     pub fn to_geodetic(&self, p: &Ned) -> GeoPoint {
-        let (lat0, lon0) = (
-            self.origin.lat_deg.to_radians(),
-            self.origin.lon_deg.to_radians(),
-        );
+        let (lat0, lon0) = (self.origin.lat_deg.to_radians(), self.origin.lon_deg.to_radians());
         let (lat, lon, _) = ned2geodetic(
             p.north_m,
             p.east_m,
@@ -129,9 +126,7 @@ impl LocalFrame {
             let back = self.to_local(&guess);
             let (meridian_m, normal_m) = radii_of_curvature(guess.lat_deg.to_radians());
             guess.lat_deg += ((p.north_m - back.north_m) / meridian_m).to_degrees();
-            guess.lon_deg += ((p.east_m - back.east_m)
-                / (normal_m * guess.lat_deg.to_radians().cos()))
-            .to_degrees();
+            guess.lon_deg += ((p.east_m - back.east_m) / (normal_m * guess.lat_deg.to_radians().cos())).to_degrees();
         }
         guess
     }
@@ -164,12 +159,7 @@ mod tests {
     #[test]
     fn round_trip_is_sub_millimetre_over_a_site() {
         let frame = LocalFrame::new(GeoPoint::new(29.133, 119.64, 40.0));
-        for &(n, e) in &[
-            (0.0, 0.0),
-            (60.0, 40.0),
-            (-500.0, 1200.0),
-            (3000.0, -2500.0),
-        ] {
+        for &(n, e) in &[(0.0, 0.0), (60.0, 40.0), (-500.0, 1200.0), (3000.0, -2500.0)] {
             let g = frame.to_geodetic(&Ned::new(n, e));
             let back = frame.to_local(&g);
             assert!((back.north_m - n).abs() < 1e-6, "{n} → {}", back.north_m);

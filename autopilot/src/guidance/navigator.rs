@@ -6,9 +6,7 @@ use crate::estimation::Estimate;
 use crate::geo::{Ned, wrap_pi};
 use crate::guidance::path::Segment;
 use crate::guidance::speed::{SpeedLimits, scheduled_speed};
-use crate::guidance::tracker::{
-    Direction, TrackerConfig, TrackerState, TrackerStatus, VehiclePose, track_segment,
-};
+use crate::guidance::tracker::{Direction, TrackerConfig, TrackerState, TrackerStatus, VehiclePose, track_segment};
 
 /// Remaining distance at which the vehicle counts as arrived and stops.
 const ARRIVED_M: f64 = 0.03;

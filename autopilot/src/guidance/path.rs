@@ -35,11 +35,7 @@ impl Segment {
         let dn = self.end.north_m - self.start.north_m;
         let de = self.end.east_m - self.start.east_m;
         let len = dn.hypot(de);
-        if len < 1e-9 {
-            (1.0, 0.0)
-        } else {
-            (dn / len, de / len)
-        }
+        if len < 1e-9 { (1.0, 0.0) } else { (dn / len, de / len) }
     }
 
     /// Direction of travel along the leg, radians from north.
@@ -63,10 +59,7 @@ impl Segment {
     /// The point `along_m` from the start on the leg's (infinite) line.
     pub fn point_at(&self, along_m: f64) -> Ned {
         let (un, ue) = self.direction();
-        Ned::new(
-            self.start.north_m + un * along_m,
-            self.start.east_m + ue * along_m,
-        )
+        Ned::new(self.start.north_m + un * along_m, self.start.east_m + ue * along_m)
     }
 }
 

@@ -139,11 +139,7 @@ pub fn track_segment(
     let carrot_along = projection.along_m.max(0.0) + preview_m;
     let along_q = if ux.abs() >= MIN_PATH_ALONG_AXIS {
         let s = (px - ax) / ux;
-        if s >= projection.along_m {
-            s
-        } else {
-            carrot_along
-        }
+        if s >= projection.along_m { s } else { carrot_along }
     } else {
         carrot_along
     };
@@ -353,13 +349,8 @@ mod tests {
             .flat_map(|d| starts.into_iter().map(move |s| (d, s)))
         {
             let (speed, leg) = match direction {
-                Direction::Forward => {
-                    (1.5, Segment::new(Ned::new(0.0, 0.0), Ned::new(1000.0, 0.0)))
-                }
-                Direction::Reverse => (
-                    -1.0,
-                    Segment::new(Ned::new(0.0, 0.0), Ned::new(-1000.0, 0.0)),
-                ),
+                Direction::Forward => (1.5, Segment::new(Ned::new(0.0, 0.0), Ned::new(1000.0, 0.0))),
+                Direction::Reverse => (-1.0, Segment::new(Ned::new(0.0, 0.0), Ned::new(-1000.0, 0.0))),
             };
             let mut pose = VehiclePose {
                 position: Ned::new(0.0, offset_m),
@@ -379,10 +370,7 @@ mod tests {
                 }
             }
             let case = format!("{direction:?} from {offset_m} m, {yaw_deg}°");
-            assert!(
-                worst_late < 0.01,
-                "{case}: crosstrack {worst_late} m after 80 s"
-            );
+            assert!(worst_late < 0.01, "{case}: crosstrack {worst_late} m after 80 s");
             assert!(pose.yaw_rad.abs() < 0.01, "{case}: yaw {}", pose.yaw_rad);
         }
     }

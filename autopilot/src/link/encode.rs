@@ -65,13 +65,7 @@ mod tests {
             sequence: 9,
         };
         // 400 (ARM_DISARM) so the typed decoder can check every field.
-        let bytes = encode_raw_command_ack(
-            header,
-            400,
-            MavResult::MAV_RESULT_UNSUPPORTED as u8,
-            255,
-            190,
-        );
+        let bytes = encode_raw_command_ack(header, 400, MavResult::MAV_RESULT_UNSUPPORTED as u8, 255, 190);
         let mut framer = StreamFramer::new();
         let mut got = None;
         framer.push(&bytes, |f| got = Some(f.message.expect("decodes")));

@@ -37,11 +37,9 @@ impl FromStr for Endpoint {
     type Err = String;
 
     fn from_str(spec: &str) -> Result<Self, Self::Err> {
-        let (kind, rest) = spec.split_once(':').ok_or_else(|| {
-            format!(
-                "endpoint {spec:?}: expected KIND:ADDRESS (udp:, udpin:, tcp:, tcpin:, serial:)"
-            )
-        })?;
+        let (kind, rest) = spec
+            .split_once(':')
+            .ok_or_else(|| format!("endpoint {spec:?}: expected KIND:ADDRESS (udp:, udpin:, tcp:, tcpin:, serial:)"))?;
         // The last ':' separates the port/baud, so IPv6 hosts and device
         // paths with ':' in them still work.
         let (head, tail) = rest
@@ -50,35 +48,22 @@ impl FromStr for Endpoint {
         if head.is_empty() {
             return Err(format!("endpoint {spec:?}: empty host or device"));
         }
-        let host = head
-            .trim_start_matches('[')
-            .trim_end_matches(']')
-            .to_string();
+        let host = head.trim_start_matches('[').trim_end_matches(']').to_string();
         let port = || {
             tail.parse::<u16>()
                 .map_err(|_| format!("endpoint {spec:?}: port {tail:?} is not a number 0-65535"))
         };
         match kind {
-            "udp" | "udpout" => Ok(Endpoint::UdpOut {
-                host,
-                port: port()?,
-            }),
-            "udpin" => Ok(Endpoint::UdpIn {
-                host,
-                port: port()?,
-            }),
-            "tcp" | "tcpout" => Ok(Endpoint::TcpClient {
-                host,
-                port: port()?,
-            }),
-            "tcpin" => Ok(Endpoint::TcpServer {
-                host,
-                port: port()?,
-            }),
+            "udp" | "udpout" => Ok(Endpoint::UdpOut { host, port: port()? }),
+            "udpin" => Ok(Endpoint::UdpIn { host, port: port()? }),
+            "tcp" | "tcpout" => Ok(Endpoint::TcpClient { host, port: port()? }),
+            "tcpin" => Ok(Endpoint::TcpServer { host, port: port()? }),
             "serial" => {
-                let baud = tail.parse::<u32>().ok().filter(|b| *b > 0).ok_or_else(|| {
-                    format!("endpoint {spec:?}: baud {tail:?} is not a positive number")
-                })?;
+                let baud = tail
+                    .parse::<u32>()
+                    .ok()
+                    .filter(|b| *b > 0)
+                    .ok_or_else(|| format!("endpoint {spec:?}: baud {tail:?} is not a positive number"))?;
                 Ok(Endpoint::Serial {
                     device: head.to_string(),
                     baud,

@@ -123,11 +123,7 @@ impl StreamFramer {
 
 /// Frames one datagram: frames never span datagrams, so a truncated one
 /// cannot delay the next.
-pub fn frame_datagram(
-    datagram: &[u8],
-    stats: &mut FrameStats,
-    mut sink: impl FnMut(ReceivedFrame),
-) {
+pub fn frame_datagram(datagram: &[u8], stats: &mut FrameStats, mut sink: impl FnMut(ReceivedFrame)) {
     stats.bytes += datagram.len() as u64;
     let mut framed = 0u64;
     let mut reader = MavlinkReader::with_capacity(datagram.len(), datagram);
@@ -231,9 +227,7 @@ mod tests {
         let mut stats = FrameStats::default();
         let full = heartbeat_bytes(7);
         let mut got = Vec::new();
-        frame_datagram(&full[..full.len() - 3], &mut stats, |f| {
-            got.push(f.header.sequence)
-        });
+        frame_datagram(&full[..full.len() - 3], &mut stats, |f| got.push(f.header.sequence));
         frame_datagram(&full, &mut stats, |f| got.push(f.header.sequence));
         assert_eq!(got, vec![7]);
         assert_eq!(stats.frames, 1);

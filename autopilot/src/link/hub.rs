@@ -89,11 +89,7 @@ impl LinkEncoder {
 }
 
 /// Writes a link's queue to its byte stream until the stream fails.
-pub(super) async fn write_loop<W: AsyncWrite + Unpin>(
-    mut write: W,
-    mut rx: mpsc::Receiver<OutItem>,
-    sysid: u8,
-) {
+pub(super) async fn write_loop<W: AsyncWrite + Unpin>(mut write: W, mut rx: mpsc::Receiver<OutItem>, sysid: u8) {
     let mut encoder = LinkEncoder::new(sysid);
     while let Some(item) = rx.recv().await {
         if write.write_all(&encoder.encode(&item)).await.is_err() {
@@ -183,9 +179,7 @@ fn resolve(spec: &str) -> io::Result<SocketAddr> {
 /// Binds every configured endpoint (so a busy port is an error now, not
 /// later) and starts the runtime thread.
 pub fn start(config: LinkConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
-    let runtime = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()?;
+    let runtime = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
     let (hub_tx, hub_rx) = mpsc::channel::<HubEvent>(1024);
     let (core_tx, core_rx) = mpsc::channel::<ToCore>(CORE_QUEUE);
     let (out_tx, out_rx) = mpsc::channel::<Outbound>(CORE_QUEUE);
@@ -194,8 +188,7 @@ pub fn start(config: LinkConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
     let mut bound = BoundAddresses::default();
 
     let setup = runtime.block_on(async {
-        let mut tasks: Vec<std::pin::Pin<Box<dyn std::future::Future<Output = ()> + Send>>> =
-            Vec::new();
+        let mut tasks: Vec<std::pin::Pin<Box<dyn std::future::Future<Output = ()> + Send>>> = Vec::new();
         if let Some(spec) = &config.tcp_server {
             let listener = TcpListener::bind(resolve(spec)?).await?;
             bound.tcp = Some(listener.local_addr()?);
@@ -270,22 +263,14 @@ pub fn start(config: LinkConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
                     )));
                 }
                 Endpoint::Serial { device, baud } => {
-                    super::serial::spawn(
-                        device.clone(),
-                        *baud,
-                        slot,
-                        ids.clone(),
-                        hub_tx.clone(),
-                        sysid,
-                    );
+                    super::serial::spawn(device.clone(), *baud, slot, ids.clone(), hub_tx.clone(), sysid);
                 }
             }
         }
         let tlog = match &config.tlog {
             Some(path) => {
-                let (tx, task) = tlog::open(path).map_err(|e| {
-                    io::Error::new(e.kind(), format!("tlog {}: {e}", path.display()))
-                })?;
+                let (tx, task) =
+                    tlog::open(path).map_err(|e| io::Error::new(e.kind(), format!("tlog {}: {e}", path.display())))?;
                 tasks.push(Box::pin(task));
                 Some(tx)
             }
@@ -296,21 +281,16 @@ pub fn start(config: LinkConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
     let (tasks, tlog) = setup?;
     drop(hub_tx);
 
-    let thread = std::thread::Builder::new()
-        .name("links".into())
-        .spawn(move || {
-            runtime.block_on(async move {
-                for task in tasks {
-                    tokio::spawn(task);
-                }
-                Hub::new(sysid, core_tx, tlog).run(hub_rx, out_rx).await;
-            });
-        })?;
+    let thread = std::thread::Builder::new().name("links".into()).spawn(move || {
+        runtime.block_on(async move {
+            for task in tasks {
+                tokio::spawn(task);
+            }
+            Hub::new(sysid, core_tx, tlog).run(hub_rx, out_rx).await;
+        });
+    })?;
     Ok((
-        LinkRuntime {
-            bound,
-            _thread: thread,
-        },
+        LinkRuntime { bound, _thread: thread },
         CoreChannels {
             inbound: core_rx,
             outbound: out_tx,
@@ -349,11 +329,7 @@ struct Hub {
 }
 
 impl Hub {
-    fn new(
-        sysid: u8,
-        to_core: mpsc::Sender<ToCore>,
-        tlog: Option<mpsc::Sender<TlogRecord>>,
-    ) -> Self {
+    fn new(sysid: u8, to_core: mpsc::Sender<ToCore>, tlog: Option<mpsc::Sender<TlogRecord>>) -> Self {
         Hub {
             links: BTreeMap::new(),
             router: Router::new(sysid, COMPONENT_ID),
@@ -365,11 +341,7 @@ impl Hub {
         }
     }
 
-    async fn run(
-        mut self,
-        mut events: mpsc::Receiver<HubEvent>,
-        mut from_core: mpsc::Receiver<Outbound>,
-    ) {
+    async fn run(mut self, mut events: mpsc::Receiver<HubEvent>, mut from_core: mpsc::Receiver<Outbound>) {
         let mut report = tokio::time::interval(Duration::from_secs(2));
         loop {
             tokio::select! {
@@ -388,12 +360,7 @@ impl Hub {
 
     async fn on_event(&mut self, event: HubEvent) {
         match event {
-            HubEvent::Opened {
-                link,
-                slot,
-                name,
-                tx,
-            } => {
+            HubEvent::Opened { link, slot, name, tx } => {
                 tracing::info!("link {}: {name} (stream slot SR{slot})", link.0);
                 self.links.insert(
                     link,
@@ -417,10 +384,7 @@ impl Hub {
             HubEvent::Closed { link } => {
                 self.links.remove(&link);
                 self.router.remove_link(link);
-                let _ = self
-                    .to_core
-                    .send(ToCore::Event(LinkEvent::Closed { link }))
-                    .await;
+                let _ = self.to_core.send(ToCore::Event(LinkEvent::Closed { link })).await;
             }
             HubEvent::Stats { link, stats } => {
                 if let Some(entry) = self.links.get_mut(&link) {
@@ -505,11 +469,7 @@ impl Hub {
             && entry.tx.try_send(item).is_err()
         {
             if entry.dropped_out == 0 {
-                tracing::warn!(
-                    "link {} ({}): not keeping up, dropping messages",
-                    link.0,
-                    entry.name
-                );
+                tracing::warn!("link {} ({}): not keeping up, dropping messages", link.0, entry.name);
             }
             entry.dropped_out += 1;
         }
@@ -558,9 +518,5 @@ fn command_targets(frame: &ReceivedFrame) -> Option<(u16, u8, u8)> {
     let raw = frame.raw.payload();
     let n = raw.len().min(payload.len());
     payload[..n].copy_from_slice(&raw[..n]);
-    Some((
-        u16::from_le_bytes([payload[28], payload[29]]),
-        payload[30],
-        payload[31],
-    ))
+    Some((u16::from_le_bytes([payload[28], payload[29]]), payload[30], payload[31]))
 }

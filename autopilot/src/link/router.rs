@@ -56,11 +56,7 @@ impl Router {
         if sysid == self.own_sysid && compid == self.own_compid {
             return;
         }
-        let route = Route {
-            sysid,
-            compid,
-            link,
-        };
+        let route = Route { sysid, compid, link };
         if !self.routes.contains(&route) {
             if self.routes.len() == MAX_ROUTES {
                 self.routes.remove(0);
@@ -90,8 +86,7 @@ impl Router {
         let broadcast_system = target_system.is_none_or(|s| s == 0);
         let broadcast_component = target_component.is_none_or(|c| c == 0);
         let match_system = broadcast_system || target_system.map(u32::from) == Some(self.own_sysid);
-        let match_component =
-            match_system && (broadcast_component || target_component == Some(self.own_compid));
+        let match_component = match_system && (broadcast_component || target_component == Some(self.own_compid));
         let mut deliver_locally = match_system && match_component;
         if deliver_locally && !broadcast_system && !broadcast_component {
             return RouteDecision {

@@ -11,14 +11,7 @@ use super::hub::{HubEvent, LinkEncoder, LinkIds, OutItem};
 
 /// Opens the port, retrying every second until it exists (a USB radio
 /// plugged in later), and serves it; reopens after an unplug.
-pub(super) fn spawn(
-    device: String,
-    baud: u32,
-    slot: u8,
-    ids: LinkIds,
-    hub: mpsc::Sender<HubEvent>,
-    sysid: u8,
-) {
+pub(super) fn spawn(device: String, baud: u32, slot: u8, ids: LinkIds, hub: mpsc::Sender<HubEvent>, sysid: u8) {
     std::thread::Builder::new()
         .name(format!("serial {device}"))
         .spawn(move || {

@@ -11,26 +11,13 @@ use super::frame::StreamFramer;
 use super::hub::{HubEvent, LinkIds, write_loop};
 
 /// Accepts clients until the runtime stops.
-pub(super) async fn serve(
-    listener: TcpListener,
-    slot: u8,
-    ids: LinkIds,
-    hub: mpsc::Sender<HubEvent>,
-    sysid: u8,
-) {
+pub(super) async fn serve(listener: TcpListener, slot: u8, ids: LinkIds, hub: mpsc::Sender<HubEvent>, sysid: u8) {
     loop {
         match listener.accept().await {
             Ok((stream, peer)) => {
                 let _ = stream.set_nodelay(true);
                 let name = format!("tcp client {peer}");
-                tokio::spawn(run_stream(
-                    stream,
-                    ids.next(),
-                    slot,
-                    name,
-                    hub.clone(),
-                    sysid,
-                ));
+                tokio::spawn(run_stream(stream, ids.next(), slot, name, hub.clone(), sysid));
             }
             Err(e) => {
                 // Out of file descriptors and the like: back off, keep serving.
@@ -42,27 +29,13 @@ pub(super) async fn serve(
 }
 
 /// Connects to `addr`, and again after every disconnect.
-pub(super) async fn connect_forever(
-    addr: String,
-    slot: u8,
-    ids: LinkIds,
-    hub: mpsc::Sender<HubEvent>,
-    sysid: u8,
-) {
+pub(super) async fn connect_forever(addr: String, slot: u8, ids: LinkIds, hub: mpsc::Sender<HubEvent>, sysid: u8) {
     loop {
         match TcpStream::connect(&addr).await {
             Ok(stream) => {
                 let _ = stream.set_nodelay(true);
                 tracing::info!("tcp connected to {addr}");
-                run_stream(
-                    stream,
-                    ids.next(),
-                    slot,
-                    format!("tcp to {addr}"),
-                    hub.clone(),
-                    sysid,
-                )
-                .await;
+                run_stream(stream, ids.next(), slot, format!("tcp to {addr}"), hub.clone(), sysid).await;
                 tracing::info!("tcp to {addr} closed; reconnecting");
             }
             Err(e) => tracing::debug!("tcp connect {addr}: {e}"),

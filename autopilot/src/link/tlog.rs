@@ -32,12 +32,7 @@ pub fn write_record(out: &mut impl Write, record: &TlogRecord) -> io::Result<()>
 
 /// Creates (truncates) the file and returns the task that fills it. The
 /// file is flushed every second so a crash loses at most that much.
-pub fn open(
-    path: &Path,
-) -> io::Result<(
-    mpsc::Sender<TlogRecord>,
-    impl std::future::Future<Output = ()> + use<>,
-)> {
+pub fn open(path: &Path) -> io::Result<(mpsc::Sender<TlogRecord>, impl std::future::Future<Output = ()> + use<>)> {
     let file = File::create(path)?;
     let (tx, mut rx) = mpsc::channel::<TlogRecord>(8192);
     let path = path.display().to_string();

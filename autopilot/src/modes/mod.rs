@@ -122,10 +122,7 @@ impl Mode {
 
     /// Uses the operator's sticks (HEARTBEAT MANUAL_INPUT_ENABLED flag).
     pub fn has_manual_input(self) -> bool {
-        matches!(
-            self,
-            Mode::Manual | Mode::Acro | Mode::Steering | Mode::Simple
-        )
+        matches!(self, Mode::Manual | Mode::Acro | Mode::Steering | Mode::Simple)
     }
 }
 

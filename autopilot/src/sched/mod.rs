@@ -50,13 +50,7 @@ pub struct TaskSpec {
     pub clock: TaskClock,
 }
 
-const fn task(
-    id: TaskId,
-    name: &'static str,
-    rate: TaskRate,
-    budget_us: u32,
-    clock: TaskClock,
-) -> TaskSpec {
+const fn task(id: TaskId, name: &'static str, rate: TaskRate, budget_us: u32, clock: TaskClock) -> TaskSpec {
     TaskSpec {
         id,
         name,
@@ -110,20 +104,8 @@ pub const TASKS: &[TaskSpec] = &[
         1000,
         TaskClock::Wall,
     ),
-    task(
-        TaskId::Heartbeat,
-        "heartbeat",
-        TaskRate::Hz(1.0),
-        200,
-        TaskClock::Wall,
-    ),
-    task(
-        TaskId::OneSecond,
-        "one_second",
-        TaskRate::Hz(1.0),
-        500,
-        TaskClock::Boot,
-    ),
+    task(TaskId::Heartbeat, "heartbeat", TaskRate::Hz(1.0), 200, TaskClock::Wall),
+    task(TaskId::OneSecond, "one_second", TaskRate::Hz(1.0), 500, TaskClock::Boot),
 ];
 
 /// Decides which tasks are due and keeps per-task statistics.

@@ -3,8 +3,7 @@
 //! benchmarks and the in-process scenario tests.
 
 use mavlink::dialects::ardupilotmega::{
-    COMMAND_LONG_DATA, MavCmd, MavFrame, MavMessage, PositionTargetTypemask,
-    SET_POSITION_TARGET_GLOBAL_INT_DATA,
+    COMMAND_LONG_DATA, MavCmd, MavFrame, MavMessage, PositionTargetTypemask, SET_POSITION_TARGET_GLOBAL_INT_DATA,
 };
 use mavlink::{MavHeader, MavlinkVersion};
 

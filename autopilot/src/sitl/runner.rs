@@ -63,12 +63,7 @@ impl Pacer {
     const MAX_LAG: Duration = Duration::from_millis(200);
 
     /// How long to sleep before the step that ends at simulated time `sim`.
-    pub fn delay(
-        &mut self,
-        sim: Duration,
-        wall: Duration,
-        speedup: Option<f64>,
-    ) -> Option<Duration> {
+    pub fn delay(&mut self, sim: Duration, wall: Duration, speedup: Option<f64>) -> Option<Duration> {
         let (wall0, sim0, s0) = *self.anchor.get_or_insert((wall, sim, speedup));
         if s0 != speedup {
             self.anchor = Some((wall, sim, speedup));
@@ -116,10 +111,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
 
     let shutdown = shutdown_on_signal();
     let tcp = links.bound.tcp.map_or("none".into(), |a| a.to_string());
-    let udp = links
-        .bound
-        .udp_local
-        .map_or("none".into(), |a| a.to_string());
+    let udp = links.bound.udp_local.map_or("none".into(), |a| a.to_string());
     // One line on stdout that scripts and tests parse for the bound ports.
     println!(
         "furrow sitl ready: tcp {tcp}, udp {udp} to 127.0.0.1:{udp_port}, sysid {}",
@@ -183,16 +175,11 @@ fn shutdown_on_signal() -> Arc<AtomicBool> {
     std::thread::Builder::new()
         .name("signals".into())
         .spawn(move || {
-            let Ok(rt) = tokio::runtime::Builder::new_current_thread()
-                .enable_all()
-                .build()
-            else {
+            let Ok(rt) = tokio::runtime::Builder::new_current_thread().enable_all().build() else {
                 return;
             };
             rt.block_on(async {
-                let Ok(mut term) =
-                    tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
-                else {
+                let Ok(mut term) = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) else {
                     return;
                 };
                 tokio::select! {
@@ -217,11 +204,7 @@ mod tests {
     #[test]
     fn real_time_sleeps_until_the_step_is_due() {
         let mut p = Pacer::default();
-        assert_eq!(
-            p.delay(ms(20), ms(0), Some(1.0)),
-            None,
-            "anchors on the first step"
-        );
+        assert_eq!(p.delay(ms(20), ms(0), Some(1.0)), None, "anchors on the first step");
         assert_eq!(p.delay(ms(40), ms(5), Some(1.0)), Some(ms(15)));
     }
 

@@ -6,9 +6,7 @@
 use std::time::Duration;
 
 use drivers::gnss::NmeaReader;
-use drivers::sim::{
-    AckermannConfig, ActuatorDemand, DifferentialConfig, GeoPoint, VehicleModel, World, WorldConfig,
-};
+use drivers::sim::{AckermannConfig, ActuatorDemand, DifferentialConfig, GeoPoint, VehicleModel, World, WorldConfig};
 use params::{ParamTable, ParamTableBuilder};
 
 use super::params::SimParams;
@@ -134,8 +132,7 @@ impl Simulation {
 
         self.gnss_bytes.clear();
         self.world.take_gnss_bytes(&mut self.gnss_bytes);
-        self.nmea
-            .push(now.boot, &self.gnss_bytes, &mut self.inputs.gnss);
+        self.nmea.push(now.boot, &self.gnss_bytes, &mut self.inputs.gnss);
         self.inputs.battery = Some(self.world.battery());
 
         self.core.step(now, &self.inputs, &mut self.outputs, timer);
@@ -143,8 +140,7 @@ impl Simulation {
 
         if self.core.params().generation() != self.param_generation {
             self.param_generation = self.core.params().generation();
-            self.world
-                .set_gnss_config(self.sim.gnss_config(self.core.params()));
+            self.world.set_gnss_config(self.sim.gnss_config(self.core.params()));
         }
         &mut self.outputs
     }

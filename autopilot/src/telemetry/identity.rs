@@ -6,8 +6,8 @@
 #![allow(deprecated)]
 
 use mavlink::dialects::ardupilotmega::{
-    AUTOPILOT_VERSION_DATA, HEARTBEAT_DATA, MavAutopilot, MavModeFlag, MavProtocolCapability,
-    MavState, MavType, PROTOCOL_VERSION_DATA,
+    AUTOPILOT_VERSION_DATA, HEARTBEAT_DATA, MavAutopilot, MavModeFlag, MavProtocolCapability, MavState, MavType,
+    PROTOCOL_VERSION_DATA,
 };
 
 use crate::modes::Mode;
@@ -115,9 +115,10 @@ mod tests {
         assert_eq!(hb.custom_mode, 15);
         assert_eq!(hb.mavtype, MavType::MAV_TYPE_GROUND_ROVER);
         assert_eq!(hb.autopilot, MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA);
-        assert!(hb.base_mode.contains(
-            MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED | MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED
-        ));
+        assert!(
+            hb.base_mode
+                .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED | MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED)
+        );
         assert_eq!(hb.system_status, MavState::MAV_STATE_ACTIVE);
     }
 
@@ -128,20 +129,14 @@ mod tests {
             armed: false,
             failsafe: false,
         });
-        assert!(
-            !hb.base_mode
-                .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)
-        );
+        assert!(!hb.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
         assert_eq!(hb.system_status, MavState::MAV_STATE_STANDBY);
         let hb = heartbeat(&VehicleStatus {
             mode: Mode::Manual,
             armed: false,
             failsafe: true,
         });
-        assert!(
-            hb.base_mode
-                .contains(MavModeFlag::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED)
-        );
+        assert!(hb.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED));
         assert_eq!(hb.system_status, MavState::MAV_STATE_CRITICAL);
     }
 }

@@ -65,11 +65,7 @@ mod tests {
     #[test]
     fn short_text_is_one_unchunked_message() {
         let mut id = 0;
-        let m = statustext(
-            MavSeverity::MAV_SEVERITY_INFO,
-            "Reached waypoint #1",
-            &mut id,
-        );
+        let m = statustext(MavSeverity::MAV_SEVERITY_INFO, "Reached waypoint #1", &mut id);
         assert_eq!(m.len(), 1);
         assert_eq!(m[0].id, 0);
         assert_eq!(m[0].text.to_str().unwrap(), "Reached waypoint #1");
@@ -82,10 +78,7 @@ mod tests {
         let m = statustext(MavSeverity::MAV_SEVERITY_WARNING, &text, &mut id);
         assert_eq!(m.len(), 3);
         assert!(m.iter().all(|c| c.id == 1));
-        assert_eq!(
-            m.iter().map(|c| c.chunk_seq).collect::<Vec<_>>(),
-            vec![0, 1, 2]
-        );
+        assert_eq!(m.iter().map(|c| c.chunk_seq).collect::<Vec<_>>(), vec![0, 1, 2]);
         let m = statustext(MavSeverity::MAV_SEVERITY_WARNING, &"y".repeat(100), &mut id);
         assert_eq!(m.len(), 3, "two full chunks and a terminator");
         assert!(m.iter().all(|c| c.id == 2));

@@ -83,9 +83,7 @@ impl StreamGroup {
     pub fn from_data_stream(id: u8) -> &'static [StreamGroup] {
         use StreamGroup::*;
         match id {
-            0 => &[
-                RawSens, ExtStat, RcChan, RawCtrl, Position, Extra1, Extra2, Extra3,
-            ],
+            0 => &[RawSens, ExtStat, RcChan, RawCtrl, Position, Extra1, Extra2, Extra3],
             1 => &[RawSens],
             2 => &[ExtStat],
             3 => &[RcChan],
@@ -223,11 +221,7 @@ impl LinkStreams {
     }
 
     /// The interval `msg` has on this link now (None: not sent).
-    pub fn interval(
-        &self,
-        msg: StreamMsg,
-        slot_rate_hz: impl Fn(StreamGroup) -> f64,
-    ) -> Option<Duration> {
+    pub fn interval(&self, msg: StreamMsg, slot_rate_hz: impl Fn(StreamGroup) -> f64) -> Option<Duration> {
         match self.message_interval[msg as usize] {
             Some(MessageInterval::Disabled) => None,
             Some(MessageInterval::Every(d)) => Some(d),
@@ -240,12 +234,7 @@ impl LinkStreams {
     }
 
     /// Appends the messages due at `wall` and schedules their next time.
-    pub fn due(
-        &mut self,
-        wall: Duration,
-        slot_rate_hz: impl Fn(StreamGroup) -> f64,
-        out: &mut Vec<StreamMsg>,
-    ) {
+    pub fn due(&mut self, wall: Duration, slot_rate_hz: impl Fn(StreamGroup) -> f64, out: &mut Vec<StreamMsg>) {
         for msg in StreamMsg::ALL {
             let Some(interval) = self.interval(msg, &slot_rate_hz) else {
                 self.next_due[msg as usize] = None;

@@ -42,10 +42,7 @@ impl Core {
             return true;
         }
         if force {
-            self.send_text(
-                MavSeverity::MAV_SEVERITY_WARNING,
-                "Arming checks skipped (forced)",
-            );
+            self.send_text(MavSeverity::MAV_SEVERITY_WARNING, "Arming checks skipped (forced)");
         } else {
             let failures = self.arming_failures();
             if !failures.is_empty() {
@@ -59,8 +56,7 @@ impl Core {
             self.set_home_to_current(false);
         }
         self.armed = true;
-        self.speed_control
-            .reset(self.estimator.estimate().speed_mps);
+        self.speed_control.reset(self.estimator.estimate().speed_mps);
         self.send_text(MavSeverity::MAV_SEVERITY_INFO, "Throttle armed");
         true
     }

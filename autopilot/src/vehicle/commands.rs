@@ -8,8 +8,8 @@
 use std::time::Duration;
 
 use mavlink::dialects::ardupilotmega::{
-    COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, MESSAGE_INTERVAL_DATA, MavCmd, MavFrame,
-    MavMessage, MavModeFlag, MavResult,
+    COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, MESSAGE_INTERVAL_DATA, MavCmd, MavFrame, MavMessage,
+    MavModeFlag, MavResult,
 };
 
 use super::{Core, Destination, Inbound};
@@ -26,11 +26,7 @@ const REPOSITION_CHANGE_MODE: i32 = 1;
 #[derive(Clone, Copy, Debug)]
 enum CommandPosition {
     /// COMMAND_INT: degrees × 1e7 and the frame they are in.
-    Int {
-        lat_e7: i32,
-        lon_e7: i32,
-        frame: MavFrame,
-    },
+    Int { lat_e7: i32, lon_e7: i32, frame: MavFrame },
     /// COMMAND_LONG: params 5 and 6 in degrees.
     Float { lat_deg: f32, lon_deg: f32 },
 }
@@ -52,11 +48,7 @@ impl Command {
     /// The command's location in a global frame, if it is one.
     fn location(&self, alt_m: f64) -> Result<Option<GeoPoint>, MavResult> {
         let point = match self.position {
-            CommandPosition::Int {
-                lat_e7,
-                lon_e7,
-                frame,
-            } => {
+            CommandPosition::Int { lat_e7, lon_e7, frame } => {
                 let global = matches!(
                     frame,
                     MavFrame::MAV_FRAME_GLOBAL
@@ -127,21 +119,13 @@ impl Core {
             target_system: inbound.header.system_id as u8,
             target_component: inbound.header.component_id,
         };
-        self.send(
-            Destination::Link(inbound.link),
-            MavMessage::COMMAND_ACK(ack),
-        );
+        self.send(Destination::Link(inbound.link), MavMessage::COMMAND_ACK(ack));
         for (dest, message) in follow_up {
             self.send(dest, message);
         }
     }
 
-    fn execute(
-        &mut self,
-        inbound: &Inbound,
-        c: &Command,
-        follow_up: &mut Vec<(Destination, MavMessage)>,
-    ) -> MavResult {
+    fn execute(&mut self, inbound: &Inbound, c: &Command, follow_up: &mut Vec<(Destination, MavMessage)>) -> MavResult {
         let [p1, p2, _p3, _p4] = c.params;
         match c.command {
             MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
@@ -207,8 +191,7 @@ impl Core {
                 }
                 None => MavResult::MAV_RESULT_FAILED,
             },
-            MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES
-            | MavCmd::MAV_CMD_REQUEST_PROTOCOL_VERSION => {
+            MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES | MavCmd::MAV_CMD_REQUEST_PROTOCOL_VERSION => {
                 let id = if c.command == MavCmd::MAV_CMD_REQUEST_PROTOCOL_VERSION {
                     300
                 } else {

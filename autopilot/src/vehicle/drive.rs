@@ -58,12 +58,7 @@ impl Core {
         let accel = f64::from(nav.accel_max_mps2.get(t));
         NavConfig {
             tracker: TrackerConfig {
-                lateral: gains(
-                    pv.lat_p.get(t),
-                    pv.lat_i.get(t),
-                    pv.lat_d.get(t),
-                    pv.lat_imax_m.get(t),
-                ),
+                lateral: gains(pv.lat_p.get(t), pv.lat_i.get(t), pv.lat_d.get(t), pv.lat_imax_m.get(t)),
                 yaw: gains(
                     pv.yaw_p.get(t),
                     pv.yaw_i.get(t),
@@ -118,10 +113,7 @@ impl Core {
         if self.mode.requires_position() && !self.estimator.estimate().position_valid {
             // ArduPilot Rover's EKF failsafe: a mode that needs a position
             // cannot drive without one.
-            self.send_text(
-                MavSeverity::MAV_SEVERITY_CRITICAL,
-                "Position lost: switching to HOLD",
-            );
+            self.send_text(MavSeverity::MAV_SEVERITY_CRITICAL, "Position lost: switching to HOLD");
             self.enter_mode(Mode::Hold);
         }
 
@@ -135,10 +127,7 @@ impl Core {
                 if self.navigator.arrived() && !was_arrived && self.navigator.target().is_some() {
                     let text = match self.mode {
                         Mode::Rtl => "Reached destination: home".to_string(),
-                        _ => format!(
-                            "Reached destination: {:.2} m",
-                            self.navigator.status().wp_dist_m
-                        ),
+                        _ => format!("Reached destination: {:.2} m", self.navigator.status().wp_dist_m),
                     };
                     self.send_text(MavSeverity::MAV_SEVERITY_INFO, &text);
                 }
@@ -184,9 +173,7 @@ impl Core {
             }
             Demand::Navigate(nav) => {
                 let config = self.speed_control_config();
-                let throttle = self
-                    .speed_control
-                    .update(&config, nav.speed_mps, measured, dt_s);
+                let throttle = self.speed_control.update(&config, nav.speed_mps, measured, dt_s);
                 (self.steering_for(nav, measured), throttle)
             }
         };

@@ -6,8 +6,8 @@
 
 use mavlink::Message;
 use mavlink::dialects::ardupilotmega::{
-    MANUAL_CONTROL_DATA, MavFrame, MavMessage, MavModeFlag, PositionTargetTypemask,
-    RC_CHANNELS_OVERRIDE_DATA, SET_POSITION_TARGET_GLOBAL_INT_DATA,
+    MANUAL_CONTROL_DATA, MavFrame, MavMessage, MavModeFlag, PositionTargetTypemask, RC_CHANNELS_OVERRIDE_DATA,
+    SET_POSITION_TARGET_GLOBAL_INT_DATA,
 };
 
 use super::{COMPONENT_ID, Core, Inbound};
@@ -23,9 +23,7 @@ impl Core {
     /// Whether a message is for this vehicle: broadcast or addressed to our
     /// system and (any or our) component.
     pub fn is_for_us(&self, message: &MavMessage) -> bool {
-        let system_ok = message
-            .target_system_id()
-            .is_none_or(|s| s == 0 || s == self.sysid);
+        let system_ok = message.target_system_id().is_none_or(|s| s == 0 || s == self.sysid);
         let component_ok = message
             .target_component_id()
             .is_none_or(|c| c == 0 || c == COMPONENT_ID);
@@ -40,17 +38,12 @@ impl Core {
         self.counters.messages_handled += 1;
         let from_gcs = inbound.header.system_id == u32::from(self.gcs_sysid());
         match &inbound.message {
-            MavMessage::HEARTBEAT(_) if from_gcs => {
-                self.last_gcs_heartbeat_wall = Some(self.now.wall)
-            }
+            MavMessage::HEARTBEAT(_) if from_gcs => self.last_gcs_heartbeat_wall = Some(self.now.wall),
             MavMessage::COMMAND_LONG(c) => self.handle_command_long(inbound, c),
             MavMessage::COMMAND_INT(c) => self.handle_command_int(inbound, c),
             // SET_MODE carries ArduPilot's custom mode; the spec has no ACK
             // for it (the DO_SET_MODE command has one).
-            MavMessage::SET_MODE(m)
-                if m.base_mode
-                    .contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED) =>
-            {
+            MavMessage::SET_MODE(m) if m.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED) => {
                 match Mode::from_number(m.custom_mode) {
                     Some(mode) => {
                         let _ = self.request_mode(mode);
@@ -63,11 +56,7 @@ impl Core {
             MavMessage::SET_POSITION_TARGET_GLOBAL_INT(m) => self.handle_position_target(m),
             MavMessage::REQUEST_DATA_STREAM(r) => {
                 if let Some(streams) = self.links.get_mut(&inbound.link) {
-                    streams.request_data_stream(
-                        r.req_stream_id as u8,
-                        r.req_message_rate,
-                        r.start_stop != 0,
-                    );
+                    streams.request_data_stream(r.req_stream_id as u8, r.req_message_rate, r.start_stop != 0);
                 }
             }
             _ => {}

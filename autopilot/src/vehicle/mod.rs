@@ -123,13 +123,7 @@ impl Core {
 
     /// One tick: runs every due task of [`TASKS`] in order. Outbound
     /// messages are appended to `out.mavlink`; actuators are set every tick.
-    pub fn step(
-        &mut self,
-        now: Now,
-        inputs: &Inputs,
-        out: &mut Outputs,
-        timer: &mut dyn TaskTimer,
-    ) {
+    pub fn step(&mut self, now: Now, inputs: &Inputs, out: &mut Outputs, timer: &mut dyn TaskTimer) {
         let tick_start = timer.now_ns();
         let dt_s = self
             .last_boot
@@ -159,8 +153,7 @@ impl Core {
             self.sched.record(i, timer.now_ns().saturating_sub(started));
         }
         out.mavlink.append(&mut self.outbox);
-        self.sched
-            .record_tick(timer.now_ns().saturating_sub(tick_start));
+        self.sched.record_tick(timer.now_ns().saturating_sub(tick_start));
     }
 
     pub fn params(&self) -> &ParamTable {

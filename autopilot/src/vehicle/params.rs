@@ -2,9 +2,7 @@
 //! names, units and meanings where the concept matches (DESIGN §4); Furrow's
 //! own prefixes otherwise (`PVW_` preview tracker, `VEH_` vehicle geometry).
 
-use params::{
-    Param, ParamDef, ParamFlags, ParamName, ParamTableBuilder, ParamType, declare_params,
-};
+use params::{Param, ParamDef, ParamFlags, ParamName, ParamTableBuilder, ParamType, declare_params};
 
 use crate::telemetry::streams::StreamGroup;
 

@@ -5,11 +5,10 @@
 
 use drivers::sim::BatterySample;
 use mavlink::dialects::ardupilotmega::{
-    ATTITUDE_DATA, BATTERY_STATUS_DATA, EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA,
-    EkfStatusFlags, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, GpsFixType, HOME_POSITION_DATA,
-    MavBatteryChargeState, MavBatteryFault, MavBatteryFunction, MavBatteryMode, MavBatteryType,
-    MavFrame, MavLandedState, MavMessage, MavSysStatusSensor, MavSysStatusSensorExtended,
-    MavVtolState, NAV_CONTROLLER_OUTPUT_DATA, POSITION_TARGET_GLOBAL_INT_DATA,
+    ATTITUDE_DATA, BATTERY_STATUS_DATA, EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA, EkfStatusFlags,
+    GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, GpsFixType, HOME_POSITION_DATA, MavBatteryChargeState, MavBatteryFault,
+    MavBatteryFunction, MavBatteryMode, MavBatteryType, MavFrame, MavLandedState, MavMessage, MavSysStatusSensor,
+    MavSysStatusSensorExtended, MavVtolState, NAV_CONTROLLER_OUTPUT_DATA, POSITION_TARGET_GLOBAL_INT_DATA,
     PositionTargetTypemask, SERVO_OUTPUT_RAW_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA,
 };
 
@@ -65,10 +64,8 @@ impl Core {
 
     /// Whether REQUEST_MESSAGE for `id` is something Furrow can answer.
     pub(super) fn can_build(&self, id: u32) -> bool {
-        matches!(
-            id,
-            HEARTBEAT_ID | AUTOPILOT_VERSION_ID | PROTOCOL_VERSION_ID
-        ) || StreamMsg::from_message_id(id).is_some()
+        matches!(id, HEARTBEAT_ID | AUTOPILOT_VERSION_ID | PROTOCOL_VERSION_ID)
+            || StreamMsg::from_message_id(id).is_some()
     }
 
     /// The message REQUEST_MESSAGE asks for, if it can be built now.
@@ -79,9 +76,7 @@ impl Core {
                 armed: self.armed,
                 failsafe: false,
             }))),
-            AUTOPILOT_VERSION_ID => Some(MavMessage::AUTOPILOT_VERSION(
-                identity::autopilot_version(self.sysid),
-            )),
+            AUTOPILOT_VERSION_ID => Some(MavMessage::AUTOPILOT_VERSION(identity::autopilot_version(self.sysid))),
             PROTOCOL_VERSION_ID => Some(MavMessage::PROTOCOL_VERSION(identity::protocol_version())),
             _ => StreamMsg::from_message_id(id).and_then(|m| self.build(m)),
         }
@@ -91,16 +86,10 @@ impl Core {
         Some(match msg {
             StreamMsg::SysStatus => MavMessage::SYS_STATUS(self.sys_status()),
             StreamMsg::GpsRawInt => MavMessage::GPS_RAW_INT(self.gps_raw_int()),
-            StreamMsg::NavControllerOutput => {
-                MavMessage::NAV_CONTROLLER_OUTPUT(self.nav_controller_output()?)
-            }
-            StreamMsg::PositionTargetGlobalInt => {
-                MavMessage::POSITION_TARGET_GLOBAL_INT(self.position_target()?)
-            }
+            StreamMsg::NavControllerOutput => MavMessage::NAV_CONTROLLER_OUTPUT(self.nav_controller_output()?),
+            StreamMsg::PositionTargetGlobalInt => MavMessage::POSITION_TARGET_GLOBAL_INT(self.position_target()?),
             StreamMsg::ServoOutputRaw => MavMessage::SERVO_OUTPUT_RAW(self.servo_output_raw()),
-            StreamMsg::GlobalPositionInt => {
-                MavMessage::GLOBAL_POSITION_INT(self.global_position_int()?)
-            }
+            StreamMsg::GlobalPositionInt => MavMessage::GLOBAL_POSITION_INT(self.global_position_int()?),
             StreamMsg::Attitude => MavMessage::ATTITUDE(self.attitude()),
             StreamMsg::VfrHud => MavMessage::VFR_HUD(self.vfr_hud()),
             StreamMsg::SystemTime => MavMessage::SYSTEM_TIME(SYSTEM_TIME_DATA {
@@ -111,16 +100,12 @@ impl Core {
                     .map_or(0, |u| u.max(0) as u64),
                 time_boot_ms: self.now.boot_ms(),
             }),
-            StreamMsg::BatteryStatus => {
-                MavMessage::BATTERY_STATUS(battery_status(self.battery.as_ref()?))
-            }
+            StreamMsg::BatteryStatus => MavMessage::BATTERY_STATUS(battery_status(self.battery.as_ref()?)),
             StreamMsg::EkfStatusReport => MavMessage::EKF_STATUS_REPORT(self.ekf_status_report()),
-            StreamMsg::ExtendedSysState => {
-                MavMessage::EXTENDED_SYS_STATE(EXTENDED_SYS_STATE_DATA {
-                    vtol_state: MavVtolState::MAV_VTOL_STATE_UNDEFINED,
-                    landed_state: MavLandedState::MAV_LANDED_STATE_ON_GROUND,
-                })
-            }
+            StreamMsg::ExtendedSysState => MavMessage::EXTENDED_SYS_STATE(EXTENDED_SYS_STATE_DATA {
+                vtol_state: MavVtolState::MAV_VTOL_STATE_UNDEFINED,
+                landed_state: MavLandedState::MAV_LANDED_STATE_ON_GROUND,
+            }),
             StreamMsg::HomePosition => return self.build_home_position(),
         })
     }
@@ -182,8 +167,7 @@ impl Core {
         let tick = self.sched.tick_stats();
         let period_us = self.loop_period().as_micros() as f64;
         let load = if tick.runs > 0 {
-            (tick.histogram.quantile_ns(0.5) as f64 / 1000.0 / period_us * 1000.0).min(1000.0)
-                as u16
+            (tick.histogram.quantile_ns(0.5) as f64 / 1000.0 / period_us * 1000.0).min(1000.0) as u16
         } else {
             0
         };
@@ -256,9 +240,7 @@ impl Core {
             },
             epv: u16::MAX,
             vel: (g.speed_mps * 100.0).round().clamp(0.0, 65534.0) as u16,
-            cog: g
-                .course_deg
-                .map_or(u16::MAX, |c| cdeg_0_36000(c.to_radians())),
+            cog: g.course_deg.map_or(u16::MAX, |c| cdeg_0_36000(c.to_radians())),
             fix_type,
             satellites_visible: g.satellites,
             alt_ellipsoid: 0,
@@ -267,12 +249,10 @@ impl Core {
             vel_acc: 0,
             hdg_acc: 0,
             // 0 = this GPS gives no yaw; 36000 = north.
-            yaw: g
-                .heading_deg
-                .map_or(0, |h| match cdeg_0_36000(h.to_radians()) {
-                    0 => 36000,
-                    cd => cd,
-                }),
+            yaw: g.heading_deg.map_or(0, |h| match cdeg_0_36000(h.to_radians()) {
+                0 => 36000,
+                cd => cd,
+            }),
         }
     }
 

@@ -10,10 +10,7 @@ use nmea::ParseResult;
 use nmea::sentences::rmc::RmcStatusOfFix;
 use nmea::sentences::{FixType, GgaData, GstData, HdtData, RmcData, VtgData};
 
-use super::{
-    FixQuality, GnssAccuracy, GnssFix, GnssHeading, GnssSample, GnssTime, GnssVelocity,
-    nmea_checksum,
-};
+use super::{FixQuality, GnssAccuracy, GnssFix, GnssHeading, GnssSample, GnssTime, GnssVelocity, nmea_checksum};
 
 const MPS_PER_KNOT: f64 = 1852.0 / 3600.0;
 
@@ -81,11 +78,7 @@ fn frame(text: &str) -> Option<(&str, u8)> {
     Some((body, u8::from_str_radix(hex, 16).ok()?))
 }
 
-fn samples_from(
-    parsed: &ParseResult,
-    t: Duration,
-    out: &mut Vec<GnssSample>,
-) -> Result<(), BadValue> {
+fn samples_from(parsed: &ParseResult, t: Duration, out: &mut Vec<GnssSample>) -> Result<(), BadValue> {
     match parsed {
         ParseResult::GGA(gga) => out.push(GnssSample::Fix(fix_from_gga(gga, t)?)),
         ParseResult::RMC(rmc) => samples_from_rmc(rmc, t, out)?,
@@ -135,9 +128,7 @@ fn fix_from_gga(gga: &GgaData, t: Duration) -> Result<GnssFix, BadValue> {
         lon_deg,
         alt_msl_m,
         quality,
-        satellites: gga
-            .fix_satellites
-            .map_or(0, |n| u8::try_from(n).unwrap_or(u8::MAX)),
+        satellites: gga.fix_satellites.map_or(0, |n| u8::try_from(n).unwrap_or(u8::MAX)),
         hdop,
     })
 }
@@ -165,11 +156,7 @@ fn samples_from_vtg(vtg: &VtgData, t: Duration, out: &mut Vec<GnssSample>) -> Re
     Ok(())
 }
 
-fn velocity(
-    speed_knots: Option<f32>,
-    course_deg: Option<f32>,
-    t: Duration,
-) -> Result<Option<GnssVelocity>, BadValue> {
+fn velocity(speed_knots: Option<f32>, course_deg: Option<f32>, t: Duration) -> Result<Option<GnssVelocity>, BadValue> {
     let course_deg = optional_finite(course_deg)?.map(|c| f64::from(c).rem_euclid(360.0));
     let Some(speed_knots) = optional_finite(speed_knots)? else {
         return Ok(None);

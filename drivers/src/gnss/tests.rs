@@ -18,8 +18,7 @@ fn read(bytes: &[u8]) -> (Vec<GnssSample>, NmeaStats) {
     (out, reader.stats())
 }
 
-const GGA_RTK: &str =
-    "GNGGA,123519.25,4807.0381234,N,01131.3240000,W,4,17,0.7,545.432,M,46.9,M,1.0,0000";
+const GGA_RTK: &str = "GNGGA,123519.25,4807.0381234,N,01131.3240000,W,4,17,0.7,545.432,M,46.9,M,1.0,0000";
 
 fn only_fix(samples: &[GnssSample]) -> GnssFix {
     match samples {
@@ -203,8 +202,7 @@ fn bad_checksum_is_counted_and_dropped() {
     // Lower-case hex is valid; a sign or a third digit is not.
     let body = "GNHDT,1.5,T";
     let sum = nmea_checksum(body.as_bytes());
-    let (_, stats) =
-        read(format!("${body}*{sum:02x}\r\n${body}*+{sum:X}\r\n${body}*{sum:02X}0\r\n").as_bytes());
+    let (_, stats) = read(format!("${body}*{sum:02x}\r\n${body}*+{sum:X}\r\n${body}*{sum:02X}0\r\n").as_bytes());
     assert_eq!(
         stats,
         NmeaStats {
@@ -234,13 +232,11 @@ fn truncated_and_garbage_lines_are_malformed() {
     );
 
     // Fields the nmea crate rejects, with a valid checksum.
-    let (samples, stats) =
-        read(sentence("GNGGA,123519.00,4807.038,N,01131.324,E,9,08,0.9,1,M,,M,,").as_bytes());
+    let (samples, stats) = read(sentence("GNGGA,123519.00,4807.038,N,01131.324,E,9,08,0.9,1,M,,M,,").as_bytes());
     assert!(samples.is_empty());
     assert_eq!(stats.malformed, 1);
     // Impossible latitude.
-    let (samples, stats) =
-        read(sentence("GNGGA,123519.00,9507.038,N,01131.324,E,1,08,0.9,1,M,,M,,").as_bytes());
+    let (samples, stats) = read(sentence("GNGGA,123519.00,9507.038,N,01131.324,E,1,08,0.9,1,M,,M,,").as_bytes());
     assert!(samples.is_empty());
     assert_eq!(stats.malformed, 1);
 }
@@ -285,11 +281,7 @@ fn overlong_lines_are_counted_once_and_bounded() {
         reader.push(T, chunk, &mut out);
         assert!(reader.pending_len() <= MAX_SENTENCE_LEN);
     }
-    assert_eq!(
-        reader.pending_len(),
-        0,
-        "the overlong line is being discarded"
-    );
+    assert_eq!(reader.pending_len(), 0, "the overlong line is being discarded");
     assert_eq!(reader.stats().overlong, 1);
     assert_eq!(std::mem::size_of_val(&reader), size_before);
     reader.push(T, good.as_bytes(), &mut out);
@@ -307,8 +299,7 @@ fn overlong_lines_are_counted_once_and_bounded() {
 fn byte_by_byte_equals_one_push() {
     let mut stream = sentence(GGA_RTK);
     stream += "junk\r\n";
-    stream +=
-        &sentence("GNRMC,235959.50,A,4807.0380000,N,01131.0000000,E,3.888,271.250,311224,,,R");
+    stream += &sentence("GNRMC,235959.50,A,4807.0380000,N,01131.0000000,E,3.888,271.250,311224,,,R");
     stream += &sentence("GNTHS,77.52,A");
     stream += &sentence("GNHDT,1.000,T").replace("*", "*0");
     stream += &sentence("GNGST,172814.00,0.006,0.023,0.020,273.6,0.0112,0.0113,0.0200");

@@ -14,11 +14,7 @@ pub(crate) fn lag_limited(x: f64, target: f64, tau_s: f64, limit: f64, h_s: f64)
     let mut h_s = h_s;
     if tau_s <= 0.0 {
         let travel = limit * h_s;
-        return if travel >= gap {
-            target
-        } else {
-            x + dir * travel
-        };
+        return if travel >= gap { target } else { x + dir * travel };
     }
     let band = limit * tau_s;
     if gap > band {
@@ -73,13 +69,7 @@ impl Drive {
         if to_zero_s >= h_s {
             return lag_limited(v_mps, target_mps, self.tau_s, self.brake_max_mps2, h_s);
         }
-        lag_limited(
-            0.0,
-            target_mps,
-            self.tau_s,
-            self.accel_max_mps2,
-            h_s - to_zero_s,
-        )
+        lag_limited(0.0, target_mps, self.tau_s, self.accel_max_mps2, h_s - to_zero_s)
     }
 }
 

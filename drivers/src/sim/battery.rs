@@ -24,16 +24,9 @@ const AS_PER_MAH: f64 = 3.6;
 impl Battery {
     /// Draw for `h_s` seconds while moving at `speed_mps` (magnitude) and
     /// changing speed at `accel_mps2` (magnitude).
-    pub(crate) fn step(
-        &mut self,
-        cfg: &BatterySimConfig,
-        speed_mps: f64,
-        accel_mps2: f64,
-        h_s: f64,
-    ) {
-        self.current_a = cfg.idle_current_a
-            + cfg.drive_current_a_per_mps * speed_mps
-            + cfg.accel_current_a_per_mps2 * accel_mps2;
+    pub(crate) fn step(&mut self, cfg: &BatterySimConfig, speed_mps: f64, accel_mps2: f64, h_s: f64) {
+        self.current_a =
+            cfg.idle_current_a + cfg.drive_current_a_per_mps * speed_mps + cfg.accel_current_a_per_mps2 * accel_mps2;
         self.consumed_mah += self.current_a * h_s / AS_PER_MAH;
     }
 

@@ -67,9 +67,7 @@ impl GnssSim {
     /// A new configuration (possibly a new rate): the schedule continues from
     /// `now` on the new rate's grid, never repeating an epoch already sent.
     pub(crate) fn reschedule(&mut self, cfg: &GnssSimConfig, now: Duration) {
-        let after_last = self
-            .last_epoch
-            .map_or(Duration::ZERO, |t| t + Duration::from_nanos(1));
+        let after_last = self.last_epoch.map_or(Duration::ZERO, |t| t + Duration::from_nanos(1));
         self.next_epoch = first_epoch_from(now.max(after_last), cfg.rate_hz);
     }
 
@@ -97,10 +95,8 @@ impl GnssSim {
 
         let (ax, ay) = cfg.antenna_body_m;
         let (sin_yaw, cos_yaw) = truth.yaw_rad.sin_cos();
-        let antenna_n =
-            truth.north_m + ax * cos_yaw - ay * sin_yaw + cfg.pos_sigma_m * white.0 + walk_n;
-        let antenna_e =
-            truth.east_m + ax * sin_yaw + ay * cos_yaw + cfg.pos_sigma_m * white.1 + walk_e;
+        let antenna_n = truth.north_m + ax * cos_yaw - ay * sin_yaw + cfg.pos_sigma_m * white.0 + walk_n;
+        let antenna_e = truth.east_m + ax * sin_yaw + ay * cos_yaw + cfg.pos_sigma_m * white.1 + walk_e;
         let mut position = frame.to_geodetic(antenna_n, antenna_e, 0.0);
         position.alt_m += cfg.alt_sigma_m * alt_noise;
 
@@ -108,8 +104,7 @@ impl GnssSim {
         let w = truth.yaw_rate_rad_s;
         let (vx, vy) = (truth.speed_mps - w * ay, w * ax);
         let speed_mps = vx.hypot(vy);
-        let course_deg = (speed_mps >= COURSE_MIN_SPEED_MPS)
-            .then(|| (truth.yaw_rad + vy.atan2(vx)).to_degrees());
+        let course_deg = (speed_mps >= COURSE_MIN_SPEED_MPS).then(|| (truth.yaw_rad + vy.atan2(vx)).to_degrees());
         let heading_deg = cfg
             .heading_enabled
             .then(|| truth.yaw_rad.to_degrees() + cfg.heading_sigma_deg * heading_noise);
@@ -133,12 +128,7 @@ impl GnssSim {
     /// First-order Gauss–Markov: x ← φx + σ√(1−φ²)·n with φ = exp(−Δt/τ), so
     /// its σ stays the configured one whatever the epoch spacing. It starts
     /// from its stationary distribution.
-    fn advance_walk(
-        &mut self,
-        epoch_t: Duration,
-        innovation: (f64, f64),
-        cfg: &GnssSimConfig,
-    ) -> (f64, f64) {
+    fn advance_walk(&mut self, epoch_t: Duration, innovation: (f64, f64), cfg: &GnssSimConfig) -> (f64, f64) {
         let sigma = cfg.pos_walk_sigma_m;
         let (n, e) = match self.walk_m {
             None => (sigma * innovation.0, sigma * innovation.1),
@@ -170,10 +160,7 @@ mod tests {
     fn epochs_fall_on_the_grid() {
         assert_eq!(first_epoch_from(Duration::ZERO, 10.0), Some(Duration::ZERO));
         let just_after = Duration::from_millis(100) + Duration::from_nanos(1);
-        assert_eq!(
-            first_epoch_from(just_after, 10.0),
-            Some(Duration::from_millis(200))
-        );
+        assert_eq!(first_epoch_from(just_after, 10.0), Some(Duration::from_millis(200)));
         assert_eq!(
             first_epoch_from(Duration::from_millis(300), 10.0),
             Some(Duration::from_millis(300))

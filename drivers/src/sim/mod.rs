@@ -20,8 +20,8 @@ mod tests;
 
 pub use battery::BatterySample;
 pub use config::{
-    AckermannConfig, ActuatorDemand, BatterySimConfig, DifferentialConfig, GeoPoint, GnssSimConfig,
-    VehicleModel, WorldConfig,
+    AckermannConfig, ActuatorDemand, BatterySimConfig, DifferentialConfig, GeoPoint, GnssSimConfig, VehicleModel,
+    WorldConfig,
 };
 pub use vehicle::VehicleTruth;
 pub use world::World;

@@ -90,12 +90,7 @@ pub(crate) fn write_epoch(talker: &str, report: &EpochReport, out: &mut Vec<u8>)
     sentence(talker, "GST", &gst, out);
 
     if let Some(heading_deg) = report.heading_deg {
-        sentence(
-            talker,
-            "HDT",
-            &format!("{},T", milli_degrees(heading_deg)),
-            out,
-        );
+        sentence(talker, "HDT", &format!("{},T", milli_degrees(heading_deg)), out);
     }
 }
 
@@ -141,14 +136,7 @@ fn utc_fields(utc_unix_us: i64) -> (String, String) {
         centis % 100
     );
     let date = DateTime::from_timestamp_micros(utc_unix_us)
-        .map(|utc| {
-            format!(
-                "{:02}{:02}{:02}",
-                utc.day(),
-                utc.month(),
-                utc.year().rem_euclid(100)
-            )
-        })
+        .map(|utc| format!("{:02}{:02}{:02}", utc.day(), utc.month(), utc.year().rem_euclid(100)))
         .unwrap_or_default();
     (time, date)
 }
@@ -178,9 +166,6 @@ mod tests {
     fn utc_time_and_date() {
         // 2025-01-01T00:00:00Z + 1 h 2 min 3.456789 s.
         let us = 1_735_689_600_000_000 + 3_723_456_789;
-        assert_eq!(
-            utc_fields(us),
-            ("010203.45".to_owned(), "010125".to_owned())
-        );
+        assert_eq!(utc_fields(us), ("010203.45".to_owned(), "010125".to_owned()));
     }
 }

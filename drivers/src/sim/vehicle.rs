@@ -38,11 +38,7 @@ pub(crate) fn wrap_pi(angle_rad: f64) -> f64 {
         return angle_rad;
     }
     let wrapped = (angle_rad + PI).rem_euclid(2.0 * PI) - PI;
-    if wrapped >= PI {
-        wrapped - 2.0 * PI
-    } else {
-        wrapped
-    }
+    if wrapped >= PI { wrapped - 2.0 * PI } else { wrapped }
 }
 
 fn unit(x: f64) -> f64 {
@@ -50,24 +46,14 @@ fn unit(x: f64) -> f64 {
 }
 
 /// Advance `truth` by `h_s` seconds under `demand`.
-pub(crate) fn step(
-    model: &VehicleModel,
-    truth: &mut VehicleTruth,
-    demand: &ActuatorDemand,
-    h_s: f64,
-) -> Motion {
+pub(crate) fn step(model: &VehicleModel, truth: &mut VehicleTruth, demand: &ActuatorDemand, h_s: f64) -> Motion {
     match model {
         VehicleModel::Ackermann(cfg) => step_ackermann(cfg, truth, demand, h_s),
         VehicleModel::Differential(cfg) => step_differential(cfg, truth, demand, h_s),
     }
 }
 
-fn step_ackermann(
-    cfg: &AckermannConfig,
-    truth: &mut VehicleTruth,
-    demand: &ActuatorDemand,
-    h_s: f64,
-) -> Motion {
+fn step_ackermann(cfg: &AckermannConfig, truth: &mut VehicleTruth, demand: &ActuatorDemand, h_s: f64) -> Motion {
     let (steering, throttle) = match *demand {
         ActuatorDemand::Ackermann { steering, throttle } => (unit(steering), unit(throttle)),
         // The inverse of the skid-steer mix below.
@@ -86,14 +72,8 @@ fn step_ackermann(
     };
 
     let (steer0, v0) = (truth.steer_rad, truth.speed_mps);
-    let steer1 = super::actuator::lag_limited(
-        steer0,
-        steer_cmd_rad,
-        cfg.steer_tau_s,
-        cfg.steer_rate_rad_s,
-        h_s,
-    )
-    .clamp(-max_steer_rad, max_steer_rad);
+    let steer1 = super::actuator::lag_limited(steer0, steer_cmd_rad, cfg.steer_tau_s, cfg.steer_rate_rad_s, h_s)
+        .clamp(-max_steer_rad, max_steer_rad);
     let v1 = drive.advance(v0, speed_cmd_mps, h_s);
     let yaw_rate = |v: f64, steer: f64| v * steer.tan() / cfg.wheelbase_m;
     let (w0, w1) = (yaw_rate(v0, steer0), yaw_rate(v1, steer1));
@@ -106,20 +86,11 @@ fn step_ackermann(
     truth.right_mps = v1 - w1 * cfg.track_m / 2.0;
     Motion {
         speed_mps: v1.abs(),
-        accel_mps2: if h_s > 0.0 {
-            (v1 - v0).abs() / h_s
-        } else {
-            0.0
-        },
+        accel_mps2: if h_s > 0.0 { (v1 - v0).abs() / h_s } else { 0.0 },
     }
 }
 
-fn step_differential(
-    cfg: &DifferentialConfig,
-    truth: &mut VehicleTruth,
-    demand: &ActuatorDemand,
-    h_s: f64,
-) -> Motion {
+fn step_differential(cfg: &DifferentialConfig, truth: &mut VehicleTruth, demand: &ActuatorDemand, h_s: f64) -> Motion {
     let (left, right) = match *demand {
         ActuatorDemand::Differential { left, right } => (unit(left), unit(right)),
         // Skid-steer mix: steering right speeds up the left wheel.
@@ -187,9 +158,7 @@ pub(crate) fn adapt(model: &VehicleModel, truth: &mut VehicleTruth) {
             let max_steer = cfg.max_steer_rad.abs();
             truth.speed_mps = v.clamp(-max_v, max_v);
             truth.steer_rad = if v.abs() > 1e-9 {
-                (w * cfg.wheelbase_m / v)
-                    .atan()
-                    .clamp(-max_steer, max_steer)
+                (w * cfg.wheelbase_m / v).atan().clamp(-max_steer, max_steer)
             } else {
                 truth.steer_rad.clamp(-max_steer, max_steer)
             };

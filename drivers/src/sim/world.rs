@@ -58,12 +58,7 @@ impl World {
         while self.time < end {
             let h = sub_step.min(end - self.time);
             let start = self.truth;
-            let motion = vehicle::step(
-                &self.config.vehicle,
-                &mut self.truth,
-                demand,
-                h.as_secs_f64(),
-            );
+            let motion = vehicle::step(&self.config.vehicle, &mut self.truth, demand, h.as_secs_f64());
             self.battery.step(
                 &self.config.battery,
                 motion.speed_mps,
@@ -78,12 +73,7 @@ impl World {
 
     /// Emit every epoch due by now; `start` is the state at `start_t`, the
     /// beginning of the sub-step just taken (or now, before any).
-    fn emit_due_epochs(
-        &mut self,
-        start: &VehicleTruth,
-        start_t: Duration,
-        demand: &ActuatorDemand,
-    ) {
+    fn emit_due_epochs(&mut self, start: &VehicleTruth, start_t: Duration, demand: &ActuatorDemand) {
         while let Some(epoch_t) = self.gnss.due(self.time) {
             let state = if epoch_t >= self.time {
                 self.truth

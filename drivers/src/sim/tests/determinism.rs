@@ -60,11 +60,7 @@ fn same_seed_same_world_to_the_bit() {
     assert!(a.truth().north_m.hypot(a.truth().east_m) > 1.0);
 
     let (c, c_bytes) = play(43, &script);
-    assert_eq!(
-        bits(&a),
-        bits(&c),
-        "the seed drives noise only, not physics"
-    );
+    assert_eq!(bits(&a), bits(&c), "the seed drives noise only, not physics");
     assert_eq!(a_bytes.len() / 1000, c_bytes.len() / 1000);
     assert!(a_bytes != c_bytes);
 }
@@ -116,9 +112,7 @@ fn collect_errors(gnss: GnssSimConfig, epochs: usize, seed: u64) -> Errors {
                 }
                 GnssSample::Heading(h) => {
                     let gap = h.heading_deg - world.truth().yaw_rad.to_degrees();
-                    errors
-                        .heading_deg
-                        .push((gap + 180.0).rem_euclid(360.0) - 180.0);
+                    errors.heading_deg.push((gap + 180.0).rem_euclid(360.0) - 180.0);
                 }
                 GnssSample::Accuracy(acc) => errors.reported_sigma_m = acc.sigma_north_m,
                 _ => {}
@@ -158,10 +152,7 @@ fn bench_receiver_noise_has_the_reported_sigma() {
     let errors = collect_errors(gnss.clone(), 20_000, 11);
     let sigma = gnss.horizontal_sigma_m();
     assert!((sigma - 0.01118).abs() < 1e-5);
-    assert!(
-        (errors.reported_sigma_m - sigma).abs() < 1e-4,
-        "GST carries 4 decimals"
-    );
+    assert!((errors.reported_sigma_m - sigma).abs() < 1e-4, "GST carries 4 decimals");
     assert_within_20_pct(rms(&errors.north_m), sigma, "north");
     assert_within_20_pct(rms(&errors.east_m), sigma, "east");
 }
@@ -177,8 +168,7 @@ fn walk_is_a_gauss_markov_process() {
     let errors = collect_errors(gnss.clone(), 5000, 3);
     for (axis, e) in [("north", &errors.north_m), ("east", &errors.east_m)] {
         assert_within_20_pct(rms(e), gnss.pos_walk_sigma_m, axis);
-        let lag1 =
-            e.windows(2).map(|w| w[0] * w[1]).sum::<f64>() / e.iter().map(|x| x * x).sum::<f64>();
+        let lag1 = e.windows(2).map(|w| w[0] * w[1]).sum::<f64>() / e.iter().map(|x| x * x).sum::<f64>();
         let expected = (-0.1f64).exp();
         assert!(
             (lag1 - expected).abs() < 0.03,

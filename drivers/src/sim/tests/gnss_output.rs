@@ -63,12 +63,7 @@ fn reader_recovers_what_the_receiver_sent() {
     for home in homes {
         let mut world = world_at(home, gnss.clone());
         let mut reader = NmeaReader::new();
-        let script = [
-            (0.0, 0.0, 1.0),
-            (0.6, 0.5, 6.0),
-            (-1.0, 0.75, 6.0),
-            (0.4, -0.3, 8.0),
-        ];
+        let script = [(0.0, 0.0, 1.0), (0.6, 0.5, 6.0), (-1.0, 0.75, 6.0), (0.4, -0.3, 8.0)];
         let mut epochs = 0;
         for (steering, throttle, seconds) in script {
             for _ in 0..(seconds / EPOCH.as_secs_f64()).round() as usize {
@@ -89,9 +84,7 @@ fn check_epoch(world: &World, samples: &[GnssSample]) {
     let [.., fix, vel, time, acc, hdg] = samples else {
         panic!("{samples:?}");
     };
-    let (GnssSample::Fix(fix), GnssSample::Velocity(vel), GnssSample::Time(time)) =
-        (fix, vel, time)
-    else {
+    let (GnssSample::Fix(fix), GnssSample::Velocity(vel), GnssSample::Time(time)) = (fix, vel, time) else {
         panic!("{samples:?}");
     };
     let (GnssSample::Accuracy(acc), GnssSample::Heading(hdg)) = (acc, hdg) else {
@@ -121,9 +114,7 @@ fn check_epoch(world: &World, samples: &[GnssSample]) {
     }
     let heading_gap = angle_gap_deg(hdg.heading_deg, world.truth().yaw_rad.to_degrees());
     assert!(heading_gap.abs() < 6e-4, "{heading_gap}");
-    assert!(
-        world.truth().speed_mps >= 0.0 || angle_gap_deg(course_deg, hdg.heading_deg).abs() > 90.0
-    );
+    assert!(world.truth().speed_mps >= 0.0 || angle_gap_deg(course_deg, hdg.heading_deg).abs() > 90.0);
 
     assert_eq!(
         (acc.sigma_north_m, acc.sigma_east_m, acc.sigma_up_m),
@@ -244,12 +235,7 @@ fn receiver_settings_apply_at_the_next_epoch() {
     let mut world = world_at(WorldConfig::default().home, GnssSimConfig::default());
     let mut reader = NmeaReader::new();
     world.step(Duration::from_millis(250), &ActuatorDemand::STOP);
-    let count = |samples: &[GnssSample]| {
-        samples
-            .iter()
-            .filter(|s| matches!(s, GnssSample::Fix(_)))
-            .count()
-    };
+    let count = |samples: &[GnssSample]| samples.iter().filter(|s| matches!(s, GnssSample::Fix(_))).count();
     assert_eq!(count(&read_gnss(&mut world, &mut reader)), 3);
 
     world.set_gnss_config(GnssSimConfig {

@@ -51,10 +51,7 @@ fn antenna_truth(world: &World) -> (f64, f64) {
     let truth = world.truth();
     let (ax, ay) = world.config().gnss.antenna_body_m;
     let (sin, cos) = truth.yaw_rad.sin_cos();
-    (
-        truth.north_m + ax * cos - ay * sin,
-        truth.east_m + ax * sin + ay * cos,
-    )
+    (truth.north_m + ax * cos - ay * sin, truth.east_m + ax * sin + ay * cos)
 }
 
 /// Drain the world's GNSS bytes through a reader.

@@ -43,17 +43,10 @@ fn straight_acceleration_is_limited_then_lags_into_the_command() {
     assert!((at(2.6) - (2.0 - 0.3 * (-3.0f64).exp())).abs() < 1e-9);
     assert!((at(12.0) - 2.0).abs() < 1e-9);
     let truth = world.truth();
-    assert_eq!(
-        (truth.east_m, truth.yaw_rad, truth.yaw_rate_rad_s),
-        (0.0, 0.0, 0.0)
-    );
+    assert_eq!((truth.east_m, truth.yaw_rad, truth.yaw_rate_rad_s), (0.0, 0.0, 0.0));
     // Distance: ½·1·1.7² on the ramp, then 2·t minus the tail's lag 0.3·0.3.
     let expected_m = 0.5 * 1.7 * 1.7 + 2.0 * (12.0 - 1.7) - 0.3 * 0.3;
-    assert!(
-        (truth.north_m - expected_m).abs() < 1e-5,
-        "{}",
-        truth.north_m
-    );
+    assert!((truth.north_m - expected_m).abs() < 1e-5, "{}", truth.north_m);
 }
 
 #[test]
@@ -76,10 +69,7 @@ fn reversing_through_zero_brakes_then_accelerates() {
     run(&mut world, ackermann(0.0, 0.5), 10.0, SUB_STEP);
     let trace = speed_trace(&mut world, ackermann(0.0, -0.5), 10.0);
     let zero = trace.iter().position(|&v| v <= 0.0).unwrap();
-    assert!(
-        (zero as f64 * 0.0025 - 1.0).abs() < 0.003,
-        "2 m/s at 2 m/s² takes 1 s"
-    );
+    assert!((zero as f64 * 0.0025 - 1.0).abs() < 0.003, "2 m/s at 2 m/s² takes 1 s");
     assert!(max_rate(&trace[..zero], 2.0) <= 2.0 + 1e-9);
     assert!(max_rate(&trace[zero + 1..], trace[zero]) <= 1.0 + 1e-9);
     assert!((trace.last().unwrap() + 2.0).abs() < 1e-6);
@@ -158,12 +148,7 @@ fn a_full_circle_closes() {
     let radius_m = cfg.wheelbase_m / (0.8 * cfg.max_steer_rad).tan();
     let period = Duration::from_secs_f64(TAU * radius_m / start.speed_mps);
     // Odd step sizes, so sub-steps do not line up with the start.
-    run(
-        &mut world,
-        demand,
-        period.as_secs_f64(),
-        Duration::from_micros(7_300),
-    );
+    run(&mut world, demand, period.as_secs_f64(), Duration::from_micros(7_300));
     let end = world.truth();
     let gap_m = (end.north_m - start.north_m).hypot(end.east_m - start.east_m);
     assert!(gap_m < 1e-3, "circle opens by {gap_m} m");
@@ -176,12 +161,7 @@ fn a_full_circle_closes() {
 fn reverse_moves_backwards_with_heading_unchanged() {
     let mut world = quiet_world(VehicleModel::Ackermann(bench()), 120.0);
     let yaw = world.truth().yaw_rad;
-    run(
-        &mut world,
-        ackermann(0.0, -0.25),
-        5.0,
-        Duration::from_millis(20),
-    );
+    run(&mut world, ackermann(0.0, -0.25), 5.0, Duration::from_millis(20));
     let t = world.truth();
     assert!(t.speed_mps < -0.9);
     assert_eq!(t.yaw_rad, yaw);
@@ -190,12 +170,7 @@ fn reverse_moves_backwards_with_heading_unchanged() {
     assert!(along < -3.0, "{along}");
     assert!(across.abs() < 1e-9);
     // Reversing while steering right turns the nose left (yaw decreases).
-    run(
-        &mut world,
-        ackermann(1.0, -0.25),
-        1.0,
-        Duration::from_millis(20),
-    );
+    run(&mut world, ackermann(1.0, -0.25), 1.0, Duration::from_millis(20));
     assert!(world.truth().yaw_rate_rad_s < 0.0);
 }
 
@@ -206,17 +181,10 @@ fn differential_turns_towards_the_slower_wheel_on_the_right_radius() {
         let mut world = quiet_world(VehicleModel::Differential(cfg), 10.0);
         let demand = ActuatorDemand::Differential { left, right };
         run(&mut world, demand, 10.0, Duration::from_millis(20));
-        let (l, r) = (
-            left * cfg.wheel_speed_max_mps,
-            right * cfg.wheel_speed_max_mps,
-        );
+        let (l, r) = (left * cfg.wheel_speed_max_mps, right * cfg.wheel_speed_max_mps);
         let t = *world.truth();
         assert!((t.left_mps - l).abs() < 1e-9 && (t.right_mps - r).abs() < 1e-9);
-        assert_eq!(
-            t.yaw_rate_rad_s > 0.0,
-            left > right,
-            "left faster turns right"
-        );
+        assert_eq!(t.yaw_rate_rad_s > 0.0, left > right, "left faster turns right");
         assert!((t.yaw_rate_rad_s - (l - r) / cfg.track_m).abs() < 1e-9);
         let radius_m = (cfg.track_m / 2.0 * (l + r) / (l - r)).abs();
         assert_on_circle(&mut world, demand, radius_m, 20.0);
@@ -225,16 +193,10 @@ fn differential_turns_towards_the_slower_wheel_on_the_right_radius() {
 
 #[test]
 fn differential_spins_on_the_spot() {
-    let mut world = quiet_world(
-        VehicleModel::Differential(DifferentialConfig::default()),
-        0.0,
-    );
+    let mut world = quiet_world(VehicleModel::Differential(DifferentialConfig::default()), 0.0);
     run(
         &mut world,
-        ActuatorDemand::Differential {
-            left: 0.5,
-            right: -0.5,
-        },
+        ActuatorDemand::Differential { left: 0.5, right: -0.5 },
         3.0,
         SUB_STEP,
     );
@@ -246,12 +208,7 @@ fn differential_spins_on_the_spot() {
 #[test]
 fn model_change_keeps_pose_and_motion() {
     let mut world = quiet_world(VehicleModel::Ackermann(bench()), 45.0);
-    run(
-        &mut world,
-        ackermann(0.3, 0.25),
-        8.0,
-        Duration::from_millis(20),
-    );
+    run(&mut world, ackermann(0.3, 0.25), 8.0, Duration::from_millis(20));
     let before = *world.truth();
     world.set_vehicle_model(VehicleModel::Differential(DifferentialConfig::default()));
     let after = *world.truth();
