@@ -15,6 +15,8 @@
 //! - [`link`] (edge): sockets, serial ports, framing, routing, tlog.
 //! - [`sitl`] (edge): the simulated world stepped with the core, and the
 //!   runner that paces both against the wall clock.
+//! - [`storage`] (edge): the data directory and parameter persistence.
+//! - [`offline`]: tools on a data directory (`furrow params …`).
 
 pub mod bench;
 pub mod control;
@@ -23,8 +25,10 @@ pub mod geo;
 pub mod guidance;
 pub mod link;
 pub mod modes;
+pub mod offline;
 pub mod sched;
 pub mod sitl;
+pub mod storage;
 pub mod telemetry;
 pub mod time;
 pub mod vehicle;

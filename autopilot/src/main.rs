@@ -24,6 +24,8 @@ struct Cli {
 enum Command {
     /// Run a simulated rover that ground stations connect to (TCP 5760, UDP to 14550).
     Sitl(SitlArgs),
+    /// Read and change the stored parameters offline; import and export .param/.params files.
+    Params(autopilot::offline::params::ParamsArgs),
     /// Measure Furrow (prints figures; not a test).
     Bench {
         #[command(subcommand)]
@@ -165,6 +167,7 @@ fn main() -> ExitCode {
                 tlog: args.tlog,
             })
         }
+        Command::Params(args) => autopilot::offline::params::run(&args),
         Command::Bench {
             which: BenchCommand::Sitl(args),
         } => autopilot::bench::sitl::run(&args),

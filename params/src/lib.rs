@@ -10,10 +10,18 @@
 //!   every tick, so a change made by a ground station applies on the next tick.
 //! - [`declare`]: the [`declare_params!`] macro a subsystem uses to declare
 //!   its group (`WP_*`, `SR0_*`, …) in one place.
+//! - [`service`]: the MAVLink parameter microservice (messages in, messages
+//!   out, no I/O); [`hash`]: the `_HASH_CHECK` table hash.
+//! - [`files`]: Mission Planner `.param` and QGroundControl `.params` files;
+//!   [`store`]: atomic persistence in the data directory.
 
 pub mod declare;
 pub mod def;
+pub mod files;
 pub mod handle;
+pub mod hash;
+pub mod service;
+pub mod store;
 pub mod table;
 
 pub use def::{ParamDef, ParamFlags, ParamName, ParamNameError, ParamType};

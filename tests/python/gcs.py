@@ -100,3 +100,41 @@ def message_rates(connections, mtype, seconds):
                 counts[i] += 1
         time.sleep(0.005)
     return [c / seconds for c in counts]
+
+
+def param_id(name):
+    return name.encode() if isinstance(name, str) else name
+
+
+def fetch_all_params(m, timeout=10):
+    """PARAM_REQUEST_LIST and every PARAM_VALUE that comes back, by index."""
+    m.mav.param_request_list_send(m.target_system, m.target_component)
+    got = {}
+    count = None
+    duplicates = 0
+    deadline = time.time() + timeout
+    while time.time() < deadline and (count is None or len(got) < count):
+        v = m.recv_match(type="PARAM_VALUE", blocking=True, timeout=1)
+        if v is None:
+            continue
+        count = v.param_count
+        if v.param_index in got:
+            duplicates += 1
+        got[v.param_index] = v
+    return got, count, duplicates
+
+
+def param_read(m, name=None, index=-1, timeout=5):
+    m.mav.param_request_read_send(m.target_system, m.target_component, param_id(name or ""), index)
+    want = name
+
+    def match(v):
+        return (v.param_id == want) if want else v.param_index == index
+
+    return recv(m, "PARAM_VALUE", timeout, match)
+
+
+def param_set(m, name, value, ptype=mavlink.MAV_PARAM_TYPE_REAL32, timeout=5):
+    """PARAM_SET and its PARAM_VALUE echo."""
+    m.mav.param_set_send(m.target_system, m.target_component, param_id(name), value, ptype)
+    return recv(m, "PARAM_VALUE", timeout, lambda v: v.param_id == name)

@@ -103,3 +103,24 @@ def test_manual_control_drives_only_in_manual(start_sitl, mode):
         assert servo.servo3_raw > 1600
     else:
         assert moved < 0.05
+
+
+def test_arming_refused_without_a_fix(start_sitl):
+    m = start_sitl().tcp()
+    # Turn the simulated receiver off (SIM_GPS_DISABLE, as in ArduPilot's
+    # SITL) and wait until the position is stale.
+    m.mav.param_set_send(m.target_system, m.target_component, b"SIM_GPS_DISABLE", 1, mavlink.MAV_PARAM_TYPE_INT8)
+    assert recv(m, "GPS_RAW_INT", 20, lambda g: g.fix_type <= mavlink.GPS_FIX_TYPE_NO_FIX) is not None
+    m.mav.command_long_send(m.target_system, m.target_component, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
+    ack, texts = None, []
+    deadline = time.time() + 5
+    while time.time() < deadline and ack is None:
+        msg = m.recv_match(type=["COMMAND_ACK", "STATUSTEXT"], blocking=True, timeout=1)
+        if msg is None:
+            continue
+        if msg.get_type() == "STATUSTEXT":
+            texts.append(msg.text)
+        elif msg.command == mavlink.MAV_CMD_COMPONENT_ARM_DISARM:
+            ack = msg
+    assert ack is not None and ack.result == mavlink.MAV_RESULT_FAILED
+    assert any("PreArm" in t and "position" in t.lower() for t in texts), texts

@@ -149,13 +149,31 @@ fn decode(raw: MAVLinkMessageRaw) -> ReceivedFrame {
         component_id: raw.component_id(),
         sequence: raw.sequence(),
     };
-    let message = MavMessage::parse(version, raw.message_id(), raw.payload());
+    let message = MavMessage::parse(version, raw.message_id(), raw.payload())
+        .or_else(|e| lenient_param_set(version, raw.message_id(), raw.payload()).ok_or(e));
     ReceivedFrame {
         raw,
         header,
         version,
         message,
     }
+}
+
+/// PARAM_SET with a `param_type` the dialect does not know (0, say) is still
+/// a valid request: Furrow ignores the type (the declared one rules, as in
+/// ArduPilot), so decode it as REAL32 rather than leave it unanswered.
+fn lenient_param_set(version: MavlinkVersion, message_id: u32, payload: &[u8]) -> Option<MavMessage> {
+    const PARAM_SET_ID: u32 = 23;
+    const TYPE_OFFSET: usize = 22;
+    const REAL32: u8 = 9;
+    if message_id != PARAM_SET_ID {
+        return None;
+    }
+    let mut patched = [0u8; TYPE_OFFSET + 1];
+    let n = payload.len().min(TYPE_OFFSET);
+    patched[..n].copy_from_slice(&payload[..n]);
+    patched[TYPE_OFFSET] = REAL32;
+    MavMessage::parse(version, message_id, &patched).ok()
 }
 
 #[cfg(test)]

@@ -11,6 +11,9 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 use super::simulation::{Simulation, SimulationConfig, SimulationParams};
 use crate::link::endpoint::Endpoint;
 use crate::link::hub::{self, LinkConfig, ToCore};
+use crate::storage::data_dir::{DataDir, Profile};
+use crate::storage::param_writer::ParamWriter;
+use crate::storage::session::SessionParams;
 use crate::time::TaskTimer;
 
 /// `--speedup`.
@@ -82,20 +85,25 @@ impl Pacer {
 
 /// Runs until SIGINT/SIGTERM.
 pub fn run(options: SitlOptions) -> Result<(), String> {
-    std::fs::create_dir_all(&options.data_dir)
-        .map_err(|e| format!("data directory {}: {e}", options.data_dir.display()))?;
+    let data_dir = DataDir::open(&options.data_dir, Profile::Sitl(options.sim.model))?;
     let mut params = SimulationParams::new(options.sim.model);
+    let mut session = SessionParams::load(data_dir.path(), &mut params.table)?;
     if let Some(speedup) = options.speedup {
         let value = match speedup {
             Speedup::Factor(f) => f,
             Speedup::Max => 0.0,
         };
-        params
-            .table
-            .set_by_name("SIM_SPEEDUP", value)
-            .map_err(|e| format!("--speedup {value}: {e}"))?;
+        session
+            .set_override(&mut params.table, "SIM_SPEEDUP", value)
+            .map_err(|e| format!("--speedup: {e}"))?;
     }
     let mut sim = Simulation::new(&options.sim, params);
+    for (severity, text) in session.notices.drain(..) {
+        sim.core_mut().add_startup_notice(severity, text);
+    }
+    let writer = ParamWriter::start(data_dir.path().to_path_buf());
+    writer.save(session.snapshot(sim.core().params()));
+    let mut saved_generation = sim.core().params().generation();
 
     let offset = 10 * options.instance;
     let tcp_port = options.tcp_port.unwrap_or(5760 + offset);
@@ -147,6 +155,10 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
             if channels.outbound.try_send(out).is_err() {
                 dropped_out += 1;
             }
+        }
+        if sim.core().params().generation() != saved_generation {
+            saved_generation = sim.core().params().generation();
+            writer.save(session.snapshot(sim.core().params()));
         }
         let next_sim = sim.time() + sim.core().loop_period();
         if let Some(delay) = pacer.delay(next_sim, start.elapsed(), sim.speedup()) {

@@ -58,6 +58,8 @@ pub fn heartbeat(status: &VehicleStatus) -> HEARTBEAT_DATA {
 pub fn capabilities() -> MavProtocolCapability {
     MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+        | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+        | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
 }
 

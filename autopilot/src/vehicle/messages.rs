@@ -39,6 +39,9 @@ impl Core {
         let from_gcs = inbound.header.system_id == u32::from(self.gcs_sysid());
         match &inbound.message {
             MavMessage::HEARTBEAT(_) if from_gcs => self.last_gcs_heartbeat_wall = Some(self.now.wall),
+            MavMessage::PARAM_REQUEST_LIST(_) | MavMessage::PARAM_REQUEST_READ(_) | MavMessage::PARAM_SET(_) => {
+                self.handle_param_message(inbound)
+            }
             MavMessage::COMMAND_LONG(c) => self.handle_command_long(inbound, c),
             MavMessage::COMMAND_INT(c) => self.handle_command_int(inbound, c),
             // SET_MODE carries ArduPilot's custom mode; the spec has no ACK

@@ -9,6 +9,7 @@ mod drive;
 mod io;
 mod messages;
 mod modes;
+mod param_protocol;
 pub mod params;
 mod telemetry;
 
@@ -16,6 +17,7 @@ use std::collections::BTreeMap;
 use std::time::Duration;
 
 use ::params::ParamTable;
+use ::params::service::ParamService;
 use drivers::sim::BatterySample;
 use mavlink::dialects::ardupilotmega::{MavMessage, MavSeverity};
 
@@ -76,6 +78,10 @@ pub struct Core {
     battery: Option<BatterySample>,
     last_gcs_heartbeat_wall: Option<Duration>,
     statustext_id: u16,
+    param_service: ParamService<LinkId>,
+    /// Said to every link when it opens (a reset parameter file, say): there
+    /// is nobody to tell when the process starts.
+    startup_notices: Vec<(MavSeverity, String)>,
     last_boot: Option<Duration>,
     now: Now,
     outbox: Vec<Outbound>,
@@ -112,6 +118,8 @@ impl Core {
             battery: None,
             last_gcs_heartbeat_wall: None,
             statustext_id: 0,
+            param_service: ParamService::new(),
+            startup_notices: Vec::new(),
             last_boot: None,
             now: Now::default(),
             outbox: Vec::new(),
@@ -146,7 +154,10 @@ impl Core {
                 TaskId::ReadSensors => self.read_sensors(inputs),
                 TaskId::UpdateMode => self.update_mode(dt_s),
                 TaskId::SetServos => self.set_servos(out),
-                TaskId::GcsStreams => self.send_streams(),
+                TaskId::GcsStreams => {
+                    self.send_streams();
+                    self.stream_params();
+                }
                 TaskId::Heartbeat => self.send_heartbeat(),
                 TaskId::OneSecond => {}
             }
@@ -162,6 +173,12 @@ impl Core {
 
     pub fn params_mut(&mut self) -> &mut ParamTable {
         &mut self.params
+    }
+
+    /// A message for every ground station that connects (start-up problems
+    /// such as a parameter file that had to be set aside).
+    pub fn add_startup_notice(&mut self, severity: MavSeverity, text: impl Into<String>) {
+        self.startup_notices.push((severity, text.into()));
     }
 
     pub fn param_handles(&self) -> &CoreParams {
@@ -215,9 +232,15 @@ impl Core {
             match *event {
                 LinkEvent::Opened { link, stream_slot } => {
                     self.links.insert(link, LinkStreams::new(stream_slot));
+                    for (severity, text) in self.startup_notices.clone() {
+                        for chunk in statustext(severity, &text, &mut self.statustext_id) {
+                            self.send(Destination::Link(link), MavMessage::STATUSTEXT(chunk));
+                        }
+                    }
                 }
                 LinkEvent::Closed { link } => {
                     self.links.remove(&link);
+                    self.param_service.link_closed(link);
                 }
             }
         }

@@ -33,6 +33,10 @@ declare_params! {
             default: 1, range: 0, 65535, unit: "",
             desc: "Arming checks bitmask: 0 none, 1 all",
         },
+        boot_count: i32 = "STAT_BOOTCNT" => {
+            default: 0, range: 0, 16000000, unit: "", flags: [read_only],
+            desc: "Number of times the autopilot has started (kept in the data directory)",
+        },
     }
 }
 

@@ -148,6 +148,10 @@ impl Core {
             present |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY;
         }
         let mut health = present;
+        // As ArduPilot: the geofence health bit means "not breached", so a
+        // vehicle without a fence reports it healthy (MAVProxy announces a
+        // breach otherwise).
+        health |= MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE;
         if !gps_ok {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS);
         }

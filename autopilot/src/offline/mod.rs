@@ -1,0 +1,4 @@
+//! Offline tools: commands that work on a data directory while no autopilot
+//! runs on it.
+
+pub mod params;
