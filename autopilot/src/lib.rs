@@ -10,6 +10,7 @@
 //! - [`guidance`]: paths, the preview-point tracker, speed scheduling.
 //! - [`control`]: PID, speed control, actuator mixing.
 //! - [`modes`]: ArduPilot Rover's mode numbers and each mode's behaviour.
+//! - [`fence`]: the geofence geometry.
 //! - [`telemetry`]: MAVLink messages built from the core's state, and the
 //!   per-link stream rates.
 //! - [`link`] (edge): sockets, serial ports, framing, routing, tlog.
@@ -21,6 +22,7 @@
 pub mod bench;
 pub mod control;
 pub mod estimation;
+pub mod fence;
 pub mod geo;
 pub mod guidance;
 pub mod link;

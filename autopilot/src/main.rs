@@ -26,6 +26,8 @@ enum Command {
     Sitl(SitlArgs),
     /// Read and change the stored parameters offline; import and export .param/.params files.
     Params(autopilot::offline::params::ParamsArgs),
+    /// Import, export and list the stored mission, fence and rally plans offline (.waypoints, .plan).
+    Mission(autopilot::offline::mission::MissionArgs),
     /// Measure Furrow (prints figures; not a test).
     Bench {
         #[command(subcommand)]
@@ -168,6 +170,7 @@ fn main() -> ExitCode {
             })
         }
         Command::Params(args) => autopilot::offline::params::run(&args),
+        Command::Mission(args) => autopilot::offline::mission::run(&args),
         Command::Bench {
             which: BenchCommand::Sitl(args),
         } => autopilot::bench::sitl::run(&args),

@@ -322,8 +322,8 @@ pub fn interpret_mission(item: &MissionItem, count: u16) -> Result<MissionComman
             let speed = finite(item, 2)?;
             let speed_mps = match speed {
                 s if s > 0.0 => Some(Some(s)),
-                s if s == -2.0 => Some(None),
-                s if s == -1.0 => None,
+                -2.0 => Some(None),
+                -1.0 => None,
                 _ => return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2),
             };
             match speed_mps {

@@ -4,12 +4,20 @@
 //! - [`item`]: a stored item, exactly as MISSION_ITEM_INT carries it, and the
 //!   plan types;
 //! - [`command`]: what an item means (typed), and the validation that gives
-//!   each bad item its precise MAV_MISSION_RESULT.
+//!   each bad item its precise MAV_MISSION_RESULT;
+//! - [`executor`]: runs a mission plan (AUTO mode), as actions for the vehicle.
 
 pub mod command;
+pub mod executor;
+pub mod files;
 pub mod item;
+pub mod protocol;
+pub mod validate;
 
 pub use command::{
     FenceItem, MissionCommand, Position, RallyItem, interpret_fence, interpret_mission, interpret_rally,
 };
+pub use executor::{Action, ExecState, MissionExecutor, NavLeg, VehicleReport};
 pub use item::{MissionItem, MissionType, Plan};
+pub use protocol::{HomeItem, MissionEvent, MissionProtocol, Outgoing, Plans, Reply, Sender};
+pub use validate::validate_plan;

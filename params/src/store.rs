@@ -49,7 +49,8 @@ impl Snapshot {
         Snapshot { lines }
     }
 
-    fn render(&self) -> String {
+    /// The file's text.
+    pub fn render(&self) -> String {
         let mut text = String::from(
             "# Furrow parameters that differ from their defaults (Mission Planner .param layout).\n\
              # Written atomically by furrow; edit only while it is stopped.\n",

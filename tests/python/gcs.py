@@ -138,3 +138,106 @@ def param_set(m, name, value, ptype=mavlink.MAV_PARAM_TYPE_REAL32, timeout=5):
     """PARAM_SET and its PARAM_VALUE echo."""
     m.mav.param_set_send(m.target_system, m.target_component, param_id(name), value, ptype)
     return recv(m, "PARAM_VALUE", timeout, lambda v: v.param_id == name)
+
+
+# --- Missions -----------------------------------------------------------------
+
+def mission_item(seq, command, x=0, y=0, z=0.0, params=(0, 0, 0, 0), frame=None, mission_type=0, current=0):
+    """A MISSION_ITEM_INT (x/y: degE7 for global frames, metres × 1e4 for local)."""
+    if frame is None:
+        frame = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT if command < 100 or command >= 5000 else mavlink.MAV_FRAME_MISSION
+    return mavlink.MAVLink_mission_item_int_message(
+        0, 0, seq, frame, command, current, 1, *params, x, y, z, mission_type)
+
+
+def load_waypoints(path):
+    """A QGC WPL 110 file as MISSION_ITEM_INT messages."""
+    items = []
+    with open(path) as f:
+        assert f.readline().startswith("QGC WPL 110")
+        for line in f:
+            v = line.split()
+            if not v:
+                continue
+            seq, current, frame, command = (int(x) for x in v[:4])
+            p = [float(x) for x in v[4:8]]
+            lat, lon, alt = float(v[8]), float(v[9]), float(v[10])
+            items.append(mission_item(seq, command, int(round(lat * 1e7)), int(round(lon * 1e7)), alt, p, frame, current=current))
+    return items
+
+
+def upload_mission(m, items, mission_type=0, timeout=30):
+    """Uploads items the way QGroundControl does (answering the vehicle's
+    MISSION_REQUEST_INT); returns the final MISSION_ACK."""
+    m.mav.mission_count_send(m.target_system, m.target_component, len(items), mission_type)
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        msg = m.recv_match(type=["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"], blocking=True, timeout=1)
+        if msg is None:
+            continue
+        if msg.get_type() == "MISSION_ACK":
+            if msg.mission_type == mission_type:
+                return msg
+            continue
+        if msg.mission_type != mission_type:
+            continue
+        it = items[msg.seq]
+        m.mav.mission_item_int_send(m.target_system, m.target_component, it.seq, it.frame, it.command, it.current,
+                                    it.autocontinue, it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z,
+                                    mission_type)
+    return None
+
+
+def download_mission(m, mission_type=0, timeout=30):
+    """Downloads a plan; returns (items, opaque_id)."""
+    m.mav.mission_request_list_send(m.target_system, m.target_component, mission_type)
+    count_msg = recv(m, "MISSION_COUNT", 5, lambda c: c.mission_type == mission_type)
+    assert count_msg is not None, "no MISSION_COUNT"
+    opaque_id = count_opaque_id(count_msg)
+    items = []
+    deadline = time.time() + timeout
+    for seq in range(count_msg.count):
+        while True:
+            m.mav.mission_request_int_send(m.target_system, m.target_component, seq, mission_type)
+            it = recv(m, "MISSION_ITEM_INT", 1, lambda i: i.seq == seq and i.mission_type == mission_type)
+            if it is not None:
+                items.append(it)
+                break
+            assert time.time() < deadline, f"item {seq} never came"
+    m.mav.mission_ack_send(m.target_system, m.target_component, mavlink.MAV_MISSION_ACCEPTED, mission_type)
+    return items, opaque_id
+
+
+def same_item(a, b):
+    fields = ("seq", "frame", "command", "autocontinue", "x", "y")
+    if any(getattr(a, f) != getattr(b, f) for f in fields):
+        return False
+    import math as _m
+    for f in ("param1", "param2", "param3", "param4", "z"):
+        x, y = getattr(a, f), getattr(b, f)
+        if not ((_m.isnan(x) and _m.isnan(y)) or x == y):
+            return False
+    return True
+
+
+def raw_u32(msg, offset):
+    """A field pymavlink's dialect does not define (a newer extension such as
+    the opaque plan ids): read from the raw MAVLink 2 payload, where trailing
+    zeros may have been trimmed."""
+    import struct as _s
+    buf = msg.get_msgbuf()
+    payload = bytes(buf[10:-2]) + bytes(64)
+    return _s.unpack_from("<I", payload, offset)[0]
+
+
+def ack_opaque_id(ack):
+    return raw_u32(ack, 4)
+
+
+def count_opaque_id(count):
+    return raw_u32(count, 5)
+
+
+def current_ids(cur):
+    """MISSION_CURRENT's (mission_id, fence_id, rally_points_id)."""
+    return raw_u32(cur, 6), raw_u32(cur, 10), raw_u32(cur, 14)

@@ -1,6 +1,7 @@
-//! The navigator: drives the vehicle along a leg to a target and stops there.
-//! GUIDED and RTL (and later AUTO) give it targets; it returns the steering
-//! angle and signed speed for the controllers.
+//! The navigator: drives the vehicle along a leg to a target, and either
+//! stops there (a precision stop) or drives through it onto the next leg.
+//! GUIDED, RTL and AUTO give it legs; it returns the steering angle and
+//! signed speed for the controllers.
 
 use crate::estimation::Estimate;
 use crate::geo::{Ned, wrap_pi};
@@ -8,7 +9,7 @@ use crate::guidance::path::Segment;
 use crate::guidance::speed::{SpeedLimits, scheduled_speed};
 use crate::guidance::tracker::{Direction, TrackerConfig, TrackerState, TrackerStatus, VehiclePose, track_segment};
 
-/// Remaining distance at which the vehicle counts as arrived and stops.
+/// Remaining distance at which a stopping leg counts as arrived.
 const ARRIVED_M: f64 = 0.03;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -19,13 +20,28 @@ pub struct NavConfig {
     pub wp_radius_m: f64,
 }
 
-/// A place to drive to.
+/// A leg to drive: from `from` to `point`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NavTarget {
     pub point: Ned,
     /// Overrides the cruise speed when set.
     pub speed_mps: Option<f64>,
     pub direction: Direction,
+    /// Stop at `point` (else drive through it: reached within `WP_RADIUS`
+    /// or once past it).
+    pub stop: bool,
+}
+
+impl NavTarget {
+    /// A forward leg that stops at `point` (GUIDED, RTL).
+    pub fn stop_at(point: Ned) -> NavTarget {
+        NavTarget {
+            point,
+            speed_mps: None,
+            direction: Direction::Forward,
+            stop: true,
+        }
+    }
 }
 
 /// What the controllers should do.
@@ -57,7 +73,7 @@ pub struct Navigator {
 }
 
 impl Navigator {
-    /// Drives from `from` to `target` along a straight leg.
+    /// Drives the leg from `from` to `target.point`.
     pub fn set_target(&mut self, from: Ned, target: NavTarget) {
         self.leg = Some((Segment::new(from, target.point), target));
         self.arrived = false;
@@ -77,11 +93,17 @@ impl Navigator {
         self.leg.as_ref().map(|(_, t)| t)
     }
 
+    /// Where the current leg starts.
+    pub fn leg_start(&self) -> Option<Ned> {
+        self.leg.as_ref().map(|(s, _)| s.start)
+    }
+
     pub fn status(&self) -> &NavStatus {
         &self.status
     }
 
-    /// Whether the vehicle has arrived and stopped trying to move.
+    /// The leg is done: stopped at its end, or (driving through) within
+    /// `WP_RADIUS` or past it.
     pub fn arrived(&self) -> bool {
         self.arrived
     }
@@ -99,9 +121,12 @@ impl Navigator {
         let remaining = projection.length_m - projection.along_m;
         let wp_dist = est.position.distance_to(&target.point);
 
-        if remaining <= ARRIVED_M {
-            self.arrived = true;
-        }
+        let done = if target.stop {
+            remaining <= ARRIVED_M
+        } else {
+            remaining <= 0.0 || wp_dist <= config.wp_radius_m
+        };
+        self.arrived |= done;
         let tracker = track_segment(
             &config.tracker,
             &mut self.tracker,
@@ -121,14 +146,16 @@ impl Navigator {
             reached: self.status.reached || wp_dist <= config.wp_radius_m || self.arrived,
             tracker,
         };
-        if self.arrived {
+        if self.arrived && target.stop {
             return NavDemand::default();
         }
         let limits = SpeedLimits {
             cruise_mps: target.speed_mps.unwrap_or(config.speed.cruise_mps),
             ..config.speed
         };
-        let speed = scheduled_speed(&limits, remaining, tracker.dyaw_rad);
+        // Driving through, there is nothing to brake for at this leg's end.
+        let to_stop = if target.stop { remaining } else { f64::INFINITY };
+        let speed = scheduled_speed(&limits, to_stop, tracker.dyaw_rad);
         NavDemand {
             steer_rad: tracker.steer_rad,
             speed_mps: match target.direction {

@@ -26,7 +26,7 @@ use super::endpoint::Endpoint;
 use super::frame::{FrameStats, ReceivedFrame};
 use super::router::Router;
 use super::tlog::{self, TlogRecord};
-use crate::vehicle::{COMPONENT_ID, Destination, Inbound, LinkEvent, LinkId, Outbound};
+use crate::vehicle::{COMPONENT_ID, Destination, Inbound, LinkEvent, LinkId, Outbound, UndecodableItem};
 
 /// Messages queued per link before new ones are dropped.
 pub(super) const LINK_QUEUE: usize = 512;
@@ -136,6 +136,7 @@ pub(super) enum HubEvent {
 pub enum ToCore {
     Event(LinkEvent),
     Message(Inbound),
+    UndecodableItem(UndecodableItem),
 }
 
 /// Which links to open.
@@ -433,7 +434,21 @@ impl Hub {
                 }
             }
             Err(_) => {
-                if let Some((command, _, _)) = command_targets(&frame) {
+                if let Some(item) = mission::protocol::inspect_undecodable_item(frame.message_id(), frame.raw.payload())
+                {
+                    let item = UndecodableItem {
+                        link,
+                        header: frame.header,
+                        seq: item.seq,
+                        mission_type: item.mission_type,
+                        target_system: item.target_system,
+                        target_component: item.target_component,
+                        bad_frame: item.bad_frame,
+                    };
+                    if self.to_core.try_send(ToCore::UndecodableItem(item)).is_err() {
+                        self.dropped_to_core += 1;
+                    }
+                } else if let Some((command, _, _)) = command_targets(&frame) {
                     let ack = OutItem::UnknownCommandAck {
                         command,
                         target_system: frame.header.system_id as u8,

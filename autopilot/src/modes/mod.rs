@@ -87,7 +87,7 @@ impl Mode {
     /// Whether Furrow implements the mode. The others keep their numbers so a
     /// ground station's request is refused with a reason, not misread.
     pub fn is_available(self) -> bool {
-        matches!(self, Mode::Manual | Mode::Hold | Mode::Guided | Mode::Rtl)
+        matches!(self, Mode::Manual | Mode::Hold | Mode::Guided | Mode::Rtl | Mode::Auto)
     }
 
     /// Needs a position estimate to be entered (and to stay in it).

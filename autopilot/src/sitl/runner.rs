@@ -12,9 +12,12 @@ use super::simulation::{Simulation, SimulationConfig, SimulationParams};
 use crate::link::endpoint::Endpoint;
 use crate::link::hub::{self, LinkConfig, ToCore};
 use crate::storage::data_dir::{DataDir, Profile};
-use crate::storage::param_writer::ParamWriter;
+use crate::storage::file_writer::FileWriter;
+use crate::storage::missions;
 use crate::storage::session::SessionParams;
 use crate::time::TaskTimer;
+use crate::vehicle::{Inputs, Outbound, Outputs};
+use mission::MissionType;
 
 /// `--speedup`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -101,9 +104,15 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
     for (severity, text) in session.notices.drain(..) {
         sim.core_mut().add_startup_notice(severity, text);
     }
-    let writer = ParamWriter::start(data_dir.path().to_path_buf());
-    writer.save(session.snapshot(sim.core().params()));
-    let mut saved_generation = sim.core().params().generation();
+    let (plans, plan_notices) = missions::load(data_dir.path());
+    for mission_type in MissionType::ALL {
+        sim.core_mut().load_plan(mission_type, plans.get(mission_type).clone());
+    }
+    for (severity, text) in plan_notices {
+        sim.core_mut().add_startup_notice(severity, text);
+    }
+    let writer = FileWriter::start();
+    let mut persistence = Persistence::new(data_dir.path(), &sim, &session, &writer);
 
     let offset = 10 * options.instance;
     let tcp_port = options.tcp_port.unwrap_or(5760 + offset);
@@ -139,32 +148,32 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
     let mut timer = InstantTimer::default();
     let mut pacer = Pacer::default();
     let mut dropped_out = 0u64;
+    // Waits for link traffic until the next tick is due (a tokio receiver
+    // awaited from this thread with a deadline).
+    let waiter = tokio::runtime::Builder::new_current_thread()
+        .enable_time()
+        .build()
+        .map_err(|e| format!("runtime: {e}"))?;
     while !shutdown.load(Ordering::Relaxed) {
-        let inputs = sim.inputs_mut();
-        while let Ok(item) = channels.inbound.try_recv() {
-            match item {
-                ToCore::Event(e) => inputs.link_events.push(e),
-                ToCore::Message(m) => inputs.messages.push(m),
-            }
-        }
+        drain(&mut channels.inbound, sim.inputs_mut(), None);
         let outputs = sim.step(start.elapsed(), &mut timer);
-        for out in outputs.mavlink.drain(..) {
-            if let MavMessage::STATUSTEXT(t) = &out.message {
-                tracing::info!("STATUSTEXT: {}", t.text.to_str().unwrap_or("?"));
-            }
-            if channels.outbound.try_send(out).is_err() {
-                dropped_out += 1;
-            }
-        }
-        if sim.core().params().generation() != saved_generation {
-            saved_generation = sim.core().params().generation();
-            writer.save(session.snapshot(sim.core().params()));
-        }
+        forward(outputs, &channels.outbound, &mut dropped_out);
+        persistence.sync(&sim, &session, &writer);
+        // Until the next tick: answer link traffic as it comes.
         let next_sim = sim.time() + sim.core().loop_period();
         if let Some(delay) = pacer.delay(next_sim, start.elapsed(), sim.speedup()) {
-            std::thread::sleep(delay);
+            let deadline = tokio::time::Instant::now() + delay;
+            while let Ok(Some(first)) =
+                waiter.block_on(async { tokio::time::timeout_at(deadline, channels.inbound.recv()).await })
+            {
+                drain(&mut channels.inbound, sim.inputs_mut(), Some(first));
+                let outputs = sim.service_links(start.elapsed());
+                forward(outputs, &channels.outbound, &mut dropped_out);
+                persistence.sync(&sim, &session, &writer);
+            }
         }
     }
+    persistence.sync(&sim, &session, &writer);
     let ticks = sim.core().scheduler().tick_stats();
     tracing::info!(
         "SITL stopped after {:.1} s simulated in {:.1} s: tick median {:.2} µs, p99 {:.2} µs, {} overruns, {} pacing restarts, {} messages dropped to links",
@@ -178,6 +187,82 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
     );
     drop(links);
     Ok(())
+}
+
+/// Saves parameters and plans after they change: the core only counts
+/// changes, this edge turns them into files (written on the writer thread).
+struct Persistence {
+    dir: PathBuf,
+    params_generation: u64,
+    plans_generation: u64,
+    plan_ids: [u32; 3],
+}
+
+impl Persistence {
+    /// Saves the table as loaded (the boot count changed) and remembers the
+    /// plans as they are on disk.
+    fn new(dir: &std::path::Path, sim: &Simulation, session: &SessionParams, writer: &FileWriter) -> Persistence {
+        let core = sim.core();
+        writer.write(
+            dir.join(params::store::STORE_FILE),
+            session.snapshot(core.params()).render().into_bytes(),
+        );
+        Persistence {
+            dir: dir.to_path_buf(),
+            params_generation: core.params().generation(),
+            plans_generation: core.plans_generation(),
+            plan_ids: MissionType::ALL.map(|t| core.plan(t).opaque_id()),
+        }
+    }
+
+    fn sync(&mut self, sim: &Simulation, session: &SessionParams, writer: &FileWriter) {
+        let core = sim.core();
+        if core.params().generation() != self.params_generation {
+            self.params_generation = core.params().generation();
+            writer.write(
+                self.dir.join(params::store::STORE_FILE),
+                session.snapshot(core.params()).render().into_bytes(),
+            );
+        }
+        if core.plans_generation() != self.plans_generation {
+            self.plans_generation = core.plans_generation();
+            for (id, mission_type) in self.plan_ids.iter_mut().zip(MissionType::ALL) {
+                let plan = core.plan(mission_type);
+                if plan.opaque_id() != *id {
+                    *id = plan.opaque_id();
+                    writer.write(missions::path(&self.dir, mission_type), missions::contents(plan));
+                }
+            }
+        }
+    }
+}
+
+/// Moves what the links delivered into the next step's inputs.
+fn drain(inbound: &mut tokio::sync::mpsc::Receiver<ToCore>, inputs: &mut Inputs, first: Option<ToCore>) {
+    let mut take = |item: ToCore| match item {
+        ToCore::Event(e) => inputs.link_events.push(e),
+        ToCore::Message(m) => inputs.messages.push(m),
+        ToCore::UndecodableItem(i) => inputs.undecodable_items.push(i),
+    };
+    if let Some(item) = first {
+        take(item);
+    }
+    while let Ok(item) = inbound.try_recv() {
+        take(item);
+    }
+}
+
+/// Hands the core's messages to the links (never waiting: a full queue
+/// drops and counts).
+fn forward(outputs: &mut Outputs, outbound: &tokio::sync::mpsc::Sender<Outbound>, dropped: &mut u64) {
+    for out in outputs.mavlink.drain(..) {
+        if let MavMessage::STATUSTEXT(t) = &out.message {
+            tracing::info!("STATUSTEXT: {}", t.text.to_str().unwrap_or("?"));
+        }
+        if outbound.try_send(out).is_err() {
+            *dropped += 1;
+        }
+    }
 }
 
 /// A flag set by SIGINT or SIGTERM, watched from a small thread of its own.

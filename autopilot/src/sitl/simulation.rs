@@ -145,6 +145,16 @@ impl Simulation {
         &mut self.outputs
     }
 
+    /// Between steps: the core answers the link traffic queued in the inputs
+    /// at once (link events and messages); sensors wait for the next step.
+    pub fn service_links(&mut self, wall: Duration) -> &mut Outputs {
+        self.core.service_links(wall, &self.inputs, &mut self.outputs);
+        self.inputs.link_events.clear();
+        self.inputs.messages.clear();
+        self.inputs.undecodable_items.clear();
+        &mut self.outputs
+    }
+
     pub fn world(&self) -> &World {
         &self.world
     }

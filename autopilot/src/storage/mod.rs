@@ -2,11 +2,14 @@
 //!
 //! - [`data_dir`]: the directory, its lock (one process at a time) and the
 //!   vehicle profile it belongs to.
-//! - [`param_writer`]: a thread that writes parameter changes atomically,
-//!   coalescing bursts, so the core tick never waits for a disk.
+//! - [`file_writer`]: a thread that writes files atomically, coalescing
+//!   bursts, so the core tick never waits for a disk.
+//! - [`missions`]: the mission, fence and rally plans (QGC WPL 110 files),
+//!   loaded at start and saved atomically.
 //! - [`session`]: a run's table: defaults, stored values, command-line
 //!   overrides that are not saved.
 
 pub mod data_dir;
-pub mod param_writer;
+pub mod file_writer;
+pub mod missions;
 pub mod session;

@@ -113,10 +113,13 @@ pub enum StreamMsg {
     EkfStatusReport,
     ExtendedSysState,
     HomePosition,
+    MissionCurrent,
+    FenceStatus,
+    RelayStatus,
 }
 
 impl StreamMsg {
-    pub const COUNT: usize = 13;
+    pub const COUNT: usize = 16;
     pub const ALL: [StreamMsg; Self::COUNT] = [
         StreamMsg::SysStatus,
         StreamMsg::GpsRawInt,
@@ -131,6 +134,9 @@ impl StreamMsg {
         StreamMsg::EkfStatusReport,
         StreamMsg::ExtendedSysState,
         StreamMsg::HomePosition,
+        StreamMsg::MissionCurrent,
+        StreamMsg::FenceStatus,
+        StreamMsg::RelayStatus,
     ];
 
     pub fn message_id(self) -> u32 {
@@ -148,6 +154,9 @@ impl StreamMsg {
             StreamMsg::EkfStatusReport => 193,
             StreamMsg::HomePosition => 242,
             StreamMsg::ExtendedSysState => 245,
+            StreamMsg::MissionCurrent => 42,
+            StreamMsg::FenceStatus => 162,
+            StreamMsg::RelayStatus => 376,
         }
     }
 
@@ -162,7 +171,10 @@ impl StreamMsg {
             StreamMsg::SysStatus
             | StreamMsg::GpsRawInt
             | StreamMsg::NavControllerOutput
-            | StreamMsg::PositionTargetGlobalInt => Some(StreamGroup::ExtStat),
+            | StreamMsg::PositionTargetGlobalInt
+            | StreamMsg::MissionCurrent
+            | StreamMsg::FenceStatus
+            | StreamMsg::RelayStatus => Some(StreamGroup::ExtStat),
             StreamMsg::ServoOutputRaw => Some(StreamGroup::RcChan),
             StreamMsg::GlobalPositionInt => Some(StreamGroup::Position),
             StreamMsg::Attitude => Some(StreamGroup::Extra1),

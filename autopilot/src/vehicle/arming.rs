@@ -32,6 +32,9 @@ impl Core {
         if f64::from(self.p.nav.wp_speed_mps.get(&self.params)) <= 0.0 {
             failures.push("WP_SPEED is 0");
         }
+        if let Some(fence) = self.fence_arming_failure() {
+            failures.push(fence);
+        }
         failures
     }
 

@@ -151,6 +151,29 @@ impl Core {
                 self.set_mode_result(p2 as u32)
             }
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => self.set_mode_result(Mode::Rtl.number()),
+            MavCmd::MAV_CMD_MISSION_START => {
+                // First/last item selection is not supported (as ArduPilot).
+                if p1 != 0.0 || p2 != 0.0 {
+                    return MavResult::MAV_RESULT_DENIED;
+                }
+                self.set_mode_result(Mode::Auto.number())
+            }
+            MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT => {
+                if !p1.is_finite() || p1 < -1.0 || p1.fract() != 0.0 {
+                    return MavResult::MAV_RESULT_DENIED;
+                }
+                // -1 keeps the current item (only resetting jump counters).
+                let seq = if p1 == -1.0 {
+                    self.missions.executor.current()
+                } else {
+                    p1 as u16
+                };
+                if self.set_mission_current(seq, p2 == 1.0) {
+                    MavResult::MAV_RESULT_ACCEPTED
+                } else {
+                    MavResult::MAV_RESULT_DENIED
+                }
+            }
             MavCmd::MAV_CMD_DO_REPOSITION => self.do_reposition(c),
             MavCmd::MAV_CMD_DO_SET_HOME => self.do_set_home(c),
             MavCmd::MAV_CMD_DO_CHANGE_SPEED => self.do_change_speed(p1, p2),

@@ -117,14 +117,23 @@ impl Core {
             self.enter_mode(Mode::Hold);
         }
 
+        self.check_fence();
+        if self.mode == Mode::Auto {
+            self.run_mission();
+        }
         let demand = match self.mode {
             Mode::Manual => self.manual_demand(),
-            Mode::Guided | Mode::Rtl => {
+            Mode::Guided | Mode::Rtl | Mode::Auto => {
                 let was_arrived = self.navigator.arrived();
                 let config = self.nav_config();
                 let estimate = *self.estimator.estimate();
                 let nav = self.navigator.update(&estimate, &config, dt_s);
-                if self.navigator.arrived() && !was_arrived && self.navigator.target().is_some() {
+                // AUTO reports its own arrivals (MISSION_ITEM_REACHED).
+                if self.mode != Mode::Auto
+                    && self.navigator.arrived()
+                    && !was_arrived
+                    && self.navigator.target().is_some()
+                {
                     let text = match self.mode {
                         Mode::Rtl => "Reached destination: home".to_string(),
                         _ => format!("Reached destination: {:.2} m", self.navigator.status().wp_dist_m),
@@ -133,7 +142,8 @@ impl Core {
                 }
                 // Arrived (or nothing to do): stop outright, so no integrator
                 // keeps the wheels creeping.
-                if self.navigator.target().is_some() && !self.navigator.arrived() {
+                let stopped = self.navigator.arrived() && self.navigator.target().is_some_and(|t| t.stop);
+                if self.navigator.target().is_some() && !stopped {
                     Demand::Navigate(nav)
                 } else {
                     Demand::Stop

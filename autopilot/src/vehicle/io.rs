@@ -27,6 +27,20 @@ pub struct Inbound {
     pub message: MavMessage,
 }
 
+/// A MISSION_ITEM(_INT) whose command, frame or mission type the dialect
+/// does not know: it cannot be decoded, but the upload it belongs to must
+/// still be answered (UNSUPPORTED / UNSUPPORTED_FRAME).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct UndecodableItem {
+    pub link: LinkId,
+    pub header: MavHeader,
+    pub seq: u16,
+    pub mission_type: u8,
+    pub target_system: u8,
+    pub target_component: u8,
+    pub bad_frame: bool,
+}
+
 /// Where an outgoing message goes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Destination {
@@ -47,6 +61,7 @@ pub struct Outbound {
 pub struct Inputs {
     pub link_events: Vec<LinkEvent>,
     pub messages: Vec<Inbound>,
+    pub undecodable_items: Vec<UndecodableItem>,
     pub gnss: Vec<GnssSample>,
     pub battery: Option<BatterySample>,
 }
@@ -55,6 +70,7 @@ impl Inputs {
     pub fn clear(&mut self) {
         self.link_events.clear();
         self.messages.clear();
+        self.undecodable_items.clear();
         self.gnss.clear();
         self.battery = None;
     }

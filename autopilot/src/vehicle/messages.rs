@@ -42,6 +42,17 @@ impl Core {
             MavMessage::PARAM_REQUEST_LIST(_) | MavMessage::PARAM_REQUEST_READ(_) | MavMessage::PARAM_SET(_) => {
                 self.handle_param_message(inbound)
             }
+            MavMessage::MISSION_COUNT(_)
+            | MavMessage::MISSION_ITEM_INT(_)
+            | MavMessage::MISSION_ITEM(_)
+            | MavMessage::MISSION_REQUEST_LIST(_)
+            | MavMessage::MISSION_REQUEST_INT(_)
+            | MavMessage::MISSION_REQUEST(_)
+            | MavMessage::MISSION_ACK(_)
+            | MavMessage::MISSION_CLEAR_ALL(_)
+            | MavMessage::MISSION_WRITE_PARTIAL_LIST(_) => {
+                self.handle_mission_message(inbound);
+            }
             MavMessage::COMMAND_LONG(c) => self.handle_command_long(inbound, c),
             MavMessage::COMMAND_INT(c) => self.handle_command_int(inbound, c),
             // SET_MODE carries ArduPilot's custom mode; the spec has no ACK
@@ -57,6 +68,7 @@ impl Core {
             MavMessage::MANUAL_CONTROL(m) if from_gcs => self.handle_manual_control(m),
             MavMessage::RC_CHANNELS_OVERRIDE(m) if from_gcs => self.handle_rc_override(m),
             MavMessage::SET_POSITION_TARGET_GLOBAL_INT(m) => self.handle_position_target(m),
+            MavMessage::MISSION_SET_CURRENT(m) => self.mission_set_current_message(m.seq),
             MavMessage::REQUEST_DATA_STREAM(r) => {
                 if let Some(streams) = self.links.get_mut(&inbound.link) {
                     streams.request_data_stream(r.req_stream_id as u8, r.req_message_rate, r.start_stop != 0);

@@ -4,10 +4,14 @@
 //! caller hands it this tick's inputs and takes its outputs.
 
 mod arming;
+mod auto;
 mod commands;
 mod drive;
+mod geofence;
 mod io;
 mod messages;
+mod mission_protocol;
+mod mission_state;
 mod modes;
 mod param_protocol;
 pub mod params;
@@ -33,7 +37,7 @@ use crate::telemetry::streams::LinkStreams;
 use crate::time::{Now, TaskTimer};
 
 pub use drive::DriveState;
-pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs};
+pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, UndecodableItem};
 pub use params::CoreParams;
 
 /// MAVLink component id of the autopilot (MAV_COMP_ID_AUTOPILOT1).
@@ -75,6 +79,7 @@ pub struct Core {
     manual: ManualInput,
     drive: DriveState,
     links: BTreeMap<LinkId, LinkStreams>,
+    missions: mission_state::MissionState,
     battery: Option<BatterySample>,
     last_gcs_heartbeat_wall: Option<Duration>,
     statustext_id: u16,
@@ -115,6 +120,7 @@ impl Core {
             manual: ManualInput::default(),
             drive: DriveState::neutral(drive_train),
             links: BTreeMap::new(),
+            missions: mission_state::MissionState::new(mission::Plans::default()),
             battery: None,
             last_gcs_heartbeat_wall: None,
             statustext_id: 0,
@@ -146,17 +152,14 @@ impl Core {
             let started = timer.now_ns();
             match spec.id {
                 TaskId::LinkEvents => self.handle_link_events(&inputs.link_events),
-                TaskId::GcsReceive => {
-                    for message in &inputs.messages {
-                        self.handle_message(message);
-                    }
-                }
+                TaskId::GcsReceive => self.receive(inputs),
                 TaskId::ReadSensors => self.read_sensors(inputs),
                 TaskId::UpdateMode => self.update_mode(dt_s),
                 TaskId::SetServos => self.set_servos(out),
                 TaskId::GcsStreams => {
                     self.send_streams();
                     self.stream_params();
+                    self.poll_mission_protocol();
                 }
                 TaskId::Heartbeat => self.send_heartbeat(),
                 TaskId::OneSecond => {}
@@ -165,6 +168,25 @@ impl Core {
         }
         out.mavlink.append(&mut self.outbox);
         self.sched.record_tick(timer.now_ns().saturating_sub(tick_start));
+    }
+
+    /// Between ticks: answers what the links brought (link events and
+    /// messages) at once, without stepping estimation or control. A ground
+    /// station's request–reply exchanges (mission items, parameters,
+    /// commands) then run at the link's pace, not the loop rate's; the
+    /// vehicle time stays the last tick's.
+    pub fn service_links(&mut self, wall: Duration, inputs: &Inputs, out: &mut Outputs) {
+        self.now.wall = wall;
+        self.handle_link_events(&inputs.link_events);
+        self.receive(inputs);
+        out.mavlink.append(&mut self.outbox);
+    }
+
+    fn receive(&mut self, inputs: &Inputs) {
+        for message in &inputs.messages {
+            self.handle_message(message);
+        }
+        self.handle_undecodable_items(&inputs.undecodable_items);
     }
 
     pub fn params(&self) -> &ParamTable {
@@ -213,6 +235,33 @@ impl Core {
         &self.sched
     }
 
+    /// The plan in force of a type.
+    pub fn plan(&self, mission_type: mission::MissionType) -> &mission::Plan {
+        self.missions.plan(mission_type)
+    }
+
+    /// Changes whenever a plan does (the edge persists plans then).
+    pub fn plans_generation(&self) -> u64 {
+        self.missions.generation
+    }
+
+    /// Puts a plan in force (plans loaded from the data directory at start,
+    /// files imported). The plan must be valid (`mission::validate_plan`).
+    pub fn load_plan(&mut self, mission_type: mission::MissionType, plan: mission::Plan) {
+        self.missions.replace(mission_type, plan);
+        self.plan_changed(mission_type);
+    }
+
+    /// The mission executor's state (tests and status views).
+    pub fn mission_state(&self) -> mission::ExecState {
+        self.missions.executor.state()
+    }
+
+    /// The current mission item.
+    pub fn mission_current_seq(&self) -> u16 {
+        self.missions.executor.current()
+    }
+
     pub fn counters(&self) -> CoreCounters {
         self.counters
     }
@@ -241,6 +290,9 @@ impl Core {
                 LinkEvent::Closed { link } => {
                     self.links.remove(&link);
                     self.param_service.link_closed(link);
+                    let mut events = Vec::new();
+                    self.missions.protocol.link_closed(link, &mut events);
+                    self.mission_events(events);
                 }
             }
         }
@@ -276,6 +328,7 @@ impl Core {
     fn set_home(&mut self, home: GeoPoint, by_gcs: bool) {
         self.home = Some(home);
         self.home_set_by_gcs |= by_gcs;
+        self.update_protocol_home();
         if let Some(msg) = self.build_home_position() {
             self.send(Destination::AllLinks, msg);
         }

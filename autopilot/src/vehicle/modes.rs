@@ -5,7 +5,6 @@ use mavlink::dialects::ardupilotmega::MavSeverity;
 use super::Core;
 use crate::geo::GeoPoint;
 use crate::guidance::navigator::NavTarget;
-use crate::guidance::tracker::Direction;
 use crate::modes::Mode;
 
 /// Why a mode change was refused.
@@ -14,6 +13,7 @@ pub(super) enum ModeRefusal {
     NotAvailable,
     NeedsPosition,
     NoHome,
+    NoMission,
 }
 
 impl Core {
@@ -25,6 +25,7 @@ impl Core {
                 ModeRefusal::NotAvailable => "not available",
                 ModeRefusal::NeedsPosition => "requires position",
                 ModeRefusal::NoHome => "home not set",
+                ModeRefusal::NoMission => "no mission",
             };
             self.send_text(
                 MavSeverity::MAV_SEVERITY_WARNING,
@@ -47,6 +48,9 @@ impl Core {
         if mode == Mode::Rtl && self.home.is_none() {
             return Err(ModeRefusal::NoHome);
         }
+        if mode == Mode::Auto && !self.missions.executor.has_nav_items() {
+            return Err(ModeRefusal::NoMission);
+        }
         Ok(())
     }
 
@@ -55,14 +59,19 @@ impl Core {
         self.mode = mode;
         self.speed_override_mps = None;
         self.navigator.clear();
-        if mode == Mode::Rtl
-            && let Some(home) = self.home
-        {
-            self.navigate_to(home, None);
+        match mode {
+            Mode::Rtl => {
+                if let Some(target) = self.rtl_target() {
+                    self.navigate_to(target, None);
+                }
+            }
+            Mode::Auto => self.start_mission(),
+            _ => {}
         }
     }
 
-    /// Drives in a straight leg from where the vehicle is to `target`.
+    /// Drives in a straight leg from where the vehicle is to `target`, and
+    /// stops there.
     pub(super) fn navigate_to(&mut self, target: GeoPoint, speed_mps: Option<f64>) -> bool {
         let Some(frame) = self.frame() else {
             return false;
@@ -71,9 +80,8 @@ impl Core {
         self.navigator.set_target(
             from,
             NavTarget {
-                point: frame.to_local(&target),
                 speed_mps,
-                direction: Direction::Forward,
+                ..NavTarget::stop_at(frame.to_local(&target))
             },
         );
         true

@@ -166,6 +166,34 @@ declare_params! {
     }
 }
 
+declare_params! {
+    /// Missions (ArduPilot Rover's names).
+    pub struct MissionParams {
+        done_behave: i8 = "MIS_DONE_BEHAVE" => {
+            default: 0, range: 0, 3, unit: "",
+            desc: "At mission end: 0 hold in AUTO, 3 MANUAL (1 LOITER and 2 ACRO hold, Furrow has neither)",
+        },
+        restart: bool = "MIS_RESTART" => {
+            default: false, range: 0, 1, unit: "",
+            desc: "Entering AUTO: 0 resumes the mission where it was, 1 restarts it",
+        },
+    }
+}
+
+declare_params! {
+    /// The geofence (ArduPilot's names).
+    pub struct FenceParams {
+        enable: bool = "FENCE_ENABLE" => {
+            default: true, range: 0, 1, unit: "",
+            desc: "1: an uploaded fence is enforced (breach action, arming check)",
+        },
+        action: i8 = "FENCE_ACTION" => {
+            default: 1, range: 0, 2, unit: "",
+            desc: "On a breach: 0 report only, 1 RTL (HOLD if RTL is impossible), 2 HOLD",
+        },
+    }
+}
+
 /// `SRn_*`: default telemetry rates per link slot (Hz), one group per
 /// ArduPilot stream (`SRn_POSITION`, `SRn_EXTRA1`, …).
 #[derive(Clone, Copy, Debug)]
@@ -211,6 +239,8 @@ pub struct CoreParams {
     pub vehicle: VehicleParams,
     pub nav: NavParams,
     pub preview: PreviewParams,
+    pub mission: MissionParams,
+    pub fence: FenceParams,
     pub streams: StreamRateParams,
 }
 
@@ -222,6 +252,8 @@ impl CoreParams {
             vehicle: VehicleParams::register(builder),
             nav: NavParams::register(builder),
             preview: PreviewParams::register(builder),
+            mission: MissionParams::register(builder),
+            fence: FenceParams::register(builder),
             streams: StreamRateParams::register(builder),
         }
     }

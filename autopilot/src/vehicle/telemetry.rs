@@ -9,7 +9,7 @@ use mavlink::dialects::ardupilotmega::{
     GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, GpsFixType, HOME_POSITION_DATA, MavBatteryChargeState, MavBatteryFault,
     MavBatteryFunction, MavBatteryMode, MavBatteryType, MavFrame, MavLandedState, MavMessage, MavSysStatusSensor,
     MavSysStatusSensorExtended, MavVtolState, NAV_CONTROLLER_OUTPUT_DATA, POSITION_TARGET_GLOBAL_INT_DATA,
-    PositionTargetTypemask, SERVO_OUTPUT_RAW_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA,
+    PositionTargetTypemask, RELAY_STATUS_DATA, SERVO_OUTPUT_RAW_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA,
 };
 
 use super::{Core, Destination};
@@ -107,6 +107,9 @@ impl Core {
                 landed_state: MavLandedState::MAV_LANDED_STATE_ON_GROUND,
             }),
             StreamMsg::HomePosition => return self.build_home_position(),
+            StreamMsg::MissionCurrent => MavMessage::MISSION_CURRENT(self.mission_current()),
+            StreamMsg::FenceStatus => MavMessage::FENCE_STATUS(self.fence_status()?),
+            StreamMsg::RelayStatus => MavMessage::RELAY_STATUS(self.relay_status()?),
         })
     }
 
@@ -147,11 +150,19 @@ impl Core {
         if self.battery.is_some() {
             present |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY;
         }
+        let (fence_present, fence_enabled, fence_healthy) = self.fence_status_bits();
+        if fence_present {
+            present |= MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE;
+        }
         let mut health = present;
         // As ArduPilot: the geofence health bit means "not breached", so a
         // vehicle without a fence reports it healthy (MAVProxy announces a
         // breach otherwise).
-        health |= MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE;
+        if fence_healthy {
+            health |= MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE;
+        } else {
+            health.remove(MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE);
+        }
         if !gps_ok {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS);
         }
@@ -167,6 +178,9 @@ impl Core {
         }
         if !self.mode.is_autopilot() {
             enabled.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL);
+        }
+        if !fence_enabled {
+            enabled.remove(MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE);
         }
         let tick = self.sched.tick_stats();
         let period_us = self.loop_period().as_micros() as f64;
@@ -356,8 +370,22 @@ impl Core {
         })
     }
 
+    fn relay_status(&self) -> Option<RELAY_STATUS_DATA> {
+        (self.missions.relays_used != 0).then(|| RELAY_STATUS_DATA {
+            time_boot_ms: self.now.boot_ms(),
+            on: self.missions.relays_on,
+            present: self.missions.relays_used,
+        })
+    }
+
     fn servo_output_raw(&self) -> SERVO_OUTPUT_RAW_DATA {
-        let pwm = mixer::servo_pwm(&self.drive.actuators);
+        let mut pwm = mixer::servo_pwm(&self.drive.actuators);
+        // Channels the drive train does not use carry what missions set.
+        for (slot, aux) in pwm.iter_mut().zip(self.missions.servo_us) {
+            if *slot == 0 && aux != 0 {
+                *slot = aux;
+            }
+        }
         SERVO_OUTPUT_RAW_DATA {
             time_usec: self.now.boot.as_micros() as u32,
             servo1_raw: pwm[0],
