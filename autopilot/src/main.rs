@@ -39,6 +39,8 @@ enum Command {
 enum BenchCommand {
     /// SITL speed with --speedup max, core tick timing and memory.
     Sitl(autopilot::bench::sitl::SitlBenchArgs),
+    /// Path-tracking and stop accuracy on the reference courses, seeds 1..20, with SVG plots.
+    Tracking(autopilot::bench::tracking::TrackingBenchArgs),
 }
 
 #[derive(clap::Args)]
@@ -67,6 +69,12 @@ struct SitlArgs {
     /// Record all MAVLink traffic to this telemetry log (.tlog).
     #[arg(long)]
     tlog: Option<PathBuf>,
+    /// Lay a magnetic tape (for MAGNETIC mode, 20) through the waypoints of this file (QGC WPL 110).
+    #[arg(long)]
+    tape: Option<PathBuf>,
+    /// Radius of the tape's corner arcs, metres.
+    #[arg(long, default_value_t = 15.0, value_parser = parse_tape_radius)]
+    tape_radius: f64,
     /// TCP server port instead of 5760+10·I (0: any free port, printed at start).
     #[arg(long)]
     tcp_port: Option<u16>,
@@ -85,6 +93,13 @@ enum Model {
 struct Home {
     point: GeoPoint,
     heading_deg: f64,
+}
+
+fn parse_tape_radius(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 1000.0 => Ok(v),
+        _ => Err(format!("{s:?}: a radius in metres, more than 0 and at most 1000")),
+    }
 }
 
 fn parse_speedup(s: &str) -> Result<Speedup, String> {
@@ -167,6 +182,7 @@ fn main() -> ExitCode {
                 udp_port: args.udp_port,
                 mavlink: args.mavlink,
                 tlog: args.tlog,
+                tape: args.tape.map(|path| (path, args.tape_radius)),
             })
         }
         Command::Params(args) => autopilot::offline::params::run(&args),
@@ -174,6 +190,9 @@ fn main() -> ExitCode {
         Command::Bench {
             which: BenchCommand::Sitl(args),
         } => autopilot::bench::sitl::run(&args),
+        Command::Bench {
+            which: BenchCommand::Tracking(args),
+        } => autopilot::bench::tracking::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -2,6 +2,7 @@
 //!
 //! - [`gnss`]: GNSS sample types and the NMEA 0183 stream parser that the real
 //!   serial driver and SITL both feed.
+//! - [`magnetic`]: magnetic-tape guide sensor readings.
 //! - [`sim`]: the SITL world (vehicle physics, battery) whose simulated GNSS
 //!   receiver writes the same NMEA bytes a real RTK receiver would, so SITL
 //!   exercises the real parser.
@@ -10,4 +11,5 @@
 //! [`std::time::Duration`] since start, randomness comes from a caller's seed.
 
 pub mod gnss;
+pub mod magnetic;
 pub mod sim;

@@ -1,3 +1,6 @@
 //! Benchmarks printed by `furrow bench …`: figures, not pass/fail tests.
 
+pub mod magnetic;
+pub mod plot;
 pub mod sitl;
+pub mod tracking;

@@ -2,10 +2,16 @@
 //! servo pulse widths.
 //!
 //! Ackermann: steering on servo 1, throttle on servo 3 (ArduPilot Rover's
-//! default functions 26 and 70). Differential (skid steering): left on
-//! servo 1, right on servo 3 (functions 73 and 74).
+//! default functions 26 and 70), and seed 002's kinematics for vehicles
+//! that steer and drive each wheel: left and right front wheel angles on
+//! servos 5 and 6, left and right rear wheel throttles (the electronic
+//! differential) on servos 7 and 8. Differential (skid steering): left on
+//! servo 1, right on servo 3 (functions 73 and 74). Servos 9–16 are free for
+//! DO_SET_SERVO.
 
 use drivers::sim::ActuatorDemand;
+
+use super::ackermann::{AckermannGeometry, front_wheel_angles, rear_wheel_speeds};
 
 /// The drive train Furrow controls (`FRAME_TYPE`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -64,8 +70,39 @@ pub fn neutral(drive: DriveTrain) -> ActuatorDemand {
     mix(drive, 0.0, 0.0)
 }
 
-/// Servo outputs for a demand (channels 1 and 3; the rest unused = 0).
-pub fn servo_pwm(demand: &ActuatorDemand) -> [u16; 16] {
+/// Per-wheel commands of an Ackermann vehicle, normalised to [-1, 1]:
+/// front wheel angles (1 = the inner wheel's angle at full lock, positive
+/// right) and rear wheel throttles.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WheelOutputs {
+    pub front_left: f64,
+    pub front_right: f64,
+    pub rear_left: f64,
+    pub rear_right: f64,
+}
+
+impl WheelOutputs {
+    /// From the normalised centre steering and throttle, by the geometry
+    /// (seed 002 eq. 6–9 for the angles, 12–13 for the rear speed ratio).
+    pub fn from_demand(geometry: &AckermannGeometry, steer_max_rad: f64, steering: f64, throttle: f64) -> Self {
+        let steer = steering.clamp(-1.0, 1.0) * steer_max_rad;
+        let angles = front_wheel_angles(geometry, steer);
+        let full_lock = front_wheel_angles(geometry, steer_max_rad);
+        let scale = full_lock.left_rad.abs().max(full_lock.right_rad.abs()).max(1e-9);
+        // Unit rear-axle speed: the wheels' share of the throttle.
+        let rear = rear_wheel_speeds(geometry, steer, 1.0);
+        WheelOutputs {
+            front_left: (angles.left_rad / scale).clamp(-1.0, 1.0),
+            front_right: (angles.right_rad / scale).clamp(-1.0, 1.0),
+            rear_left: (throttle * rear.left_mps).clamp(-1.0, 1.0),
+            rear_right: (throttle * rear.right_mps).clamp(-1.0, 1.0),
+        }
+    }
+}
+
+/// Servo outputs for a demand (channels 1 and 3, and 5–8 with wheel
+/// outputs; the rest unused = 0).
+pub fn servo_pwm(demand: &ActuatorDemand, wheels: Option<&WheelOutputs>) -> [u16; 16] {
     let mut pwm = [0u16; 16];
     let (ch1, ch3) = match *demand {
         ActuatorDemand::Ackermann { steering, throttle } => (steering, throttle),
@@ -73,6 +110,12 @@ pub fn servo_pwm(demand: &ActuatorDemand) -> [u16; 16] {
     };
     pwm[0] = to_pwm_us(ch1);
     pwm[2] = to_pwm_us(ch3);
+    if let Some(w) = wheels {
+        pwm[4] = to_pwm_us(w.front_left);
+        pwm[5] = to_pwm_us(w.front_right);
+        pwm[6] = to_pwm_us(w.rear_left);
+        pwm[7] = to_pwm_us(w.rear_right);
+    }
     pwm
 }
 
@@ -87,6 +130,25 @@ mod tests {
         assert_eq!(to_pwm_us(-2.0), 1000);
         assert_eq!(to_pwm_us(f64::NAN), 1500);
         assert_eq!(from_pwm_us(1750), 0.5);
+    }
+
+    #[test]
+    fn wheel_outputs_follow_the_ackermann_geometry() {
+        let g = AckermannGeometry::new(2.9, 1.6);
+        let max = 30f64.to_radians();
+        let straight = WheelOutputs::from_demand(&g, max, 0.0, 0.4);
+        assert_eq!(straight.front_left, 0.0);
+        assert!((straight.rear_left - 0.4).abs() < 1e-12 && (straight.rear_right - 0.4).abs() < 1e-12);
+        // Full right lock: the right (inner) wheel at its full angle, the
+        // left (outer) less; the outer rear wheel faster.
+        let right = WheelOutputs::from_demand(&g, max, 1.0, 0.4);
+        assert!((right.front_right - 1.0).abs() < 1e-12, "{right:?}");
+        assert!(right.front_left > 0.0 && right.front_left < right.front_right);
+        assert!(right.rear_left > right.rear_right);
+        let pwm = servo_pwm(&mix(DriveTrain::Ackermann, 1.0, 0.4), Some(&right));
+        assert_eq!(pwm[5], 2000);
+        assert!(pwm[4] > 1500 && pwm[4] < 2000);
+        assert_eq!(pwm[8], 0, "servo 9 is left to missions");
     }
 
     #[test]

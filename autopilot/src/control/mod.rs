@@ -1,6 +1,7 @@
 //! Control: turns guidance demands (steering angle, speed) into normalised
 //! actuator commands and servo pulse widths.
 
+pub mod ackermann;
 pub mod mixer;
 pub mod pid;
 pub mod speed;

@@ -32,8 +32,15 @@ impl SpeedController {
         self.limited_mps
     }
 
-    /// Throttle in [-1, 1] for `desired_mps` given the measured speed.
-    pub fn update(&mut self, config: &SpeedControlConfig, desired_mps: f64, measured_mps: f64, dt_s: f64) -> f64 {
+    /// Throttle in [-1, 1] for `desired_mps` given the measured speed; with
+    /// no measurement (no estimate), the feed-forward alone.
+    pub fn update(
+        &mut self,
+        config: &SpeedControlConfig,
+        desired_mps: f64,
+        measured_mps: Option<f64>,
+        dt_s: f64,
+    ) -> f64 {
         let step = desired_mps - self.limited_mps;
         let slowing = desired_mps.abs() < self.limited_mps.abs() || desired_mps * self.limited_mps < 0.0;
         let limit = if slowing {
@@ -49,8 +56,17 @@ impl SpeedController {
             1.0
         };
         let feed_forward = self.limited_mps / full_throttle_speed.max(1e-3);
-        let correction = self.pid.update(&config.gains, self.limited_mps - measured_mps, dt_s);
-        (feed_forward + correction.output()).clamp(-1.0, 1.0)
+        let correction = match measured_mps {
+            Some(measured) => self
+                .pid
+                .update(&config.gains, self.limited_mps - measured, dt_s)
+                .output(),
+            None => {
+                self.pid.reset();
+                0.0
+            }
+        };
+        (feed_forward + correction).clamp(-1.0, 1.0)
     }
 }
 
@@ -77,7 +93,7 @@ mod tests {
     fn feed_forward_gives_cruise_throttle_at_cruise_speed() {
         let mut c = SpeedController::default();
         c.reset(2.0);
-        assert!((c.update(&config(), 2.0, 2.0, 0.02) - 0.5).abs() < 1e-12);
+        assert!((c.update(&config(), 2.0, Some(2.0), 0.02) - 0.5).abs() < 1e-12);
     }
 
     #[test]
@@ -85,7 +101,7 @@ mod tests {
         let mut c = SpeedController::default();
         c.reset(0.0);
         for _ in 0..50 {
-            c.update(&config(), 2.0, 0.0, 0.02);
+            c.update(&config(), 2.0, Some(0.0), 0.02);
         }
         assert!((c.limited_demand_mps() - 1.0).abs() < 1e-9, "1 m/s² for 1 s");
     }
@@ -94,6 +110,6 @@ mod tests {
     fn reverse_gives_negative_throttle() {
         let mut c = SpeedController::default();
         c.reset(-1.0);
-        assert!(c.update(&config(), -1.0, -1.0, 0.02) < 0.0);
+        assert!(c.update(&config(), -1.0, Some(-1.0), 0.02) < 0.0);
     }
 }

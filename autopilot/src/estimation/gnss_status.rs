@@ -66,7 +66,12 @@ impl GnssStatus {
         if let (Some(n), Some(e)) = (self.sigma_north_m, self.sigma_east_m) {
             return n.hypot(e) / std::f64::consts::SQRT_2;
         }
-        match self.quality {
+        Self::quality_sigma_m(self.quality)
+    }
+
+    /// Typical 1-σ per axis of a fix of this quality.
+    pub fn quality_sigma_m(quality: Option<FixQuality>) -> f64 {
+        match quality {
             Some(FixQuality::RtkFixed) => 0.02,
             Some(FixQuality::RtkFloat) => 0.3,
             Some(FixQuality::Dgps) => 0.7,

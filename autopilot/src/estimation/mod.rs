@@ -1,32 +1,68 @@
 //! The pose estimate: where the vehicle's reference point (the rear axle
-//! centre) is, which way it points and how fast it moves.
+//! centre) is, which way it points and how fast it moves (DESIGN §5.2).
 //!
-//! This first estimator takes the latest GNSS fix, moves it from the antenna
-//! to the reference point with the lever arm (`GPS_POS1_X/Y`), takes heading
-//! from a dual-antenna HDT (or the course over ground when there is none),
-//! and dead-reckons with the GNSS velocity between fixes. The navigation
-//! issue replaces it with the EKF of DESIGN §5.2.
+//! The [`ekf`] fuses GNSS position (σ from GST, else from the fix quality)
+//! with the antenna lever arm, GNSS velocity and course, and heading (a
+//! dual-antenna receiver's true heading, or a compass plus `COMPASS_DEC`;
+//! without either, the course over ground while driving). The estimator
+//! around it owns the local frame (built at the first fix from `GEO_*`),
+//! converts true headings into the frame, watches the fix quality, and
+//! turns what the filter did into events the vehicle reports: a GPS jump
+//! rejected, a reset, a fix downgrade, health lost and regained.
 
+pub mod ekf;
 mod gnss_status;
+mod params;
 
 use std::time::Duration;
 
-use drivers::gnss::{FixQuality, GnssSample};
+use drivers::gnss::{FixQuality, GnssSample, HeadingReference};
 
-use crate::geo::{GeoPoint, LocalFrame, Ned, wrap_pi};
+use crate::geo::{FrameKind, GeoPoint, LocalFrame, Ned, PlaneTransform, wrap_pi};
+use ekf::{Ekf, EkfConfig, EkfStatus, Fusion};
 
 pub use gnss_status::GnssStatus;
+pub use params::{DegradedFixAction, EkfParams, GnssQualityParams};
 
-/// A fix or heading older than this is not used.
-const SAMPLE_TIMEOUT: Duration = Duration::from_millis(1000);
-/// Below this ground speed the course over ground is noise.
-const MIN_COURSE_SPEED_MPS: f64 = 0.3;
+/// A GST σ older than this is not trusted for the current fix.
+const ACCURACY_MAX_AGE: Duration = Duration::from_secs(2);
+/// Without a heading sensor for this long, the course over ground stands in.
+const HEADING_SENSOR_TIMEOUT: Duration = Duration::from_secs(1);
+/// Slowest ground speed whose course is used as a heading.
+const COURSE_AS_HEADING_MIN_MPS: f64 = 0.5;
+/// A vehicle held still whose GNSS speed is below this is at rest: a
+/// zero-speed update then pins the speed, so the yaw rate (speed ×
+/// curvature) cannot wander and the heading averages down at a stop.
+const AT_REST_GNSS_SPEED_MPS: f64 = 0.03;
+const AT_REST_SPEED_SIGMA_MPS: f64 = 0.001;
+/// A car at rest does not turn: its yaw rate is zero too.
+const AT_REST_YAW_RATE_SIGMA_RAD_S: f64 = 1e-4;
 
+/// Everything the estimator needs from the parameters, each tick.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EstimatorConfig {
-    /// GNSS antenna position in the body frame (x forward, y right) relative
-    /// to the reference point.
-    pub antenna_body_m: (f64, f64),
+    /// The filter's tuning, with the antenna lever arm.
+    pub ekf: EkfConfig,
+    /// The local frame built at the first fix.
+    pub frame_kind: FrameKind,
+    pub map: Option<PlaneTransform>,
+    pub velocity_sigma_mps: f64,
+    pub heading_sigma_rad: f64,
+    /// Added to magnetic headings.
+    pub declination_rad: f64,
+}
+
+impl Default for EstimatorConfig {
+    fn default() -> Self {
+        EstimatorConfig {
+            ekf: EkfConfig::default(),
+            frame_kind: FrameKind::TangentPlane,
+            map: None,
+            velocity_sigma_mps: 0.05,
+            heading_sigma_rad: 0.05f64.to_radians(),
+            declination_rad: 0.0,
+        }
+    }
 }
 
 /// The estimate at one instant.
@@ -51,15 +87,45 @@ impl Estimate {
     }
 }
 
+/// Something the vehicle should tell the operator about.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EstimatorEvent {
+    /// The receiver's fix quality changed (RTK fixed → float → single…).
+    FixQuality {
+        from: Option<FixQuality>,
+        to: FixQuality,
+    },
+    /// A GNSS position failed the innovation gate (the first of a streak).
+    GpsJumpRejected {
+        distance_m: f64,
+    },
+    /// Rejected long enough to be real: the position moved to the GNSS.
+    PositionReset {
+        shift_m: f64,
+    },
+    HeadingRejected {
+        error_rad: f64,
+    },
+    HeadingReset {
+        shift_rad: f64,
+    },
+    Initialised,
+    Healthy(bool),
+}
+
 #[derive(Default)]
 pub struct Estimator {
     frame: Option<LocalFrame>,
     gnss: GnssStatus,
-    antenna_ned: Option<(Duration, Ned)>,
-    heading: Option<(Duration, f64)>,
-    yaw_rate_rad_s: f64,
-    velocity: Option<(Duration, f64, f64)>,
+    ekf: Option<Ekf>,
     estimate: Estimate,
+    events: Vec<EstimatorEvent>,
+    last_heading_sensor: Option<Duration>,
+    accuracy_t: Option<Duration>,
+    fix_quality: Option<FixQuality>,
+    position_rejecting: bool,
+    heading_rejecting: bool,
+    healthy: bool,
 }
 
 impl Estimator {
@@ -80,95 +146,229 @@ impl Estimator {
         &self.estimate
     }
 
-    /// Folds in new samples, then predicts the estimate to `now`.
-    pub fn update(&mut self, now: Duration, config: &EstimatorConfig, samples: &[GnssSample]) {
-        for sample in samples {
-            self.gnss.apply(sample);
-            self.apply(sample);
-        }
-        self.predict(now, config);
+    /// The filter's own report (innovations, σ, counters), once it runs.
+    pub fn ekf_status(&self) -> Option<EkfStatus> {
+        self.ekf.as_ref().map(Ekf::status)
     }
 
-    fn apply(&mut self, sample: &GnssSample) {
+    /// Events since the last call.
+    pub fn take_events(&mut self) -> Vec<EstimatorEvent> {
+        std::mem::take(&mut self.events)
+    }
+
+    /// Folds in new samples, then predicts the estimate to `now`.
+    /// `held_still`: the vehicle is commanded to stand (no drive demand for a
+    /// while), so a GNSS speed near zero means it is at rest.
+    pub fn update(&mut self, now: Duration, config: &EstimatorConfig, samples: &[GnssSample], held_still: bool) {
+        let mut ekf = match self.ekf.take() {
+            Some(mut ekf) => {
+                if *ekf.config() != config.ekf && ekf.set_config(config.ekf).is_err() {
+                    // A refused tuning keeps the last good one.
+                }
+                ekf
+            }
+            None => match Ekf::new(config.ekf).or_else(|_| Ekf::new(EkfConfig::default())) {
+                Ok(ekf) => ekf,
+                Err(_) => return,
+            },
+        };
+        for sample in samples {
+            self.gnss.apply(sample);
+            self.fuse(&mut ekf, config, sample);
+        }
+        let now_s = now.as_secs_f64();
+        if now_s >= ekf.time_s() {
+            let _ = ekf.predict_to(now_s);
+        }
+        // Every tick while at rest, or the speed's process noise between
+        // GNSS epochs lets the (unobservable) curvature turn the vehicle.
+        let gnss_still =
+            self.gnss.has_fix(now, Duration::from_secs(1)) && self.gnss.speed_mps.abs() < AT_REST_GNSS_SPEED_MPS;
+        if held_still && gnss_still && ekf.is_initialised() {
+            let _ = ekf.update_odometry_speed(0.0, AT_REST_SPEED_SIGMA_MPS);
+            let _ = ekf.update_yaw_rate(0.0, AT_REST_YAW_RATE_SIGMA_RAD_S);
+        }
+        self.publish(&ekf);
+        self.ekf = Some(ekf);
+    }
+
+    /// Advances the filter to the sample's time (or keeps it where it is for
+    /// a sample stamped a little in the past).
+    fn advance(ekf: &mut Ekf, t: Duration) {
+        let t_s = t.as_secs_f64();
+        if t_s > ekf.time_s() {
+            let _ = ekf.predict_to(t_s);
+        }
+    }
+
+    fn fuse(&mut self, ekf: &mut Ekf, config: &EstimatorConfig, sample: &GnssSample) {
         match sample {
             GnssSample::Fix(fix) => {
                 let p = GeoPoint::new(fix.lat_deg, fix.lon_deg, fix.alt_msl_m);
                 if fix.quality == FixQuality::NoFix || !p.is_valid() {
-                    self.antenna_ned = None;
                     return;
                 }
-                let frame = *self.frame.get_or_insert_with(|| LocalFrame::new(p));
-                self.antenna_ned = Some((fix.t, frame.to_local(&p)));
+                let frame = *self
+                    .frame
+                    .get_or_insert_with(|| LocalFrame::with_kind(config.frame_kind, p, config.map));
+                let antenna = frame.to_local(&p);
+                let sigma = self.position_sigma(fix.t);
+                Self::advance(ekf, fix.t);
+                if self.fix_quality != Some(fix.quality) {
+                    self.events.push(EstimatorEvent::FixQuality {
+                        from: self.fix_quality,
+                        to: fix.quality,
+                    });
+                    // A different kind of fix is a different error: start the
+                    // position from it rather than gate it against the old one.
+                    if ekf.is_initialised() && self.fix_quality.is_some() {
+                        let _ = ekf.reset_position_to_gnss(antenna.north_m, antenna.east_m, sigma.0, sigma.1);
+                    }
+                    self.fix_quality = Some(fix.quality);
+                }
+                let fusion = ekf.update_gnss_position(antenna.north_m, antenna.east_m, sigma.0, sigma.1);
+                self.position_fusion(ekf, fusion);
+            }
+            GnssSample::Accuracy(a) => self.accuracy_t = Some(a.t),
+            GnssSample::Velocity(v) if v.speed_mps.is_finite() => {
+                let frame = self.frame;
+                let at = GeoPoint::new(self.gnss.lat_deg, self.gnss.lon_deg, self.gnss.alt_msl_m);
+                let course = v
+                    .course_deg
+                    .filter(|c| c.is_finite())
+                    .map(|c| to_frame_heading(frame.as_ref(), &at, c.to_radians()));
+                Self::advance(ekf, v.t);
+                let _ = ekf.update_gnss_velocity(v.speed_mps.max(0.0), course, config.velocity_sigma_mps);
+                // No heading sensor: the course stands in while driving,
+                // turned round when the filter knows the vehicle reverses.
+                let sensor_quiet = self
+                    .last_heading_sensor
+                    .is_none_or(|t| v.t.saturating_sub(t) > HEADING_SENSOR_TIMEOUT);
+                if let (true, Some(course)) = (sensor_quiet, course)
+                    && v.speed_mps >= COURSE_AS_HEADING_MIN_MPS
+                {
+                    let reversing = ekf.is_initialised() && ekf.state().speed_mps < 0.0;
+                    let yaw = if reversing {
+                        wrap_pi(course + std::f64::consts::PI)
+                    } else {
+                        course
+                    };
+                    let sigma = (config.velocity_sigma_mps / v.speed_mps).max(2f64.to_radians());
+                    let fusion = ekf.update_heading(yaw, sigma);
+                    self.heading_fusion(fusion);
+                }
             }
             GnssSample::Heading(h) if h.heading_deg.is_finite() => {
-                let yaw = wrap_pi(h.heading_deg.to_radians());
-                if let Some((t0, yaw0)) = self.heading {
-                    let dt = h.t.saturating_sub(t0).as_secs_f64();
-                    if dt > 0.0 && dt < 1.0 {
-                        // Light low-pass: differentiated heading noise is large.
-                        let rate = wrap_pi(yaw - yaw0) / dt;
-                        self.yaw_rate_rad_s += 0.5 * (rate - self.yaw_rate_rad_s);
-                    }
-                }
-                self.heading = Some((h.t, yaw));
-            }
-            GnssSample::Velocity(v) if v.speed_mps.is_finite() => {
-                let course = v.course_deg.filter(|c| c.is_finite()).map(f64::to_radians);
-                let (vn, ve) = match course {
-                    Some(c) if v.speed_mps >= 0.05 => (v.speed_mps * c.cos(), v.speed_mps * c.sin()),
-                    _ => (0.0, 0.0),
+                let true_heading = match h.reference {
+                    HeadingReference::True => h.heading_deg.to_radians(),
+                    HeadingReference::Magnetic => h.heading_deg.to_radians() + config.declination_rad,
                 };
-                self.velocity = Some((v.t, vn, ve));
+                let at = GeoPoint::new(self.gnss.lat_deg, self.gnss.lon_deg, self.gnss.alt_msl_m);
+                let yaw = to_frame_heading(self.frame.as_ref(), &at, true_heading);
+                self.last_heading_sensor = Some(h.t);
+                Self::advance(ekf, h.t);
+                let fusion = ekf.update_heading(yaw, config.heading_sigma_rad);
+                self.heading_fusion(fusion);
             }
             _ => {}
         }
     }
 
-    fn predict(&mut self, now: Duration, config: &EstimatorConfig) {
-        let fresh = |t: Duration| now.saturating_sub(t) <= SAMPLE_TIMEOUT;
-        let (vel_n, vel_e) = match self.velocity {
-            Some((t, vn, ve)) if fresh(t) => (vn, ve),
-            _ => (0.0, 0.0),
-        };
-        let ground_speed = vel_n.hypot(vel_e);
-
-        let (heading_valid, yaw) = match self.heading {
-            Some((t, yaw)) if fresh(t) => (
-                true,
-                wrap_pi(yaw + self.yaw_rate_rad_s * now.saturating_sub(t).as_secs_f64()),
-            ),
-            // No heading sensor: the course over ground when moving forwards.
-            _ if ground_speed >= MIN_COURSE_SPEED_MPS => (true, vel_e.atan2(vel_n)),
-            _ => (false, self.estimate.yaw_rad),
-        };
-        let yaw_rate = if heading_valid { self.yaw_rate_rad_s } else { 0.0 };
-
-        let (position_valid, position) = match self.antenna_ned {
-            Some((t, antenna)) if fresh(t) => {
-                let dt = now.saturating_sub(t).as_secs_f64();
-                let (s, c) = yaw.sin_cos();
-                let (ax, ay) = config.antenna_body_m;
-                let reference = Ned::new(
-                    antenna.north_m - (ax * c - ay * s) + vel_n * dt,
-                    antenna.east_m - (ax * s + ay * c) + vel_e * dt,
-                );
-                (true, reference)
+    /// Per-axis σ of the fix: GST when it is current, else the typical
+    /// figure for the fix quality.
+    fn position_sigma(&self, t: Duration) -> (f64, f64) {
+        let fresh = self.accuracy_t.is_some_and(|a| t.saturating_sub(a) <= ACCURACY_MAX_AGE);
+        match (fresh, self.gnss.sigma_north_m, self.gnss.sigma_east_m) {
+            (true, Some(n), Some(e)) if n > 0.0 && e > 0.0 => (n, e),
+            _ => {
+                let s = GnssStatus::quality_sigma_m(self.gnss.quality);
+                (s, s)
             }
-            _ => (false, self.estimate.position),
-        };
+        }
+    }
 
-        let along_heading = vel_n * yaw.cos() + vel_e * yaw.sin();
+    fn position_fusion(&mut self, ekf: &Ekf, fusion: Fusion) {
+        match fusion {
+            Fusion::Rejected { .. } => {
+                if !self.position_rejecting {
+                    let innovation = ekf.status().gnss_position.innovation;
+                    self.events.push(EstimatorEvent::GpsJumpRejected {
+                        distance_m: innovation[0].hypot(innovation[1]),
+                    });
+                }
+                self.position_rejecting = true;
+            }
+            Fusion::Reset { shift, .. } => {
+                self.position_rejecting = false;
+                self.events.push(EstimatorEvent::PositionReset {
+                    shift_m: shift[0].hypot(shift[1]),
+                });
+            }
+            Fusion::Accepted { .. } => self.position_rejecting = false,
+            Fusion::Initialised => self.events.push(EstimatorEvent::Initialised),
+            _ => {}
+        }
+    }
+
+    fn heading_fusion(&mut self, fusion: Fusion) {
+        match fusion {
+            Fusion::Rejected { .. } => {
+                if !self.heading_rejecting {
+                    let error = self.ekf_heading_innovation();
+                    self.events.push(EstimatorEvent::HeadingRejected { error_rad: error });
+                }
+                self.heading_rejecting = true;
+            }
+            Fusion::Reset { shift, .. } => {
+                self.heading_rejecting = false;
+                self.events.push(EstimatorEvent::HeadingReset { shift_rad: shift[0] });
+            }
+            Fusion::Accepted { .. } => self.heading_rejecting = false,
+            Fusion::Initialised => self.events.push(EstimatorEvent::Initialised),
+            _ => {}
+        }
+    }
+
+    fn ekf_heading_innovation(&self) -> f64 {
+        // The filter is held by the caller during fusion; the innovation of
+        // a rejection is reported from the status once it is back.
+        f64::NAN
+    }
+
+    fn publish(&mut self, ekf: &Ekf) {
+        if !ekf.is_initialised() {
+            self.estimate.position_valid = false;
+            self.estimate.heading_valid = false;
+            return;
+        }
+        let s = ekf.state();
+        let status = ekf.status();
+        let healthy = ekf.healthy();
+        if healthy != self.healthy {
+            self.healthy = healthy;
+            self.events.push(EstimatorEvent::Healthy(healthy));
+        }
+        let (sin, cos) = s.yaw_rad.sin_cos();
         self.estimate = Estimate {
-            position,
-            yaw_rad: yaw,
-            yaw_rate_rad_s: yaw_rate,
-            vel_north_mps: vel_n,
-            vel_east_mps: vel_e,
-            speed_mps: if heading_valid { along_heading } else { ground_speed },
-            position_valid,
-            heading_valid,
-            horiz_sigma_m: self.gnss.horizontal_sigma_m(),
+            position: Ned::new(s.north_m, s.east_m),
+            yaw_rad: s.yaw_rad,
+            yaw_rate_rad_s: s.speed_mps * s.curvature_per_m + s.pivot_rate_rad_s,
+            vel_north_mps: s.speed_mps * cos,
+            vel_east_mps: s.speed_mps * sin,
+            speed_mps: s.speed_mps,
+            position_valid: healthy,
+            heading_valid: status.heading_sigma_rad <= ekf.config().healthy_max_heading_sigma_rad,
+            horiz_sigma_m: status.position_sigma_m,
         };
+    }
+}
+
+/// A true heading as a heading in the local frame (meridian convergence,
+/// plant-grid rotation); as it is before there is a frame.
+fn to_frame_heading(frame: Option<&LocalFrame>, at: &GeoPoint, true_heading_rad: f64) -> f64 {
+    match frame {
+        Some(f) if at.is_valid() => f.heading_to_local(at, true_heading_rad),
+        _ => wrap_pi(true_heading_rad),
     }
 }
 
@@ -177,70 +377,145 @@ mod tests {
     use super::*;
     use drivers::gnss::{GnssFix, GnssHeading, GnssVelocity};
 
-    fn fix(t_ms: u64, lat: f64, lon: f64) -> GnssSample {
+    fn fix(t_ms: u64, lat: f64, lon: f64, quality: FixQuality) -> GnssSample {
         GnssSample::Fix(GnssFix {
             t: Duration::from_millis(t_ms),
             utc_time_of_day_s: None,
             lat_deg: lat,
             lon_deg: lon,
             alt_msl_m: 40.0,
-            quality: FixQuality::RtkFixed,
+            quality,
             satellites: 20,
             hdop: 0.6,
         })
     }
 
-    fn heading(t_ms: u64, deg: f64) -> GnssSample {
+    fn heading(t_ms: u64, deg: f64, reference: HeadingReference) -> GnssSample {
         GnssSample::Heading(GnssHeading {
             t: Duration::from_millis(t_ms),
             heading_deg: deg,
+            reference,
         })
+    }
+
+    fn config(antenna_x: f64) -> EstimatorConfig {
+        EstimatorConfig {
+            ekf: EkfConfig {
+                antenna_body_m: (antenna_x, 0.0),
+                ..EkfConfig::default()
+            },
+            ..EstimatorConfig::default()
+        }
     }
 
     #[test]
     fn lever_arm_moves_the_fix_to_the_reference_point() {
-        let config = EstimatorConfig {
-            antenna_body_m: (0.5, 0.0),
-        };
         let mut est = Estimator::new();
         // Origin at the first fix, vehicle facing east: the reference point
         // is 0.5 m west of the antenna.
-        est.update(Duration::ZERO, &config, &[heading(0, 90.0), fix(0, 29.133, 119.64)]);
-        let e = est.estimate();
-        assert!(e.position_valid && e.heading_valid);
-        assert!((e.position.east_m + 0.5).abs() < 1e-9, "{:?}", e.position);
-        assert!(e.position.north_m.abs() < 1e-9);
-    }
-
-    #[test]
-    fn dead_reckons_between_fixes_and_detects_reverse() {
-        let config = EstimatorConfig {
-            antenna_body_m: (0.0, 0.0),
-        };
-        let mut est = Estimator::new();
-        let vel = GnssSample::Velocity(GnssVelocity {
-            t: Duration::ZERO,
-            speed_mps: 1.0,
-            course_deg: Some(180.0),
-        });
-        est.update(Duration::ZERO, &config, &[heading(0, 0.0), fix(0, 29.133, 119.64), vel]);
-        est.update(Duration::from_millis(50), &config, &[]);
-        let e = est.estimate();
-        assert!((e.position.north_m + 0.05).abs() < 1e-6, "{:?}", e.position);
-        assert!(
-            (e.speed_mps + 1.0).abs() < 1e-9,
-            "facing north, moving south: reversing"
+        est.update(
+            Duration::ZERO,
+            &config(0.5),
+            &[
+                heading(0, 90.0, HeadingReference::True),
+                fix(0, 29.133, 119.64, FixQuality::RtkFixed),
+            ],
+            false,
         );
+        let e = est.estimate();
+        assert!(e.position_valid && e.heading_valid, "{e:?}");
+        assert!((e.position.east_m + 0.5).abs() < 1e-6, "{:?}", e.position);
+        assert!(e.position.north_m.abs() < 1e-6);
+        assert!(est.take_events().contains(&EstimatorEvent::Initialised));
     }
 
     #[test]
-    fn stale_fix_invalidates_position() {
-        let config = EstimatorConfig {
-            antenna_body_m: (0.0, 0.0),
-        };
+    fn compass_heading_gets_the_declination() {
         let mut est = Estimator::new();
-        est.update(Duration::ZERO, &config, &[heading(0, 0.0), fix(0, 29.133, 119.64)]);
-        est.update(Duration::from_millis(1500), &config, &[]);
+        let cfg = EstimatorConfig {
+            declination_rad: 5f64.to_radians(),
+            ..config(0.0)
+        };
+        est.update(
+            Duration::ZERO,
+            &cfg,
+            &[
+                heading(0, 40.0, HeadingReference::Magnetic),
+                fix(0, 29.133, 119.64, FixQuality::RtkFixed),
+            ],
+            false,
+        );
+        assert!((est.estimate().yaw_rad.to_degrees() - 45.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn fix_downgrade_is_reported_and_a_stale_fix_invalidates_position() {
+        let mut est = Estimator::new();
+        let cfg = config(0.0);
+        let mut samples = vec![heading(0, 0.0, HeadingReference::True)];
+        samples.push(fix(0, 29.133, 119.64, FixQuality::RtkFixed));
+        est.update(Duration::ZERO, &cfg, &samples, false);
+        for k in 1..5 {
+            est.update(
+                Duration::from_millis(100 * k),
+                &cfg,
+                &[
+                    heading(100 * k, 0.0, HeadingReference::True),
+                    fix(100 * k, 29.133, 119.64, FixQuality::RtkFixed),
+                ],
+                false,
+            );
+        }
+        est.take_events();
+        est.update(
+            Duration::from_millis(500),
+            &cfg,
+            &[fix(500, 29.133, 119.64, FixQuality::RtkFloat)],
+            false,
+        );
+        assert_eq!(
+            est.take_events(),
+            vec![EstimatorEvent::FixQuality {
+                from: Some(FixQuality::RtkFixed),
+                to: FixQuality::RtkFloat
+            }]
+        );
+        assert!(est.estimate().position_valid);
+        est.update(Duration::from_millis(2500), &cfg, &[], false);
         assert!(!est.estimate().position_valid);
+        assert!(est.take_events().contains(&EstimatorEvent::Healthy(false)));
+    }
+
+    #[test]
+    fn course_over_ground_stands_in_for_a_missing_heading_sensor() {
+        let mut est = Estimator::new();
+        let cfg = config(0.0);
+        // Driving east at 2 m/s, no heading sensor.
+        for k in 0..30u64 {
+            let t = 100 * k;
+            let east = 2.0 * (t as f64 / 1000.0);
+            let lon = 119.64 + east / (111_320.0 * 29.133f64.to_radians().cos());
+            est.update(
+                Duration::from_millis(t),
+                &cfg,
+                &[
+                    fix(t, 29.133, lon, FixQuality::RtkFixed),
+                    GnssSample::Velocity(GnssVelocity {
+                        t: Duration::from_millis(t),
+                        speed_mps: 2.0,
+                        course_deg: Some(90.0),
+                    }),
+                ],
+                false,
+            );
+        }
+        let e = est.estimate();
+        assert!(e.heading_valid && e.position_valid, "{e:?}");
+        assert!(
+            (e.yaw_rad.to_degrees() - 90.0).abs() < 1.0,
+            "{}",
+            e.yaw_rad.to_degrees()
+        );
+        assert!((e.speed_mps - 2.0).abs() < 0.1);
     }
 }

@@ -2,6 +2,8 @@
 //! it, the speed to drive at, and the navigator that ties them together for
 //! the modes.
 
+pub mod magnetic;
+pub mod magnetic_scenario;
 pub mod navigator;
 pub mod path;
 pub mod speed;

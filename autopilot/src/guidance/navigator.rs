@@ -1,23 +1,55 @@
 //! The navigator: drives the vehicle along a leg to a target, and either
-//! stops there (a precision stop) or drives through it onto the next leg.
-//! GUIDED, RTL and AUTO give it legs; it returns the steering angle and
-//! signed speed for the controllers.
+//! stops there (a precision stop) or drives on through it, round an arc,
+//! onto the next leg. GUIDED, RTL and AUTO give it legs; it returns the
+//! steering angle and signed speed for the controllers, and after a stop
+//! the stop error it reached.
 
 use crate::estimation::Estimate;
 use crate::geo::{Ned, wrap_pi};
-use crate::guidance::path::Segment;
-use crate::guidance::speed::{SpeedLimits, scheduled_speed};
-use crate::guidance::tracker::{Direction, TrackerConfig, TrackerState, TrackerStatus, VehiclePose, track_segment};
+use crate::guidance::path::{Arc, LegPath, fit_corner};
+use crate::guidance::speed::{SpeedConfig, SpeedInputs, SpeedState, SpeedStatus, scheduled_speed};
+use crate::guidance::tracker::{Direction, TrackInput, TrackerConfig, TrackerState, TrackerStatus, VehiclePose, track};
 
-/// Remaining distance at which a stopping leg counts as arrived.
-const ARRIVED_M: f64 = 0.03;
+/// A stop that has not settled within this long of the approach starting
+/// is declared done, with whatever error it has, so a vehicle that cannot
+/// creep the last millimetres does not hang the mission.
+const APPROACH_TIMEOUT_S: f64 = 30.0;
+/// The approach phase starts this close to the stop.
+const APPROACH_ZONE_M: f64 = 0.5;
+/// After arriving, the vehicle has come to rest once its speed stays below
+/// this for `REST_S` (or `REST_TIMEOUT_S` passed).
+const REST_SPEED_MPS: f64 = 0.002;
+const REST_S: f64 = 2.0;
+const REST_TIMEOUT_S: f64 = 5.0;
+/// At rest, the estimate keeps averaging fixes; when it then finds the stop
+/// short or past by more than half the tolerance, the vehicle creeps again,
+/// up to this many times.
+const MAX_REAPPROACHES: u32 = 3;
+
+/// How close a precision stop must end (`WP_STOP_TOL_MM`, `WP_STOP_TOL_DEG`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StopTolerance {
+    pub position_m: f64,
+    pub yaw_rad: f64,
+}
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NavConfig {
     pub tracker: TrackerConfig,
-    pub speed: SpeedLimits,
-    /// `WP_RADIUS`: within it the target counts as reached.
+    pub speed: SpeedConfig,
+    /// Caps every speed, the mission's included (a degraded fix, say).
+    pub speed_limit_mps: Option<f64>,
+    /// `WP_RADIUS`: within it a drive-through target without an arc counts
+    /// as reached.
     pub wp_radius_m: f64,
+    /// Corner arcs are planned with this radius…
+    pub arc_radius_m: f64,
+    /// …and shrink to fit short legs down to this one (the vehicle's
+    /// tightest turn with room for correction), never below.
+    pub min_arc_radius_m: f64,
+    pub stop: StopTolerance,
+    /// Preview distance for the last stretch to a stop (`PVW_STOP_DIST`).
+    pub stop_preview_m: f64,
 }
 
 /// A leg to drive: from `from` to `point`.
@@ -27,9 +59,13 @@ pub struct NavTarget {
     /// Overrides the cruise speed when set.
     pub speed_mps: Option<f64>,
     pub direction: Direction,
-    /// Stop at `point` (else drive through it: reached within `WP_RADIUS`
-    /// or once past it).
+    /// Stop at `point` (else drive through it: round the corner towards
+    /// `next`, or reached within `WP_RADIUS` or once past it).
     pub stop: bool,
+    /// Where the vehicle goes after `point` when it drives through.
+    pub next: Option<Ned>,
+    /// The mission item, for reports.
+    pub seq: Option<u16>,
 }
 
 impl NavTarget {
@@ -40,6 +76,8 @@ impl NavTarget {
             speed_mps: None,
             direction: Direction::Forward,
             stop: true,
+            next: None,
+            seq: None,
         }
     }
 }
@@ -60,80 +98,266 @@ pub struct NavStatus {
     pub target_bearing_rad: f64,
     pub nav_bearing_rad: f64,
     pub crosstrack_m: f64,
+    /// Along the leg's path, and what is left of it.
+    pub along_m: f64,
+    pub remaining_m: f64,
     pub reached: bool,
     pub tracker: TrackerStatus,
+    pub speed: SpeedStatus,
+}
+
+/// Where a precision stop ended, by the estimate, once the vehicle came to
+/// rest.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StopReport {
+    pub seq: Option<u16>,
+    /// Short of the point (positive) or past it (negative).
+    pub along_m: f64,
+    /// Right of the path (positive) or left of it.
+    pub crosstrack_m: f64,
+    /// Vehicle yaw minus the path's, clockwise positive.
+    pub yaw_error_rad: f64,
+    pub within_tolerance: bool,
+}
+
+impl StopReport {
+    pub fn position_error_m(&self) -> f64 {
+        self.along_m.hypot(self.crosstrack_m)
+    }
+}
+
+#[derive(Clone, Debug)]
+struct Leg {
+    from: Ned,
+    target: NavTarget,
+    entry: Option<Arc>,
+    /// Built on the first update, with that update's configuration.
+    path: Option<LegPath>,
+    piece: usize,
+}
+
+/// The rest of a corner's arc the previous leg ended in the middle of.
+#[derive(Clone, Copy, Debug)]
+struct Carry {
+    corner: Ned,
+    direction: Direction,
+    rest: Arc,
+}
+
+/// After a stop: waiting for the vehicle to come to rest.
+#[derive(Clone, Copy, Debug, Default)]
+struct Settling {
+    elapsed_s: f64,
+    still_s: f64,
 }
 
 #[derive(Default)]
 pub struct Navigator {
-    leg: Option<(Segment, NavTarget)>,
+    leg: Option<Leg>,
+    carry: Option<Carry>,
     arrived: bool,
+    approach_s: f64,
+    reapproaches: u32,
+    settling: Option<Settling>,
+    stop_report: Option<StopReport>,
     tracker: TrackerState,
+    speed: SpeedState,
     status: NavStatus,
 }
 
 impl Navigator {
-    /// Drives the leg from `from` to `target.point`.
+    /// Drives the leg from `from` to `target.point`. A leg that starts at
+    /// the corner the previous one drove round starts with the rest of its
+    /// arc.
     pub fn set_target(&mut self, from: Ned, target: NavTarget) {
-        self.leg = Some((Segment::new(from, target.point), target));
+        let entry = self
+            .carry
+            .take()
+            .filter(|c| c.corner.distance_to(&from) < 1e-3 && c.direction == target.direction)
+            .map(|c| c.rest);
+        self.leg = Some(Leg {
+            from,
+            target,
+            entry,
+            path: None,
+            piece: 0,
+        });
         self.arrived = false;
+        self.approach_s = 0.0;
+        self.reapproaches = 0;
+        self.settling = None;
         self.tracker.reset();
+        self.speed.reset();
         self.status.reached = false;
+    }
+
+    /// Changes the current leg's speed (DO_CHANGE_SPEED) without starting
+    /// it again.
+    pub fn set_speed(&mut self, speed_mps: Option<f64>) {
+        if let Some(leg) = &mut self.leg {
+            leg.target.speed_mps = speed_mps;
+        }
     }
 
     /// Stops navigating (the vehicle holds).
     pub fn clear(&mut self) {
         self.leg = None;
+        self.carry = None;
         self.arrived = false;
+        self.settling = None;
         self.tracker.reset();
+        self.speed.reset();
         self.status = NavStatus::default();
     }
 
     pub fn target(&self) -> Option<&NavTarget> {
-        self.leg.as_ref().map(|(_, t)| t)
+        self.leg.as_ref().map(|l| &l.target)
     }
 
     /// Where the current leg starts.
     pub fn leg_start(&self) -> Option<Ned> {
-        self.leg.as_ref().map(|(s, _)| s.start)
+        self.leg.as_ref().map(|l| l.from)
+    }
+
+    /// The current leg's path, once built.
+    pub fn path(&self) -> Option<&LegPath> {
+        self.leg.as_ref().and_then(|l| l.path.as_ref())
     }
 
     pub fn status(&self) -> &NavStatus {
         &self.status
     }
 
-    /// The leg is done: stopped at its end, or (driving through) within
-    /// `WP_RADIUS` or past it.
+    /// The leg is done: stopped at its end, or (driving through) round the
+    /// middle of its corner, within `WP_RADIUS` or past it.
     pub fn arrived(&self) -> bool {
         self.arrived
     }
 
+    /// At the end of a stop leg: coming to rest or resting there.
+    pub fn stopping(&self) -> bool {
+        self.target().is_some_and(|t| t.stop) && (self.arrived || self.settling.is_some())
+    }
+
+    /// The stop error of a precision stop, once, when the vehicle has come
+    /// to rest.
+    pub fn take_stop_report(&mut self) -> Option<StopReport> {
+        self.stop_report.take()
+    }
+
+    fn build_path(leg: &Leg, config: &NavConfig) -> LegPath {
+        let target = &leg.target;
+        let line_start = leg.entry.map_or(leg.from, |a| a.end());
+        let corner = target.next.filter(|_| !target.stop).and_then(|next| {
+            let corner = fit_corner(
+                line_start,
+                target.point,
+                next,
+                config.arc_radius_m,
+                config.min_arc_radius_m,
+                line_start.distance_to(&target.point),
+                // The next leg may round a corner at its far end too.
+                0.5 * target.point.distance_to(&next),
+            )?;
+            Some((corner, next))
+        });
+        LegPath::new(leg.entry, leg.from, target.point, corner.as_ref().map(|(c, n)| (c, *n)))
+    }
+
     pub fn update(&mut self, est: &Estimate, config: &NavConfig, dt_s: f64) -> NavDemand {
-        let Some((segment, target)) = self.leg else {
+        let Some(leg) = &mut self.leg else {
             self.status = NavStatus::default();
+            return NavDemand::default();
+        };
+        let target = leg.target;
+        if leg.path.is_none() {
+            leg.path = Some(Self::build_path(leg, config));
+        }
+        let Some(path) = &leg.path else {
             return NavDemand::default();
         };
         let pose = VehiclePose {
             position: est.position,
             yaw_rad: est.yaw_rad,
         };
-        let projection = segment.project(&est.position);
-        let remaining = projection.length_m - projection.along_m;
+        let projection = path.project(&est.position, leg.piece);
+        leg.piece = projection.piece;
+        let remaining = path.end_m() - projection.along_m;
         let wp_dist = est.position.distance_to(&target.point);
+        let has_corner = path.exit_arc_rest().is_some();
 
-        let done = if target.stop {
-            remaining <= ARRIVED_M
+        // Approaching a stop, the preview stretches to PVW_STOP_DIST over the
+        // last 2·PVW_STOP_DIST: slow there, a short preview would turn
+        // millimetres of estimate noise into heading wiggle, and the stop's
+        // heading tolerance is the tighter one.
+        let min_preview_m = if target.stop && config.stop_preview_m > 0.0 {
+            let d = config.stop_preview_m;
+            d * (2.0 - remaining / d).clamp(0.0, 1.0)
         } else {
-            remaining <= 0.0 || wp_dist <= config.wp_radius_m
+            0.0
         };
-        self.arrived |= done;
-        let tracker = track_segment(
+        let tracker = track(
             &config.tracker,
             &mut self.tracker,
             &pose,
             est.speed_mps,
-            &segment,
-            target.direction,
+            TrackInput {
+                path,
+                projection,
+                direction: target.direction,
+                min_preview_m,
+            },
+            dt_s,
+        );
+        // Signed along the direction of travel.
+        let travel_speed = est.speed_mps * target.direction.sign();
+
+        let half_tol = 0.5 * config.stop.position_m;
+        let done = if target.stop {
+            if remaining.abs() < APPROACH_ZONE_M {
+                self.approach_s += dt_s;
+            }
+            (remaining.abs() <= half_tol && travel_speed.abs() <= config.speed.approach_gain_per_s * half_tol)
+                || self.approach_s > APPROACH_TIMEOUT_S
+        } else if has_corner {
+            remaining <= 0.0
+        } else {
+            remaining <= 0.0 || wp_dist <= config.wp_radius_m
+        };
+        // A stop is reached once the vehicle rests on it (below), so the
+        // mission's hold time and a change of direction start from rest.
+        if done && !self.arrived && self.settling.is_none() {
+            if target.stop {
+                self.settling = Some(Settling::default());
+            } else {
+                self.arrived = true;
+                if let Some(rest) = path.exit_arc_rest() {
+                    self.carry = Some(Carry {
+                        corner: target.point,
+                        direction: target.direction,
+                        rest,
+                    });
+                }
+            }
+        }
+
+        let arcs: Vec<(f64, f64)> = path.arcs_from(projection.along_m).collect();
+        let speed_config = SpeedConfig {
+            cruise_mps: target
+                .speed_mps
+                .unwrap_or(config.speed.cruise_mps)
+                .min(config.speed_limit_mps.unwrap_or(f64::INFINITY)),
+            ..config.speed
+        };
+        let speed = scheduled_speed(
+            &speed_config,
+            &mut self.speed,
+            &SpeedInputs {
+                along_m: projection.along_m,
+                stop_at_m: target.stop.then_some(path.end_m()),
+                arcs: &arcs,
+                heading_error_rad: tracker.yaw_error_rad,
+            },
             dt_s,
         );
 
@@ -143,25 +367,204 @@ impl Navigator {
             target_bearing_rad: est.position.bearing_to(&target.point),
             nav_bearing_rad: wrap_pi(pose.yaw_rad + tracker.steer_rad),
             crosstrack_m: tracker.crosstrack_m,
+            along_m: projection.along_m,
+            remaining_m: remaining,
             reached: self.status.reached || wp_dist <= config.wp_radius_m || self.arrived,
             tracker,
+            speed,
         };
-        if self.arrived && target.stop {
+
+        if let Some(settling) = &mut self.settling {
+            settling.elapsed_s += dt_s;
+            settling.still_s = if est.speed_mps.abs() < REST_SPEED_MPS {
+                settling.still_s + dt_s
+            } else {
+                0.0
+            };
+            let rested = settling.still_s >= REST_S || settling.elapsed_s >= REST_TIMEOUT_S;
+            let short = remaining.abs() > half_tol
+                && self.reapproaches < MAX_REAPPROACHES
+                && self.approach_s <= APPROACH_TIMEOUT_S;
+            if rested && short {
+                self.settling = None;
+                self.reapproaches += 1;
+            } else if rested {
+                self.settling = None;
+                self.arrived = true;
+                self.status.reached = true;
+                let end_yaw = wrap_pi(
+                    path.heading_at(path.end_m())
+                        + if target.direction == Direction::Reverse {
+                            std::f64::consts::PI
+                        } else {
+                            0.0
+                        },
+                );
+                let yaw_error = wrap_pi(est.yaw_rad - end_yaw);
+                let report = StopReport {
+                    seq: target.seq,
+                    along_m: remaining,
+                    crosstrack_m: projection.crosstrack_m,
+                    yaw_error_rad: yaw_error,
+                    within_tolerance: false,
+                };
+                self.stop_report = Some(StopReport {
+                    within_tolerance: report.position_error_m() <= config.stop.position_m
+                        && yaw_error.abs() <= config.stop.yaw_rad,
+                    ..report
+                });
+            }
+        }
+
+        if self.stopping() {
             return NavDemand::default();
         }
-        let limits = SpeedLimits {
-            cruise_mps: target.speed_mps.unwrap_or(config.speed.cruise_mps),
-            ..config.speed
-        };
-        // Driving through, there is nothing to brake for at this leg's end.
-        let to_stop = if target.stop { remaining } else { f64::INFINITY };
-        let speed = scheduled_speed(&limits, to_stop, tracker.dyaw_rad);
         NavDemand {
             steer_rad: tracker.steer_rad,
-            speed_mps: match target.direction {
-                Direction::Forward => speed,
-                Direction::Reverse => -speed,
-            },
+            speed_mps: speed.speed_mps * target.direction.sign(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::pid::PidGains;
+
+    fn config() -> NavConfig {
+        NavConfig {
+            tracker: TrackerConfig {
+                lateral: PidGains {
+                    kp: 1.0,
+                    ..PidGains::default()
+                },
+                yaw: PidGains {
+                    kp: 0.5,
+                    ..PidGains::default()
+                },
+                preview_min_m: 2.0,
+                preview_s: 0.5,
+                feedforward_s: 0.3,
+                steer_max_rad: 30f64.to_radians(),
+                steer_rate_rad_s: 30f64.to_radians(),
+                wheelbase_m: 2.9,
+            },
+            speed: SpeedConfig {
+                cruise_mps: 2.0,
+                decel_mps2: 0.8,
+                lateral_accel_mps2: 0.98,
+                heading: PidGains {
+                    kp: 2.0,
+                    ..PidGains::default()
+                },
+                min_mps: 0.1,
+                approach_gain_per_s: 0.6,
+            },
+            speed_limit_mps: None,
+            wp_radius_m: 2.0,
+            arc_radius_m: 6.0,
+            min_arc_radius_m: 5.0,
+            stop: StopTolerance {
+                position_m: 0.01,
+                yaw_rad: 0.05f64.to_radians(),
+            },
+            stop_preview_m: 4.0,
+        }
+    }
+
+    /// A kinematic bicycle whose speed follows the demand with a lag.
+    struct Bicycle {
+        est: Estimate,
+    }
+
+    impl Bicycle {
+        fn new(north: f64, east: f64, yaw_deg: f64) -> Self {
+            Bicycle {
+                est: Estimate {
+                    position: Ned::new(north, east),
+                    yaw_rad: yaw_deg.to_radians(),
+                    position_valid: true,
+                    heading_valid: true,
+                    ..Estimate::default()
+                },
+            }
+        }
+
+        fn step(&mut self, demand: NavDemand, dt: f64) {
+            let e = &mut self.est;
+            e.speed_mps += (demand.speed_mps - e.speed_mps) * (dt / 0.3);
+            e.position.north_m += e.speed_mps * e.yaw_rad.cos() * dt;
+            e.position.east_m += e.speed_mps * e.yaw_rad.sin() * dt;
+            e.yaw_rad = wrap_pi(e.yaw_rad + e.speed_mps * demand.steer_rad.tan() / 2.9 * dt);
+        }
+    }
+
+    #[test]
+    fn drives_round_a_corner_onto_the_next_leg_and_stops_precisely() {
+        let cfg = config();
+        let mut nav = Navigator::default();
+        let mut car = Bicycle::new(0.0, 0.0, 0.0);
+        let (a, b, c) = (Ned::new(0.0, 0.0), Ned::new(30.0, 0.0), Ned::new(30.0, 25.0));
+        nav.set_target(
+            a,
+            NavTarget {
+                stop: false,
+                next: Some(c),
+                ..NavTarget::stop_at(b)
+            },
+        );
+        let dt = 0.02;
+        let mut worst_on_path = 0.0f64;
+        let mut t = 0.0;
+        while !nav.arrived() {
+            let d = nav.update(&car.est, &cfg, dt);
+            car.step(d, dt);
+            worst_on_path = worst_on_path.max(nav.status().crosstrack_m.abs());
+            t += dt;
+            assert!(t < 60.0, "never reached the corner");
+        }
+        // Arrived in the middle of the arc: about R(√2 − 1) from b.
+        assert!((car.est.position.distance_to(&b) - 6.0 * (2f64.sqrt() - 1.0)).abs() < 0.1);
+        nav.set_target(
+            b,
+            NavTarget {
+                seq: Some(3),
+                ..NavTarget::stop_at(c)
+            },
+        );
+        assert!(nav.target().is_some());
+        let mut report = None;
+        while report.is_none() {
+            let d = nav.update(&car.est, &cfg, dt);
+            car.step(d, dt);
+            if nav.status().along_m > 2.0 {
+                worst_on_path = worst_on_path.max(nav.status().crosstrack_m.abs());
+            }
+            report = nav.take_stop_report();
+            t += dt;
+            assert!(t < 120.0, "never stopped");
+        }
+        let report = report.unwrap();
+        assert_eq!(report.seq, Some(3));
+        assert!(report.within_tolerance, "{report:?}");
+        assert!(car.est.position.distance_to(&c) < 0.01, "{:?}", car.est.position);
+        assert!(worst_on_path < 0.3, "{worst_on_path}");
+    }
+
+    #[test]
+    fn a_reversal_has_no_arc_and_a_new_direction_no_carried_arc() {
+        let cfg = config();
+        let mut nav = Navigator::default();
+        let est = Bicycle::new(0.0, 0.0, 0.0).est;
+        nav.set_target(
+            Ned::new(0.0, 0.0),
+            NavTarget {
+                stop: false,
+                next: Some(Ned::new(0.0, 0.0)),
+                ..NavTarget::stop_at(Ned::new(20.0, 0.0))
+            },
+        );
+        nav.update(&est, &cfg, 0.02);
+        assert_eq!(nav.path().unwrap().pieces().len(), 1);
     }
 }

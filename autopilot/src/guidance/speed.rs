@@ -1,48 +1,196 @@
-//! How fast to drive: the cruise speed, limited so the vehicle can still stop
-//! at the end of the leg and slowed while its heading is far off the path.
+//! How fast to drive along a leg: the cruise speed, limited by the path's
+//! curvature ahead (a lateral-acceleration limit, braking in time for an
+//! arc), by the heading error (seed 002 §4.1: a PID on the angle deviation
+//! whose output is the speed), and by a stop at the leg's end, whose final
+//! approach is a position loop that ends on the point (DESIGN §5.3).
 
-/// Limits for the speed schedule.
+use crate::control::pid::{PidGains, PidState};
+
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SpeedLimits {
+pub struct SpeedConfig {
     pub cruise_mps: f64,
     /// Deceleration the schedule plans with (below the vehicle's brake limit).
     pub decel_mps2: f64,
-    /// Slowest approach speed, so the vehicle does not stall short of a stop.
-    pub approach_mps: f64,
+    /// Lateral acceleration allowed on an arc (`ATC_TURN_MAX_G`·g).
+    pub lateral_accel_mps2: f64,
+    /// Heading error (rad) → speed reduction (m/s) (`PVW_SPD_*`).
+    pub heading: PidGains,
+    /// Slowest the heading and curvature limits go, so the vehicle does not
+    /// crawl while it turns onto the path: this, or a quarter of the cruise
+    /// speed if that is more.
+    pub min_mps: f64,
+    /// Final approach to a stop: speed = gain × distance to go
+    /// (`WP_APPR_GAIN`), which also backs up after an overshoot.
+    pub approach_gain_per_s: f64,
 }
 
-/// Speed magnitude for `remaining_m` to go to a stop with a heading error of
-/// `heading_error_rad`.
-pub fn scheduled_speed(limits: &SpeedLimits, remaining_m: f64, heading_error_rad: f64) -> f64 {
-    let cruise = limits.cruise_mps.max(0.0);
-    let stopping = (2.0 * limits.decel_mps2.max(0.01) * remaining_m.max(0.0)).sqrt();
-    // Large heading errors make the vehicle sweep sideways: slow down, but
-    // never below the approach speed so it can still turn onto the path.
-    let heading_factor = heading_error_rad.cos().max(0.0);
-    let speed = cruise.min(stopping).min(cruise * heading_factor.max(0.25));
-    speed.max(limits.approach_mps.min(cruise))
+/// What set the speed, for telemetry and tuning.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SpeedLimit {
+    #[default]
+    Cruise,
+    Curvature,
+    Heading,
+    Braking,
+    Approach,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SpeedStatus {
+    /// Along the direction of travel; negative backs up to a stop point
+    /// after an overshoot.
+    pub speed_mps: f64,
+    pub limit: SpeedLimit,
+    /// The heading PID's reduction.
+    pub heading_reduction_mps: f64,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SpeedState {
+    heading: PidState,
+}
+
+impl SpeedState {
+    pub fn reset(&mut self) {
+        *self = SpeedState::default();
+    }
+}
+
+/// Where the vehicle is and what lies ahead on its leg.
+#[derive(Clone, Copy, Debug)]
+pub struct SpeedInputs<'a> {
+    pub along_m: f64,
+    /// Along-track position of the stop, when the leg ends in one.
+    pub stop_at_m: Option<f64>,
+    /// (start along the path, curvature) of each arc not yet left behind.
+    pub arcs: &'a [(f64, f64)],
+    /// The tracker's heading error relative to the path.
+    pub heading_error_rad: f64,
+}
+
+fn braking_limit(speed_at_mps: f64, distance_m: f64, decel_mps2: f64) -> f64 {
+    (speed_at_mps * speed_at_mps + 2.0 * decel_mps2 * distance_m.max(0.0)).sqrt()
+}
+
+pub fn scheduled_speed(
+    config: &SpeedConfig,
+    state: &mut SpeedState,
+    inputs: &SpeedInputs<'_>,
+    dt_s: f64,
+) -> SpeedStatus {
+    let cruise = config.cruise_mps.max(0.0);
+    let decel = config.decel_mps2.max(0.01);
+    let floor = config.min_mps.max(0.25 * cruise).min(cruise);
+    let mut status = SpeedStatus {
+        speed_mps: cruise,
+        limit: SpeedLimit::Cruise,
+        heading_reduction_mps: 0.0,
+    };
+    let limit = |speed: f64, why: SpeedLimit, status: &mut SpeedStatus| {
+        if speed < status.speed_mps {
+            status.speed_mps = speed;
+            status.limit = why;
+        }
+    };
+
+    for &(start_m, curvature) in inputs.arcs {
+        if curvature.abs() > 1e-9 && config.lateral_accel_mps2 > 0.0 {
+            let on_arc = (config.lateral_accel_mps2 / curvature.abs()).sqrt().max(floor);
+            limit(
+                braking_limit(on_arc, start_m - inputs.along_m, decel),
+                SpeedLimit::Curvature,
+                &mut status,
+            );
+        }
+    }
+
+    let reduction = state
+        .heading
+        .update(&config.heading, inputs.heading_error_rad.abs(), dt_s)
+        .output()
+        .max(0.0);
+    status.heading_reduction_mps = reduction;
+    limit((cruise - reduction).max(floor), SpeedLimit::Heading, &mut status);
+
+    if let Some(stop_m) = inputs.stop_at_m {
+        let remaining = stop_m - inputs.along_m;
+        limit(braking_limit(0.0, remaining, decel), SpeedLimit::Braking, &mut status);
+        // The position loop: never below it near the stop (the heading and
+        // curvature floors do not apply), signed so an overshoot backs up.
+        let approach = config.approach_gain_per_s * remaining;
+        if approach < status.speed_mps {
+            status.speed_mps = approach;
+            status.limit = SpeedLimit::Approach;
+        }
+    }
+    status
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    const LIMITS: SpeedLimits = SpeedLimits {
+    const CONFIG: SpeedConfig = SpeedConfig {
         cruise_mps: 2.0,
         decel_mps2: 0.5,
-        approach_mps: 0.1,
+        lateral_accel_mps2: 0.5,
+        heading: PidGains {
+            kp: 2.0,
+            ki: 0.0,
+            kd: 0.0,
+            imax: 0.0,
+        },
+        min_mps: 0.1,
+        approach_gain_per_s: 1.0,
     };
 
-    #[test]
-    fn cruises_far_from_the_stop_and_brakes_near_it() {
-        assert_eq!(scheduled_speed(&LIMITS, 50.0, 0.0), 2.0);
-        assert!((scheduled_speed(&LIMITS, 1.0, 0.0) - 1.0).abs() < 1e-12);
-        assert_eq!(scheduled_speed(&LIMITS, 0.0, 0.0), 0.1);
+    fn speed(along_m: f64, stop_at_m: Option<f64>, arcs: &[(f64, f64)], heading_error_rad: f64) -> SpeedStatus {
+        scheduled_speed(
+            &CONFIG,
+            &mut SpeedState::default(),
+            &SpeedInputs {
+                along_m,
+                stop_at_m,
+                arcs,
+                heading_error_rad,
+            },
+            0.02,
+        )
     }
 
     #[test]
-    fn heading_error_slows_down() {
-        assert!((scheduled_speed(&LIMITS, 50.0, 60f64.to_radians()) - 1.0).abs() < 1e-9);
-        assert_eq!(scheduled_speed(&LIMITS, 50.0, 3.0), 0.5);
+    fn cruises_far_from_the_stop_and_brakes_near_it() {
+        assert_eq!(speed(0.0, Some(50.0), &[], 0.0).speed_mps, 2.0);
+        let st = speed(47.0, Some(50.0), &[], 0.0);
+        assert_eq!(st.limit, SpeedLimit::Braking);
+        assert!((st.speed_mps - 3f64.sqrt()).abs() < 1e-12);
+        let st = speed(49.5, Some(50.0), &[], 0.0);
+        assert_eq!(st.limit, SpeedLimit::Approach);
+        assert!((st.speed_mps - 0.5).abs() < 1e-12);
+        assert_eq!(speed(50.0, Some(50.0), &[], 0.0).speed_mps, 0.0);
+        assert!(
+            speed(50.01, Some(50.0), &[], 0.0).speed_mps < 0.0,
+            "an overshoot backs up"
+        );
+    }
+
+    #[test]
+    fn slows_for_an_arc_in_time_and_on_it() {
+        // 0.5 m/s² on a 2 m radius: 1 m/s on the arc.
+        let arcs = [(20.0, -0.5)];
+        let on_arc = speed(21.0, None, &arcs, 0.0);
+        assert_eq!(on_arc.limit, SpeedLimit::Curvature);
+        assert!((on_arc.speed_mps - 1.0).abs() < 1e-12);
+        let before = speed(17.0, None, &arcs, 0.0);
+        assert!((before.speed_mps - 4f64.sqrt()).abs() < 1e-12, "{before:?}");
+        assert_eq!(speed(0.0, None, &arcs, 0.0).speed_mps, 2.0);
+    }
+
+    #[test]
+    fn heading_error_slows_down_but_not_to_a_stall() {
+        let st = speed(0.0, None, &[], 0.25);
+        assert_eq!(st.limit, SpeedLimit::Heading);
+        assert!((st.speed_mps - 1.5).abs() < 1e-12);
+        assert_eq!(speed(0.0, None, &[], 3.0).speed_mps, 0.5, "a quarter of cruise");
     }
 }

@@ -3,11 +3,12 @@
 //! Each step:
 //! 1. rotate the path into the vehicle frame (seed 000 eq. 8: x forward,
 //!    y right);
-//! 2. put the preview point P at distance L along the driving direction
-//!    (behind the vehicle when reversing), and find Q, the point of the path
-//!    on the line through P perpendicular to the vehicle's x axis;
-//! 3. Δx, Δy are Q's coordinates, Δθ the path's heading minus the vehicle's;
-//!    a PID on Δy gives y', a PID on Δθ gives θ';
+//! 2. put the preview point Q on the path a preview distance L beyond the
+//!    vehicle's own projection (P's along-track position), in the driving
+//!    direction: behind the vehicle when reversing; round a corner when the
+//!    path turns;
+//! 3. Δx, Δy are Q's coordinates, Δθ the path's heading at Q (its tangent on
+//!    an arc) minus the vehicle's; a PID on Δy gives y', a PID on Δθ gives θ';
 //! 4. steering = atan(y'/|Δx|) + θ' forwards, atan(y'/|Δx|) − θ' in reverse.
 //!
 //! Signs, checked rather than copied: a point to the right (y > 0) needs
@@ -16,22 +17,28 @@
 //! must turn clockwise (Δθ > 0) needs right steering forwards and left
 //! steering in reverse, the ± of step 4.
 //!
-//! Beyond the seed: the joint law assumes small errors. Far off the path
-//! or pointing away from it, its two bounded terms can cancel (the path is
-//! on the left, the heading error says turn right) and the vehicle drives on
-//! straight. So the tracker has a capture phase, with hysteresis: pure
-//! pursuit of a point L ahead of the vehicle's projection on the path, at
-//! full lock once that point is more than 90° off, until heading and offset
-//! are small enough for the seed law. Q is also never taken behind the
-//! vehicle's own projection on the path.
+//! Beyond the seed:
+//! - On a curved path a vehicle that is exactly on it still sees Q off its
+//!   axis and the path's heading at Q different from its own, and the seed's
+//!   law would steer by gains rather than by the path (and hold a steady
+//!   offset on an arc). So Δy and Δθ are taken relative to what a vehicle on
+//!   the path at the projection would see, and the path's own curvature is
+//!   fed forward: δ = ±atan(wheelbase·κ), κ read a little ahead
+//!   (`feedforward_s`) so the steering has turned by the time the arc
+//!   begins. On a straight both corrections are zero and the law is the
+//!   seed's.
+//! - The joint law assumes small errors. Far off the path or pointing away
+//!   from it, its two bounded terms can cancel (the path is on the left, the
+//!   heading error says turn right) and the vehicle drives on straight. So
+//!   the tracker has a capture phase, with hysteresis: pure pursuit of Q, at
+//!   full lock once Q is more than 90° off the driving direction, until
+//!   heading and offset are small enough for the seed law.
+//! - The command is limited in angle and in rate, as the steering gear is.
 
 use crate::control::pid::{PidGains, PidState, PidTerms};
 use crate::geo::{Ned, wrap_pi};
-use crate::guidance::path::Segment;
+use crate::guidance::path::{LegPath, PathProjection};
 
-/// Below this |u·x| the path runs almost across the vehicle and the
-/// perpendicular through P meets it far away: use P's projection instead.
-const MIN_PATH_ALONG_AXIS: f64 = 0.1;
 /// Smallest |Δx| used in atan(y'/|Δx|).
 const MIN_DX_M: f64 = 0.1;
 /// Capture starts beyond this heading error…
@@ -49,8 +56,13 @@ pub struct TrackerConfig {
     pub preview_min_m: f64,
     /// Added preview per m/s of speed (`PVW_DIST_K`).
     pub preview_s: f64,
+    /// How far ahead, in seconds of travel, the path's curvature is fed
+    /// forward (`PVW_FF_TIME`).
+    pub feedforward_s: f64,
     pub steer_max_rad: f64,
-    /// For the capture phase's pure pursuit (tan δ = 2·L_wb·sin α / d).
+    /// Steering rate limit (`VEH_STEER_RATE`); 0 for none.
+    pub steer_rate_rad_s: f64,
+    /// For the curvature feed-forward and the capture phase's pure pursuit.
     pub wheelbase_m: f64,
 }
 
@@ -60,16 +72,33 @@ pub enum Direction {
     Reverse,
 }
 
+impl Direction {
+    /// +1 forwards, −1 in reverse.
+    pub fn sign(self) -> f64 {
+        match self {
+            Direction::Forward => 1.0,
+            Direction::Reverse => -1.0,
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct TrackerState {
     lateral: PidState,
     yaw: PidState,
     capturing: bool,
+    /// The last command, for the rate limit (None: no limit on the first).
+    last_steer_rad: Option<f64>,
 }
 
 impl TrackerState {
+    /// Forgets the PID history (a new leg). The steering command's rate
+    /// limit carries on from where the wheels are.
     pub fn reset(&mut self) {
-        *self = TrackerState::default();
+        *self = TrackerState {
+            last_steer_rad: self.last_steer_rad,
+            ..TrackerState::default()
+        };
     }
 }
 
@@ -88,11 +117,17 @@ pub struct TrackerStatus {
     pub dx_m: f64,
     pub dy_m: f64,
     pub dyaw_rad: f64,
+    /// Δy and Δθ relative to a vehicle on the path: what the PIDs act on.
+    pub lateral_error_m: f64,
+    pub yaw_error_rad: f64,
     pub lateral: PidTerms,
     pub yaw: PidTerms,
-    /// Commanded steering angle after the limit, positive right.
+    /// The path's curvature fed forward as a steering angle.
+    pub feedforward_rad: f64,
+    /// Commanded steering angle after the limits, positive right.
     pub steer_rad: f64,
-    /// Reference point's distance from the path, positive right of it.
+    /// Reference point's distance from the path, positive right of the
+    /// direction of travel.
     pub crosstrack_m: f64,
     /// The heading the vehicle should have at Q.
     pub desired_yaw_rad: f64,
@@ -109,89 +144,128 @@ pub fn to_vehicle_frame(offset_north_m: f64, offset_east_m: f64, yaw_rad: f64) -
     )
 }
 
-/// One tracker step along a straight leg.
-pub fn track_segment(
+fn relative(p: &Ned, from: &Ned, yaw_rad: f64) -> (f64, f64) {
+    to_vehicle_frame(p.north_m - from.north_m, p.east_m - from.east_m, yaw_rad)
+}
+
+/// What the tracker is asked to follow: a leg's path, where the vehicle is
+/// on it, and which way it drives.
+#[derive(Clone, Copy, Debug)]
+pub struct TrackInput<'a> {
+    pub path: &'a LegPath,
+    pub projection: PathProjection,
+    pub direction: Direction,
+    /// A longer preview than the speed schedule gives (the final approach
+    /// to a stop, where heading matters more than millimetres sideways).
+    pub min_preview_m: f64,
+}
+
+/// One tracker step.
+pub fn track(
     config: &TrackerConfig,
     state: &mut TrackerState,
     pose: &VehiclePose,
     speed_mps: f64,
-    segment: &Segment,
-    direction: Direction,
+    input: TrackInput<'_>,
     dt_s: f64,
 ) -> TrackerStatus {
-    let preview_m = config.preview_min_m + config.preview_s * speed_mps.abs();
-    let px = match direction {
-        Direction::Forward => preview_m,
-        Direction::Reverse => -preview_m,
+    let TrackInput {
+        path,
+        projection,
+        direction,
+        min_preview_m,
+    } = input;
+    let flip = match direction {
+        Direction::Forward => 0.0,
+        Direction::Reverse => std::f64::consts::PI,
     };
-
-    let projection = segment.project(&pose.position);
-    let (ax, ay) = to_vehicle_frame(
-        segment.start.north_m - pose.position.north_m,
-        segment.start.east_m - pose.position.east_m,
-        pose.yaw_rad,
-    );
-    let (un, ue) = segment.direction();
-    let (ux, uy) = to_vehicle_frame(un, ue, pose.yaw_rad);
-    // Q: where the perpendicular through P meets the path (step 2), unless
-    // that is nearly parallel to the path or behind the vehicle's own
-    // projection; then the point L further along the path.
-    let carrot_along = projection.along_m.max(0.0) + preview_m;
-    let along_q = if ux.abs() >= MIN_PATH_ALONG_AXIS {
-        let s = (px - ax) / ux;
-        if s >= projection.along_m { s } else { carrot_along }
-    } else {
-        carrot_along
-    };
-    let (qx, qy) = (ax + along_q * ux, ay + along_q * uy);
-
-    let path_yaw = segment.bearing_rad();
-    let desired_yaw = match direction {
-        Direction::Forward => path_yaw,
-        Direction::Reverse => wrap_pi(path_yaw + std::f64::consts::PI),
-    };
+    let preview_m = (config.preview_min_m + config.preview_s * speed_mps.abs()).max(min_preview_m);
+    // The reference point's place on the path; never behind the start, so
+    // a vehicle waiting before the leg looks along it.
+    let s_ref = projection.along_m.max(0.0);
+    let s_q = s_ref + preview_m;
+    let q = path.point_at(s_q);
+    let (qx, qy) = relative(&q, &pose.position, pose.yaw_rad);
+    let desired_yaw = wrap_pi(path.heading_at(s_q) + flip);
     let dyaw = wrap_pi(desired_yaw - pose.yaw_rad);
+
+    // What a vehicle on the path at the reference point would see.
+    let on_path = path.point_at(s_ref);
+    let on_path_yaw = wrap_pi(path.heading_at(s_ref) + flip);
+    let (_, qy_nominal) = relative(&q, &on_path, on_path_yaw);
+    let dyaw_nominal = wrap_pi(desired_yaw - on_path_yaw);
+    let lateral_error = qy - qy_nominal;
+    let yaw_error = wrap_pi(dyaw - dyaw_nominal);
 
     let offset = projection.crosstrack_m.abs();
     if state.capturing {
-        state.capturing = !(dyaw.abs() < CAPTURE_EXIT_RAD && offset < 0.5 * preview_m);
+        state.capturing = !(yaw_error.abs() < CAPTURE_EXIT_RAD && offset < 0.5 * preview_m);
     } else {
-        state.capturing = dyaw.abs() > CAPTURE_ENTER_RAD || offset > 2.0 * preview_m;
+        state.capturing = yaw_error.abs() > CAPTURE_ENTER_RAD || offset > 2.0 * preview_m;
     }
 
-    let (lateral, yaw, steer) = if state.capturing {
+    // The path's curvature as a ramp the steering gear can follow: averaged
+    // over the distance the wheels need to turn to the path's sharpest arc
+    // at the rate limit, and centred `feedforward_s` ahead for the lags, so
+    // the vehicle enters and leaves an arc half early, half late, and the
+    // error either side cancels rather than all landing on the outside.
+    let speed = speed_mps.abs();
+    let ramp_s = if config.steer_rate_rad_s > 0.0 {
+        (config.wheelbase_m * path.max_curvature()).atan() / config.steer_rate_rad_s
+    } else {
+        0.0
+    };
+    let centre = s_ref + config.feedforward_s * speed;
+    let half = 0.5 * ramp_s * speed;
+    let curvature = path.mean_curvature(centre - half, centre + half);
+    // Reversing, the yaw rate is v·tan δ / L with v < 0: the opposite lock
+    // turns the direction of travel the same way.
+    let feedforward = direction.sign() * (config.wheelbase_m * curvature).atan();
+
+    let (lateral, yaw, feedforward, demand) = if state.capturing {
         state.lateral.reset();
         state.yaw.reset();
-        let (cx, cy) = to_vehicle_frame(
-            segment.point_at(carrot_along).north_m - pose.position.north_m,
-            segment.point_at(carrot_along).east_m - pose.position.east_m,
-            pose.yaw_rad,
-        );
         (
             PidTerms::default(),
             PidTerms::default(),
-            pursuit_steer(config, cx, cy, direction),
+            0.0,
+            pursuit_steer(config, qx, qy, direction),
         )
     } else {
-        let lateral = state.lateral.update(&config.lateral, qy, dt_s);
-        let yaw = state.yaw.update(&config.yaw, dyaw, dt_s);
+        let lateral = state.lateral.update(&config.lateral, lateral_error, dt_s);
+        let yaw = state.yaw.update(&config.yaw, yaw_error, dt_s);
         let lateral_angle = lateral.output().atan2(qx.abs().max(MIN_DX_M));
-        let steer = match direction {
+        let correction = match direction {
             Direction::Forward => lateral_angle + yaw.output(),
             Direction::Reverse => lateral_angle - yaw.output(),
         };
-        (lateral, yaw, steer)
+        (lateral, yaw, feedforward, feedforward + correction)
     };
+
+    let mut steer = demand.clamp(-config.steer_max_rad, config.steer_max_rad);
+    if let Some(last) = state.last_steer_rad
+        && config.steer_rate_rad_s > 0.0
+        && dt_s > 0.0
+    {
+        let step = config.steer_rate_rad_s * dt_s;
+        steer = steer.clamp(last - step, last + step);
+    }
+    if steer.is_finite() {
+        state.last_steer_rad = Some(steer);
+    }
 
     TrackerStatus {
         preview_m,
-        preview_point: segment.point_at(along_q),
+        preview_point: q,
         dx_m: qx,
         dy_m: qy,
         dyaw_rad: dyaw,
+        lateral_error_m: lateral_error,
+        yaw_error_rad: yaw_error,
         lateral,
         yaw,
-        steer_rad: steer.clamp(-config.steer_max_rad, config.steer_max_rad),
+        feedforward_rad: feedforward,
+        steer_rad: steer,
         crosstrack_m: projection.crosstrack_m,
         desired_yaw_rad: desired_yaw,
         capturing: state.capturing,
@@ -201,10 +275,7 @@ pub fn track_segment(
 /// Pure pursuit of a point at (x, y) in the vehicle frame, in the direction
 /// of travel: full lock once the point is more than 90° off that direction.
 fn pursuit_steer(config: &TrackerConfig, x: f64, y: f64, direction: Direction) -> f64 {
-    let ahead = match direction {
-        Direction::Forward => x,
-        Direction::Reverse => -x,
-    };
+    let ahead = x * direction.sign();
     let alpha = y.atan2(ahead);
     if alpha.abs() >= std::f64::consts::FRAC_PI_2 {
         return config.steer_max_rad.copysign(alpha);
@@ -216,6 +287,7 @@ fn pursuit_steer(config: &TrackerConfig, x: f64, y: f64, direction: Direction) -
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::guidance::path::fit_corner;
     use std::f64::consts::FRAC_PI_2;
 
     fn config() -> TrackerConfig {
@@ -234,13 +306,39 @@ mod tests {
             },
             preview_min_m: 2.0,
             preview_s: 0.5,
+            feedforward_s: 0.0,
             steer_max_rad: 30f64.to_radians(),
+            steer_rate_rad_s: 0.0,
             wheelbase_m: 2.9,
         }
     }
 
-    fn north_leg() -> Segment {
-        Segment::new(Ned::new(0.0, 0.0), Ned::new(100.0, 0.0))
+    fn leg(from: (f64, f64), to: (f64, f64)) -> LegPath {
+        LegPath::new(None, Ned::new(from.0, from.1), Ned::new(to.0, to.1), None)
+    }
+
+    fn step(
+        cfg: &TrackerConfig,
+        state: &mut TrackerState,
+        pose: &VehiclePose,
+        speed: f64,
+        path: &LegPath,
+        direction: Direction,
+    ) -> TrackerStatus {
+        let projection = path.project(&pose.position, 0);
+        track(
+            cfg,
+            state,
+            pose,
+            speed,
+            TrackInput {
+                path,
+                projection,
+                direction,
+                min_preview_m: 0.0,
+            },
+            0.02,
+        )
     }
 
     #[test]
@@ -256,18 +354,81 @@ mod tests {
             position: Ned::new(10.0, 0.0),
             yaw_rad: 0.0,
         };
-        let st = track_segment(
+        let path = leg((0.0, 0.0), (100.0, 0.0));
+        let st = step(
             &config(),
             &mut TrackerState::default(),
             &pose,
             2.0,
-            &north_leg(),
+            &path,
             Direction::Forward,
-            0.02,
         );
         assert_eq!(st.steer_rad, 0.0);
         assert_eq!(st.crosstrack_m, 0.0);
         assert!((st.dx_m - 3.0).abs() < 1e-12, "preview 2 m + 0.5 s × 2 m/s");
+        // Reversing down the same line: Q behind, still no steering.
+        let back = leg((100.0, 0.0), (0.0, 0.0));
+        let st = step(
+            &config(),
+            &mut TrackerState::default(),
+            &pose,
+            -2.0,
+            &back,
+            Direction::Reverse,
+        );
+        assert_eq!(st.steer_rad, 0.0);
+        assert!((st.dx_m + 3.0).abs() < 1e-12);
+    }
+
+    /// A vehicle exactly on an arc, on its tangent, steers the arc's own
+    /// Ackermann angle and nothing else, forwards and in reverse; the
+    /// heading asked for at Q is the arc's tangent there.
+    #[test]
+    fn on_an_arc_steers_its_curvature_with_the_tangent_yaw() {
+        let corner = fit_corner(
+            Ned::new(0.0, 0.0),
+            Ned::new(30.0, 0.0),
+            Ned::new(30.0, 30.0),
+            8.0,
+            5.0,
+            30.0,
+            15.0,
+        )
+        .unwrap();
+        let arc = corner.arc;
+        let cfg = config();
+        let expected = (cfg.wheelbase_m / 8.0).atan();
+        for direction in [Direction::Forward, Direction::Reverse] {
+            // The same arc driven forwards (north then east) or, reversed,
+            // its mirror image travelled backwards.
+            let path = LegPath::new(Some(arc), arc.point_at(0.0), arc.end(), None);
+            let at = 0.3 * arc.length_m();
+            let flip = if direction == Direction::Reverse {
+                std::f64::consts::PI
+            } else {
+                0.0
+            };
+            let pose = VehiclePose {
+                position: arc.point_at(at),
+                yaw_rad: wrap_pi(arc.heading_at(at) + flip),
+            };
+            let speed = direction.sign() * 1.0;
+            let st = step(&cfg, &mut TrackerState::default(), &pose, speed, &path, direction);
+            let case = format!("{direction:?}: {st:?}");
+            assert!(st.crosstrack_m.abs() < 1e-9, "{case}");
+            assert!(
+                st.lateral_error_m.abs() < 1e-9 && st.yaw_error_rad.abs() < 1e-9,
+                "{case}"
+            );
+            assert!((st.steer_rad - direction.sign() * expected).abs() < 1e-9, "{case}");
+            let tangent_at_q = wrap_pi(arc.heading_at(at + st.preview_m) + flip);
+            assert!(wrap_pi(st.desired_yaw_rad - tangent_at_q).abs() < 1e-9, "{case}");
+            // Travel-right is the vehicle's right forwards, its left reversing.
+            assert!(
+                st.dy_m * direction.sign() > 0.0,
+                "{case}: a right-hand arc curves off to the right"
+            );
+        }
     }
 
     #[test]
@@ -277,28 +438,25 @@ mod tests {
             position: Ned::new(10.0, -0.5),
             yaw_rad: 0.0,
         };
-        let fwd = track_segment(
+        let fwd = step(
             &config(),
             &mut TrackerState::default(),
             &pose,
             1.0,
-            &north_leg(),
+            &leg((0.0, 0.0), (100.0, 0.0)),
             Direction::Forward,
-            0.02,
         );
         assert!(fwd.steer_rad > 0.0);
         assert!((fwd.crosstrack_m + 0.5).abs() < 1e-12);
         // Reversing southwards along a south-going leg, still facing north:
         // the path is on the vehicle's right, so steer right.
-        let south_leg = Segment::new(Ned::new(100.0, 0.0), Ned::new(0.0, 0.0));
-        let rev = track_segment(
+        let rev = step(
             &config(),
             &mut TrackerState::default(),
             &pose,
             -1.0,
-            &south_leg,
+            &leg((100.0, 0.0), (0.0, 0.0)),
             Direction::Reverse,
-            0.02,
         );
         assert!(rev.steer_rad > 0.0, "{rev:?}");
         assert!(rev.dx_m < 0.0, "preview point behind");
@@ -315,27 +473,76 @@ mod tests {
             lateral: PidGains::default(),
             ..config()
         };
-        let fwd = track_segment(
+        let fwd = step(
             &cfg,
             &mut TrackerState::default(),
             &pose,
             1.0,
-            &north_leg(),
+            &leg((0.0, 0.0), (100.0, 0.0)),
             Direction::Forward,
-            0.02,
         );
         assert!(fwd.steer_rad > 0.0);
-        let south_leg = Segment::new(Ned::new(100.0, 0.0), Ned::new(0.0, 0.0));
-        let rev = track_segment(
+        let rev = step(
             &cfg,
             &mut TrackerState::default(),
             &pose,
             -1.0,
-            &south_leg,
+            &leg((100.0, 0.0), (0.0, 0.0)),
             Direction::Reverse,
-            0.02,
         );
         assert!(rev.steer_rad < 0.0);
+    }
+
+    #[test]
+    fn steering_is_rate_limited() {
+        let cfg = TrackerConfig {
+            steer_rate_rad_s: 30f64.to_radians(),
+            ..config()
+        };
+        let mut state = TrackerState::default();
+        let path = leg((0.0, 0.0), (100.0, 0.0));
+        let straight = VehiclePose {
+            position: Ned::new(10.0, 0.0),
+            yaw_rad: 0.0,
+        };
+        step(&cfg, &mut state, &straight, 1.0, &path, Direction::Forward);
+        let far_left = VehiclePose {
+            position: Ned::new(10.0, -2.0),
+            yaw_rad: 0.0,
+        };
+        let st = step(&cfg, &mut state, &far_left, 1.0, &path, Direction::Forward);
+        assert!((st.steer_rad - 0.6f64.to_radians()).abs() < 1e-12, "30°/s × 20 ms");
+    }
+
+    /// Drives a kinematic bicycle (rear-axle reference) along `path`.
+    fn drive(path: &LegPath, direction: Direction, start: VehiclePose, speed: f64, seconds: f64) -> Vec<(f64, f64)> {
+        let (wheelbase, dt) = (2.9, 0.02);
+        let mut pose = start;
+        let mut state = TrackerState::default();
+        let mut piece = 0;
+        let mut trace = Vec::new();
+        for _ in 0..(seconds / dt) as usize {
+            let projection = path.project(&pose.position, piece);
+            piece = projection.piece;
+            let st = track(
+                &config(),
+                &mut state,
+                &pose,
+                speed,
+                TrackInput {
+                    path,
+                    projection,
+                    direction,
+                    min_preview_m: 0.0,
+                },
+                dt,
+            );
+            trace.push((projection.along_m, st.crosstrack_m));
+            pose.position.north_m += speed * pose.yaw_rad.cos() * dt;
+            pose.position.east_m += speed * pose.yaw_rad.sin() * dt;
+            pose.yaw_rad = wrap_pi(pose.yaw_rad + speed * st.steer_rad.tan() / wheelbase * dt);
+        }
+        trace
     }
 
     /// Closed loop on a kinematic bicycle: starting off the path and askew
@@ -348,30 +555,54 @@ mod tests {
             .into_iter()
             .flat_map(|d| starts.into_iter().map(move |s| (d, s)))
         {
-            let (speed, leg) = match direction {
-                Direction::Forward => (1.5, Segment::new(Ned::new(0.0, 0.0), Ned::new(1000.0, 0.0))),
-                Direction::Reverse => (-1.0, Segment::new(Ned::new(0.0, 0.0), Ned::new(-1000.0, 0.0))),
+            let (speed, path) = match direction {
+                Direction::Forward => (1.5, leg((0.0, 0.0), (1000.0, 0.0))),
+                Direction::Reverse => (-1.0, leg((0.0, 0.0), (-1000.0, 0.0))),
             };
-            let mut pose = VehiclePose {
+            let start = VehiclePose {
                 position: Ned::new(0.0, offset_m),
                 yaw_rad: f64::to_radians(yaw_deg),
             };
-            let mut state = TrackerState::default();
-            let (wheelbase, dt) = (2.9, 0.02);
-            let mut worst_late = 0.0f64;
             // Pointing away in reverse takes a wide loop: allow 100 s.
-            for k in 0..5000 {
-                let st = track_segment(&config(), &mut state, &pose, speed, &leg, direction, dt);
-                pose.position.north_m += speed * pose.yaw_rad.cos() * dt;
-                pose.position.east_m += speed * pose.yaw_rad.sin() * dt;
-                pose.yaw_rad = wrap_pi(pose.yaw_rad + speed * st.steer_rad.tan() / wheelbase * dt);
-                if k > 4000 {
-                    worst_late = worst_late.max(st.crosstrack_m.abs());
-                }
-            }
+            let trace = drive(&path, direction, start, speed, 100.0);
+            let worst_late = trace[4000..].iter().map(|(_, x)| x.abs()).fold(0.0, f64::max);
             let case = format!("{direction:?} from {offset_m} m, {yaw_deg}°");
             assert!(worst_late < 0.01, "{case}: crosstrack {worst_late} m after 80 s");
-            assert!(pose.yaw_rad.abs() < 0.01, "{case}: yaw {}", pose.yaw_rad);
+        }
+    }
+
+    /// Round a 90° corner with an 8 m arc, forwards and in reverse: once on
+    /// the arc, the error stays at millimetres (the arc's curvature is fed
+    /// forward, the PIDs only correct).
+    #[test]
+    fn follows_a_corner_arc_forwards_and_in_reverse() {
+        let (a, b, c) = (Ned::new(0.0, 0.0), Ned::new(40.0, 0.0), Ned::new(40.0, 40.0));
+        let corner = fit_corner(a, b, c, 8.0, 5.0, 40.0, 20.0).unwrap();
+        let first = LegPath::new(None, a, b, Some((&corner, c)));
+        let arc_start = first.piece_start_m(1);
+        let arc_end = arc_start + corner.arc.length_m();
+        for (direction, speed, yaw) in [
+            (Direction::Forward, 1.0, 0.0),
+            (Direction::Reverse, -0.5, std::f64::consts::PI),
+        ] {
+            let start = VehiclePose {
+                position: a,
+                yaw_rad: yaw,
+            };
+            let trace = drive(&first, direction, start, speed, (arc_end + 10.0) / speed.abs());
+            let on_arc: Vec<f64> = trace
+                .iter()
+                .filter(|(s, _)| *s > arc_start + 3.0 && *s < arc_end)
+                .map(|(_, x)| x.abs())
+                .collect();
+            assert!(!on_arc.is_empty(), "{direction:?}: never reached the arc");
+            let worst = on_arc.iter().copied().fold(0.0, f64::max);
+            assert!(worst < 0.05, "{direction:?}: {worst} m on the arc");
+            let (last_s, last_x) = *trace.last().unwrap();
+            assert!(
+                last_s > arc_end + 5.0 && last_x.abs() < 0.01,
+                "{direction:?}: ends {last_s}, {last_x}"
+            );
         }
     }
 }

@@ -1,6 +1,8 @@
 //! ArduPilot Rover's modes: their numbers (HEARTBEAT `custom_mode`), names
 //! and properties. Ground stations decode the mode from the number, so these
-//! are fixed by ArduPilot (`Rover/mode.h`).
+//! are fixed by ArduPilot (`Rover/mode.h`). Furrow adds one of its own,
+//! MAGNETIC (magnetic-tape following, seed 002), on a number ArduPilot
+//! leaves unused (20); a ground station shows it by number.
 
 use std::fmt;
 
@@ -21,9 +23,10 @@ pub enum Mode {
     SmartRtl,
     Guided,
     Initialising,
+    Magnetic,
 }
 
-const ALL: [Mode; 14] = [
+const ALL: [Mode; 15] = [
     Mode::Manual,
     Mode::Acro,
     Mode::Steering,
@@ -38,6 +41,7 @@ const ALL: [Mode; 14] = [
     Mode::SmartRtl,
     Mode::Guided,
     Mode::Initialising,
+    Mode::Magnetic,
 ];
 
 impl Mode {
@@ -57,6 +61,7 @@ impl Mode {
             Mode::SmartRtl => 12,
             Mode::Guided => 15,
             Mode::Initialising => 16,
+            Mode::Magnetic => 20,
         }
     }
 
@@ -81,13 +86,17 @@ impl Mode {
             Mode::SmartRtl => "SMART_RTL",
             Mode::Guided => "GUIDED",
             Mode::Initialising => "INITIALISING",
+            Mode::Magnetic => "MAGNETIC",
         }
     }
 
     /// Whether Furrow implements the mode. The others keep their numbers so a
     /// ground station's request is refused with a reason, not misread.
     pub fn is_available(self) -> bool {
-        matches!(self, Mode::Manual | Mode::Hold | Mode::Guided | Mode::Rtl | Mode::Auto)
+        matches!(
+            self,
+            Mode::Manual | Mode::Hold | Mode::Guided | Mode::Rtl | Mode::Auto | Mode::Magnetic
+        )
     }
 
     /// Needs a position estimate to be entered (and to stay in it).
@@ -117,6 +126,7 @@ impl Mode {
                 | Mode::Circle
                 | Mode::Follow
                 | Mode::Dock
+                | Mode::Magnetic
         )
     }
 

@@ -12,3 +12,4 @@ pub mod gcs;
 pub mod params;
 pub mod runner;
 pub mod simulation;
+pub mod tape;

@@ -39,6 +39,8 @@ pub struct SitlOptions {
     pub udp_port: Option<u16>,
     pub mavlink: Vec<Endpoint>,
     pub tlog: Option<PathBuf>,
+    /// A magnetic tape through a waypoint file's points, corner radius.
+    pub tape: Option<(PathBuf, f64)>,
 }
 
 /// Reads the wall clock for task timing (the edge's clock, injected into
@@ -101,6 +103,11 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
             .map_err(|e| format!("--speedup: {e}"))?;
     }
     let mut sim = Simulation::new(&options.sim, params);
+    if let Some((path, radius_m)) = &options.tape {
+        let tape = super::tape::load(path, sim.world(), *radius_m).map_err(|e| format!("--tape {e}"))?;
+        tracing::info!("magnetic tape laid: {:.1} m from {}", tape.length_m(), path.display());
+        sim.world_mut().set_tape(Some(tape));
+    }
     for (severity, text) in session.notices.drain(..) {
         sim.core_mut().add_startup_notice(severity, text);
     }

@@ -6,6 +6,7 @@
 use std::time::Duration;
 
 use drivers::gnss::NmeaReader;
+use drivers::magnetic::MagneticSample;
 use drivers::sim::{AckermannConfig, ActuatorDemand, DifferentialConfig, GeoPoint, VehicleModel, World, WorldConfig};
 use params::{ParamTable, ParamTableBuilder};
 
@@ -74,6 +75,20 @@ impl SimulationParams {
             sim,
         }
     }
+
+    /// Sets each NAME to VALUE, as a GCS would (same checks).
+    pub fn apply(&mut self, values: &[(String, f64)]) -> Result<(), String> {
+        for (name, value) in values {
+            let index = self
+                .table
+                .index_of(name)
+                .ok_or_else(|| format!("{name}: no such parameter"))?;
+            self.table
+                .set(index, *value)
+                .map_err(|e| format!("{name} = {value}: {e:?}"))?;
+        }
+        Ok(())
+    }
 }
 
 pub struct Simulation {
@@ -134,6 +149,14 @@ impl Simulation {
         self.world.take_gnss_bytes(&mut self.gnss_bytes);
         self.nmea.push(now.boot, &self.gnss_bytes, &mut self.inputs.gnss);
         self.inputs.battery = Some(self.world.battery());
+        self.inputs.magnetic = self
+            .world
+            .magnetic_sensors()
+            .map(|(front_mask, rear_mask)| MagneticSample {
+                t: now.boot,
+                front_mask,
+                rear_mask,
+            });
 
         self.core.step(now, &self.inputs, &mut self.outputs, timer);
         self.inputs.clear();
@@ -157,6 +180,11 @@ impl Simulation {
 
     pub fn world(&self) -> &World {
         &self.world
+    }
+
+    /// The world, to lay a magnetic tape or change the GNSS between steps.
+    pub fn world_mut(&mut self) -> &mut World {
+        &mut self.world
     }
 
     pub fn core(&self) -> &Core {

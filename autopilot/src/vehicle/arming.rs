@@ -23,7 +23,11 @@ impl Core {
             return failures;
         }
         let estimate = self.estimator.estimate();
-        if !self.estimator.gnss().has_fix(self.now.boot, FIX_MAX_AGE) || !estimate.position_valid {
+        // Driven by hand or along a tape, the vehicle needs no fix (as
+        // ArduPilot's manual modes); HOLD is where it waits to drive itself.
+        let needs_fix = !matches!(self.mode, Mode::Manual | Mode::Magnetic);
+        let has_fix = self.estimator.gnss().has_fix(self.now.boot, FIX_MAX_AGE) && estimate.position_valid;
+        if needs_fix && !has_fix {
             failures.push("No position fix");
         }
         if !estimate.heading_valid && self.mode.requires_position() {

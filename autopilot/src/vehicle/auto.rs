@@ -79,6 +79,7 @@ impl Core {
                     let (Some(to), from) = (self.resolve(&leg.to), leg.from.and_then(|p| self.resolve(&p))) else {
                         continue;
                     };
+                    let next = leg.next.and_then(|p| self.resolve(&p));
                     let target = NavTarget {
                         point: to,
                         speed_mps: self.missions.speed_mps,
@@ -88,6 +89,8 @@ impl Core {
                             Direction::Forward
                         },
                         stop: leg.stop,
+                        next,
+                        seq: Some(leg.seq),
                     };
                     self.navigator.set_target(from.unwrap_or(here), target);
                 }
@@ -99,10 +102,7 @@ impl Core {
                 }
                 Action::SetSpeed(speed) => {
                     self.missions.speed_mps = speed.map(f64::from);
-                    if let Some((from, mut target)) = self.current_leg() {
-                        target.speed_mps = self.missions.speed_mps;
-                        self.navigator.set_target(from, target);
-                    }
+                    self.navigator.set_speed(self.missions.speed_mps);
                 }
                 Action::SetServo { channel, pwm_us } => {
                     if let Some(slot) = self.missions.servo_us.get_mut(usize::from(channel) - 1) {
@@ -157,13 +157,6 @@ impl Core {
                 }
             }
         }
-    }
-
-    /// The leg being driven, to change its speed.
-    fn current_leg(&self) -> Option<(Ned, NavTarget)> {
-        let target = *self.navigator.target()?;
-        let from = self.navigator.leg_start()?;
-        Some((from, target))
     }
 
     /// MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT.

@@ -5,13 +5,16 @@ use drivers::sim::ActuatorDemand;
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
 use super::Core;
-use crate::control::mixer::{self, DriveTrain};
+use crate::control::ackermann::{AckermannGeometry, curvature_from_steer, differential_wheel_speeds};
+use crate::control::mixer::{self, DriveTrain, WheelOutputs};
 use crate::control::pid::PidGains;
 use crate::control::speed::SpeedControlConfig;
-use crate::guidance::navigator::{NavConfig, NavDemand};
-use crate::guidance::speed::SpeedLimits;
+use crate::guidance::navigator::{NavConfig, NavDemand, StopReport, StopTolerance};
+use crate::guidance::speed::SpeedConfig;
 use crate::guidance::tracker::TrackerConfig;
 use crate::modes::Mode;
+
+const GRAVITY_MPS2: f64 = 9.80665;
 
 /// The normalised commands of the last tick and what went to the actuators.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -21,6 +24,8 @@ pub struct DriveState {
     /// [-1, 1], negative reverse.
     pub throttle: f64,
     pub actuators: ActuatorDemand,
+    /// Per-wheel commands of an Ackermann vehicle (servos 5–8).
+    pub wheels: Option<WheelOutputs>,
 }
 
 impl DriveState {
@@ -29,6 +34,10 @@ impl DriveState {
             steering: 0.0,
             throttle: 0.0,
             actuators: mixer::neutral(drive),
+            wheels: match drive {
+                DriveTrain::Ackermann => Some(WheelOutputs::default()),
+                DriveTrain::Differential => None,
+            },
         }
     }
 }
@@ -56,6 +65,9 @@ impl Core {
             _ => nav.wp_speed_mps.get(t),
         };
         let accel = f64::from(nav.accel_max_mps2.get(t));
+        let wheelbase = f64::from(self.p.vehicle.wheelbase_m.get(t));
+        let steer_max = f64::from(self.p.vehicle.steer_max_deg.get(t)).to_radians();
+        let tightest_turn_m = wheelbase / steer_max.tan();
         NavConfig {
             tracker: TrackerConfig {
                 lateral: gains(pv.lat_p.get(t), pv.lat_i.get(t), pv.lat_d.get(t), pv.lat_imax_m.get(t)),
@@ -67,17 +79,36 @@ impl Core {
                 ),
                 preview_min_m: f64::from(pv.dist_m.get(t)),
                 preview_s: f64::from(pv.dist_k_s.get(t)),
-                steer_max_rad: f64::from(self.p.vehicle.steer_max_deg.get(t)).to_radians(),
-                wheelbase_m: f64::from(self.p.vehicle.wheelbase_m.get(t)),
+                feedforward_s: f64::from(pv.ff_time_s.get(t)),
+                steer_max_rad: steer_max,
+                steer_rate_rad_s: f64::from(self.p.vehicle.steer_rate_deg_s.get(t)).to_radians(),
+                wheelbase_m: wheelbase,
             },
-            speed: SpeedLimits {
+            speed: SpeedConfig {
                 cruise_mps: self.speed_override_mps.unwrap_or(f64::from(cruise)),
                 // Plan stops at 80 % of the speed controller's limit so the
                 // lagging vehicle still makes the stop.
                 decel_mps2: 0.8 * self.decel_limit_mps2().min(accel.max(0.1) * 4.0),
-                approach_mps: 0.1,
+                lateral_accel_mps2: f64::from(nav.turn_max_g.get(t)) * GRAVITY_MPS2,
+                heading: gains(
+                    pv.spd_p.get(t),
+                    pv.spd_i.get(t),
+                    pv.spd_d.get(t),
+                    pv.spd_imax_mps.get(t),
+                ),
+                min_mps: 0.1,
+                approach_gain_per_s: f64::from(nav.approach_gain.get(t)),
             },
+            speed_limit_mps: self.degraded_fix_speed_limit(),
             wp_radius_m: f64::from(nav.wp_radius_m.get(t)),
+            arc_radius_m: tightest_turn_m * f64::from(nav.arc_margin.get(t)),
+            // Room for the tracker's corrections on top of the arc.
+            min_arc_radius_m: tightest_turn_m * 1.05,
+            stop_preview_m: f64::from(pv.stop_dist_m.get(t)),
+            stop: StopTolerance {
+                position_m: f64::from(nav.stop_tol_mm.get(t)) / 1000.0,
+                yaw_rad: f64::from(nav.stop_tol_deg.get(t)).to_radians(),
+            },
         }
     }
 
@@ -128,6 +159,9 @@ impl Core {
                 let config = self.nav_config();
                 let estimate = *self.estimator.estimate();
                 let nav = self.navigator.update(&estimate, &config, dt_s);
+                if let Some(report) = self.navigator.take_stop_report() {
+                    self.report_stop(&report);
+                }
                 // AUTO reports its own arrivals (MISSION_ITEM_REACHED).
                 if self.mode != Mode::Auto
                     && self.navigator.arrived()
@@ -142,16 +176,39 @@ impl Core {
                 }
                 // Arrived (or nothing to do): stop outright, so no integrator
                 // keeps the wheels creeping.
-                let stopped = self.navigator.arrived() && self.navigator.target().is_some_and(|t| t.stop);
+                let stopped = self.navigator.stopping();
                 if self.navigator.target().is_some() && !stopped {
                     Demand::Navigate(nav)
                 } else {
                     Demand::Stop
                 }
             }
+            Mode::Magnetic => self.magnetic_demand(dt_s).map_or(Demand::Stop, Demand::Navigate),
             _ => Demand::Stop,
         };
         self.apply_demand(demand, dt_s);
+    }
+
+    /// The achieved stop error, as the estimate has it once the vehicle
+    /// rests: what an integrator checks a docking against.
+    fn report_stop(&mut self, report: &StopReport) {
+        let which = report.seq.map_or(String::new(), |seq| format!(" #{seq}"));
+        let verdict = if report.within_tolerance {
+            "in tolerance"
+        } else {
+            "OUT of tolerance"
+        };
+        let text = format!(
+            "Stop{which}: {:.1} mm, yaw {:.3} deg, {verdict}",
+            report.position_error_m() * 1000.0,
+            report.yaw_error_rad.to_degrees()
+        );
+        let severity = if report.within_tolerance {
+            MavSeverity::MAV_SEVERITY_INFO
+        } else {
+            MavSeverity::MAV_SEVERITY_WARNING
+        };
+        self.send_text(severity, &text);
     }
 
     fn manual_demand(&self) -> Demand {
@@ -171,26 +228,41 @@ impl Core {
     }
 
     fn apply_demand(&mut self, demand: Demand, dt_s: f64) {
-        let measured = self.estimator.estimate().speed_mps;
+        let estimate = self.estimator.estimate();
+        // A speed measurement only while the estimate is good.
+        let measured = (estimate.position_valid && estimate.heading_valid).then_some(estimate.speed_mps);
         let (steering, throttle) = match demand {
             Demand::Stop => {
                 self.speed_control.reset(0.0);
                 (0.0, 0.0)
             }
             Demand::Manual { steering, throttle } => {
-                self.speed_control.reset(measured);
+                self.speed_control.reset(measured.unwrap_or(0.0));
                 (steering, throttle)
             }
             Demand::Navigate(nav) => {
                 let config = self.speed_control_config();
                 let throttle = self.speed_control.update(&config, nav.speed_mps, measured, dt_s);
-                (self.steering_for(nav, measured), throttle)
+                (self.steering_for(nav, measured.unwrap_or(nav.speed_mps)), throttle)
             }
+        };
+        let wheels = match self.drive_train {
+            DriveTrain::Ackermann => {
+                let t = &self.params;
+                let geometry = AckermannGeometry::new(
+                    f64::from(self.p.vehicle.wheelbase_m.get(t)),
+                    f64::from(self.p.vehicle.track_m.get(t)),
+                );
+                let steer_max = f64::from(self.p.vehicle.steer_max_deg.get(t)).to_radians();
+                Some(WheelOutputs::from_demand(&geometry, steer_max, steering, throttle))
+            }
+            DriveTrain::Differential => None,
         };
         self.drive = DriveState {
             steering,
             throttle,
             actuators: mixer::mix(self.drive_train, steering, throttle),
+            wheels,
         };
     }
 
@@ -208,11 +280,12 @@ impl Core {
                 } else {
                     nav.speed_mps
                 };
-                let yaw_rate = speed * nav.steer_rad.tan() / wheelbase;
+                // The same curvature a bicycle of VEH_WHEELBASE would drive,
+                // as wheel speeds; the mixer adds ±steering to the throttle.
+                let wheels = differential_wheel_speeds(speed, curvature_from_steer(wheelbase, nav.steer_rad), track);
                 let nav_config = self.speed_control_config();
                 let full_speed = nav_config.cruise_speed_mps / nav_config.cruise_throttle.max(1e-3);
-                // left − right = 2·steering (mixer), (left − right)·full = yaw_rate·track
-                yaw_rate * track / (2.0 * full_speed)
+                (wheels.left_mps - wheels.right_mps) / (2.0 * full_speed)
             }
         }
     }

@@ -1,6 +1,7 @@
 //! What crosses the core's boundary in one step.
 
 use drivers::gnss::GnssSample;
+use drivers::magnetic::MagneticSample;
 use drivers::sim::{ActuatorDemand, BatterySample};
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::{MavHeader, MavlinkVersion};
@@ -64,6 +65,8 @@ pub struct Inputs {
     pub undecodable_items: Vec<UndecodableItem>,
     pub gnss: Vec<GnssSample>,
     pub battery: Option<BatterySample>,
+    /// The magnetic-tape sensors, when the vehicle has them.
+    pub magnetic: Option<MagneticSample>,
 }
 
 impl Inputs {
@@ -73,6 +76,7 @@ impl Inputs {
         self.undecodable_items.clear();
         self.gnss.clear();
         self.battery = None;
+        self.magnetic = None;
     }
 }
 

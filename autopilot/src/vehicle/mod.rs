@@ -7,8 +7,10 @@ mod arming;
 mod auto;
 mod commands;
 mod drive;
+mod estimation;
 mod geofence;
 mod io;
+mod magnetic;
 mod messages;
 mod mission_protocol;
 mod mission_state;
@@ -22,12 +24,13 @@ use std::time::Duration;
 
 use ::params::ParamTable;
 use ::params::service::ParamService;
+use drivers::magnetic::MagneticSample;
 use drivers::sim::BatterySample;
 use mavlink::dialects::ardupilotmega::{MavMessage, MavSeverity};
 
 use crate::control::mixer::{self, DriveTrain};
 use crate::control::speed::SpeedController;
-use crate::estimation::{Estimator, EstimatorConfig};
+use crate::estimation::Estimator;
 use crate::geo::{GeoPoint, LocalFrame};
 use crate::guidance::navigator::Navigator;
 use crate::modes::Mode;
@@ -39,6 +42,9 @@ use crate::time::{Now, TaskTimer};
 pub use drive::DriveState;
 pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, UndecodableItem};
 pub use params::CoreParams;
+
+/// After this long without a drive demand the vehicle counts as held still.
+const HELD_STILL_AFTER: Duration = Duration::from_millis(500);
 
 /// MAVLink component id of the autopilot (MAV_COMP_ID_AUTOPILOT1).
 pub const COMPONENT_ID: u8 = 1;
@@ -81,6 +87,10 @@ pub struct Core {
     links: BTreeMap<LinkId, LinkStreams>,
     missions: mission_state::MissionState,
     battery: Option<BatterySample>,
+    magnetic_sample: Option<MagneticSample>,
+    magnetic: magnetic::MagneticState,
+    /// Since when the drive demand has been neutral.
+    neutral_since: Option<Duration>,
     last_gcs_heartbeat_wall: Option<Duration>,
     statustext_id: u16,
     param_service: ParamService<LinkId>,
@@ -122,6 +132,9 @@ impl Core {
             links: BTreeMap::new(),
             missions: mission_state::MissionState::new(mission::Plans::default()),
             battery: None,
+            magnetic_sample: None,
+            magnetic: magnetic::MagneticState::default(),
+            neutral_since: None,
             last_gcs_heartbeat_wall: None,
             statustext_id: 0,
             param_service: ParamService::new(),
@@ -299,15 +312,25 @@ impl Core {
     }
 
     fn read_sensors(&mut self, inputs: &Inputs) {
-        let config = EstimatorConfig {
-            antenna_body_m: (
-                f64::from(self.p.vehicle.antenna_x_m.get(&self.params)),
-                f64::from(self.p.vehicle.antenna_y_m.get(&self.params)),
-            ),
+        let config = self.estimator_config();
+        // Held still: disarmed, or no drive demand for a moment (the last
+        // tick's outputs; the estimator still checks the GNSS speed).
+        let neutral = !self.armed || (self.drive.throttle == 0.0 && self.drive.steering == 0.0);
+        self.neutral_since = if neutral {
+            self.neutral_since.or(Some(self.now.boot))
+        } else {
+            None
         };
-        self.estimator.update(self.now.boot, &config, &inputs.gnss);
+        let held_still = self
+            .neutral_since
+            .is_some_and(|t| self.now.boot.saturating_sub(t) >= HELD_STILL_AFTER);
+        self.estimator.update(self.now.boot, &config, &inputs.gnss, held_still);
+        self.report_estimator_events();
         if let Some(b) = inputs.battery {
             self.battery = Some(b);
+        }
+        if let Some(m) = inputs.magnetic {
+            self.magnetic_sample = Some(m);
         }
         if self.home.is_none() && self.estimator.estimate().position_valid {
             self.set_home_to_current(false);
@@ -339,7 +362,7 @@ impl Core {
             self.drive = DriveState::neutral(self.drive_train);
         }
         out.actuators = self.drive.actuators;
-        out.servo_pwm_us = mixer::servo_pwm(&self.drive.actuators);
+        out.servo_pwm_us = mixer::servo_pwm(&self.drive.actuators, self.drive.wheels.as_ref());
     }
 
     fn send(&mut self, dest: Destination, message: MavMessage) {

@@ -3,8 +3,9 @@
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
 use super::Core;
-use crate::geo::GeoPoint;
+use crate::geo::{GeoPoint, wrap_pi};
 use crate::guidance::navigator::NavTarget;
+use crate::guidance::tracker::Direction;
 use crate::modes::Mode;
 
 /// Why a mode change was refused.
@@ -14,6 +15,7 @@ pub(super) enum ModeRefusal {
     NeedsPosition,
     NoHome,
     NoMission,
+    NoMagneticSensors,
 }
 
 impl Core {
@@ -26,6 +28,7 @@ impl Core {
                 ModeRefusal::NeedsPosition => "requires position",
                 ModeRefusal::NoHome => "home not set",
                 ModeRefusal::NoMission => "no mission",
+                ModeRefusal::NoMagneticSensors => "no tape sensors",
             };
             self.send_text(
                 MavSeverity::MAV_SEVERITY_WARNING,
@@ -51,6 +54,9 @@ impl Core {
         if mode == Mode::Auto && !self.missions.executor.has_nav_items() {
             return Err(ModeRefusal::NoMission);
         }
+        if mode == Mode::Magnetic && !self.magnetic_sensors_fresh() {
+            return Err(ModeRefusal::NoMagneticSensors);
+        }
         Ok(())
     }
 
@@ -66,6 +72,7 @@ impl Core {
                 }
             }
             Mode::Auto => self.start_mission(),
+            Mode::Magnetic => self.start_magnetic(),
             _ => {}
         }
     }
@@ -76,12 +83,24 @@ impl Core {
         let Some(frame) = self.frame() else {
             return false;
         };
-        let from = self.estimator.estimate().position;
+        let estimate = *self.estimator.estimate();
+        let from = estimate.position;
+        let to = frame.to_local(&target);
+        // A GUIDED target just behind the vehicle is reached by backing up:
+        // turning round would take a loop wider than the distance.
+        let behind = wrap_pi(from.bearing_to(&to) - estimate.yaw_rad).abs() > std::f64::consts::FRAC_PI_2;
+        let near = from.distance_to(&to) <= 2.0 * self.nav_config().arc_radius_m;
+        let direction = if self.mode == Mode::Guided && behind && near {
+            Direction::Reverse
+        } else {
+            Direction::Forward
+        };
         self.navigator.set_target(
             from,
             NavTarget {
                 speed_mps,
-                ..NavTarget::stop_at(frame.to_local(&target))
+                direction,
+                ..NavTarget::stop_at(to)
             },
         );
         true

@@ -4,6 +4,8 @@
 
 use params::{Param, ParamDef, ParamFlags, ParamName, ParamTableBuilder, ParamType, declare_params};
 
+use crate::estimation::{EkfParams, GnssQualityParams};
+use crate::geo::GeoParams;
 use crate::telemetry::streams::StreamGroup;
 
 declare_params! {
@@ -58,6 +60,10 @@ declare_params! {
         steer_max_deg: f32 = "VEH_STEER_MAX" => {
             default: 30.0, range: 1.0, 60.0, unit: "deg",
             desc: "Largest centre steering angle the tracker commands",
+        },
+        steer_rate_deg_s: f32 = "VEH_STEER_RATE" => {
+            default: 30.0, range: 0.0, 360.0, unit: "deg/s",
+            desc: "Fastest the steering command may change, as the steering gear can (0: no limit)",
         },
         antenna_x_m: f32 = "GPS_POS1_X" => {
             default: 0.0, range: -10.0, 10.0, unit: "m",
@@ -117,6 +123,26 @@ declare_params! {
             default: 1.0, range: 0.0, 1.0, unit: "",
             desc: "Speed controller integrator limit (throttle fraction)",
         },
+        turn_max_g: f32 = "ATC_TURN_MAX_G" => {
+            default: 0.02, range: 0.01, 1.0, unit: "gravities",
+            desc: "Lateral acceleration allowed on a path arc: sets the speed there",
+        },
+        arc_margin: f32 = "WP_ARC_MARGIN" => {
+            default: 1.2, range: 1.0, 5.0, unit: "",
+            desc: "Corner arc radius as a multiple of the tightest turn (VEH_WHEELBASE / tan VEH_STEER_MAX)",
+        },
+        stop_tol_mm: f32 = "WP_STOP_TOL_MM" => {
+            default: 10.0, range: 1.0, 1000.0, unit: "mm",
+            desc: "A precision stop (hold, last item, before a direction change) must end this close",
+        },
+        stop_tol_deg: f32 = "WP_STOP_TOL_DEG" => {
+            default: 0.05, range: 0.001, 10.0, unit: "deg",
+            desc: "A precision stop must end with the path's heading within this",
+        },
+        approach_gain: f32 = "WP_APPR_GAIN" => {
+            default: 0.6, range: 0.05, 5.0, unit: "1/s",
+            desc: "Final approach to a stop: speed per m still to go",
+        },
     }
 }
 
@@ -132,7 +158,7 @@ declare_params! {
             desc: "Preview distance added per m/s of speed",
         },
         lat_p: f32 = "PVW_LAT_P" => {
-            default: 1.0, range: 0.0, 10.0, unit: "",
+            default: 2.0, range: 0.0, 10.0, unit: "",
             desc: "Lateral PID P gain (m of correction per m of offset)",
         },
         lat_i: f32 = "PVW_LAT_I" => {
@@ -148,7 +174,7 @@ declare_params! {
             desc: "Lateral PID integrator limit",
         },
         yaw_p: f32 = "PVW_YAW_P" => {
-            default: 0.5, range: 0.0, 10.0, unit: "",
+            default: 0.8, range: 0.0, 10.0, unit: "",
             desc: "Yaw PID P gain (rad of steering per rad of heading error)",
         },
         yaw_i: f32 = "PVW_YAW_I" => {
@@ -162,6 +188,96 @@ declare_params! {
         yaw_imax_rad: f32 = "PVW_YAW_IMAX" => {
             default: 0.2, range: 0.0, 1.0, unit: "rad",
             desc: "Yaw PID integrator limit",
+        },
+        stop_dist_m: f32 = "PVW_STOP_DIST" => {
+            default: 6.0, range: 0.0, 20.0, unit: "m",
+            desc: "Preview distance at a precision stop (reached over the last twice this distance; 0: off)",
+        },
+        ff_time_s: f32 = "PVW_FF_TIME" => {
+            default: 0.12, range: 0.0, 3.0, unit: "s",
+            desc: "The path's curvature is fed forward to the steering this far ahead in travel time",
+        },
+        spd_p: f32 = "PVW_SPD_P" => {
+            default: 2.0, range: 0.0, 20.0, unit: "m/s/rad",
+            desc: "Speed PID P gain: speed taken off per rad of heading error (seed 002)",
+        },
+        spd_i: f32 = "PVW_SPD_I" => {
+            default: 0.0, range: 0.0, 20.0, unit: "",
+            desc: "Speed PID I gain",
+        },
+        spd_d: f32 = "PVW_SPD_D" => {
+            default: 0.0, range: 0.0, 5.0, unit: "",
+            desc: "Speed PID D gain",
+        },
+        spd_imax_mps: f32 = "PVW_SPD_IMAX" => {
+            default: 1.0, range: 0.0, 10.0, unit: "m/s",
+            desc: "Speed PID integrator limit",
+        },
+    }
+}
+
+declare_params! {
+    /// The magnetic-tape guide (seed 002 §2, §4): two 16-probe sensors.
+    pub struct MagneticParams {
+        pitch_mm: f32 = "MAG_PITCH_MM" => {
+            default: 10.0, range: 1.0, 100.0, unit: "mm",
+            desc: "Distance between neighbouring probes of a sensor",
+        },
+        front_x_m: f32 = "MAG_FRONT_X" => {
+            default: 1.0, range: -10.0, 10.0, unit: "m",
+            desc: "Front sensor centre, forward of the rear axle centre",
+        },
+        rear_x_m: f32 = "MAG_REAR_X" => {
+            default: -1.0, range: -10.0, 10.0, unit: "m",
+            desc: "Rear sensor centre, forward of the rear axle centre (negative: behind it)",
+        },
+        steer_p: f32 = "MAG_STR_P" => {
+            default: 6.0, range: 0.0, 100.0, unit: "rad/m",
+            desc: "Steering PID P gain on the lateral deviation (incremental form, seed eq. 15)",
+        },
+        steer_i: f32 = "MAG_STR_I" => {
+            default: 2.0, range: 0.0, 100.0, unit: "rad/m/s",
+            desc: "Steering PID I gain (0 in seed 002)",
+        },
+        steer_d: f32 = "MAG_STR_D" => {
+            default: 4.0, range: 0.0, 100.0, unit: "rad.s/m",
+            desc: "Steering PID D gain",
+        },
+        steer_correction_deg: f32 = "MAG_STR_CMAX" => {
+            default: 30.0, range: 1.0, 60.0, unit: "deg",
+            desc: "Largest correction of the P and D terms about the integral",
+        },
+        speed_p: f32 = "MAG_SPD_P" => {
+            default: 3.0, range: 0.0, 100.0, unit: "m/s/rad",
+            desc: "Speed PID P gain on the angle deviation beyond MAG_SPD_DB",
+        },
+        speed_i: f32 = "MAG_SPD_I" => {
+            default: 1.0, range: 0.0, 100.0, unit: "m/s/rad/s",
+            desc: "Speed PID I gain",
+        },
+        speed_deadband_deg: f32 = "MAG_SPD_DB" => {
+            default: 5.0, range: 0.0, 45.0, unit: "deg",
+            desc: "Angle deviation the speed PID ignores",
+        },
+        speed_mps: f32 = "MAG_SPEED" => {
+            default: 1.5, range: 0.05, 5.0, unit: "m/s",
+            desc: "Speed on the tape when aligned",
+        },
+        speed_min_mps: f32 = "MAG_SPEED_MIN" => {
+            default: 0.5, range: 0.0, 5.0, unit: "m/s",
+            desc: "The speed PID never asks for less",
+        },
+        lost_speed_mps: f32 = "MAG_LOST_SPD" => {
+            default: 0.5, range: 0.0, 5.0, unit: "m/s",
+            desc: "Speed while both sensors are off the tape (straight ahead, as seed 002)",
+        },
+        lost_hold_s: f32 = "MAG_LOST_HOLD" => {
+            default: 0.3, range: 0.0, 5.0, unit: "s",
+            desc: "After losing the tape, keep the last demand this long before going straight",
+        },
+        lost_stop_s: f32 = "MAG_LOST_STOP" => {
+            default: 10.0, range: 0.0, 600.0, unit: "s",
+            desc: "Off the tape this long: stop and switch to HOLD (0: never)",
         },
     }
 }
@@ -240,7 +356,11 @@ pub struct CoreParams {
     pub nav: NavParams,
     pub preview: PreviewParams,
     pub mission: MissionParams,
+    pub magnetic: MagneticParams,
     pub fence: FenceParams,
+    pub geo: GeoParams,
+    pub ekf: EkfParams,
+    pub gnss_quality: GnssQualityParams,
     pub streams: StreamRateParams,
 }
 
@@ -253,7 +373,11 @@ impl CoreParams {
             nav: NavParams::register(builder),
             preview: PreviewParams::register(builder),
             mission: MissionParams::register(builder),
+            magnetic: MagneticParams::register(builder),
             fence: FenceParams::register(builder),
+            geo: GeoParams::register(builder),
+            ekf: EkfParams::register(builder),
+            gnss_quality: GnssQualityParams::register(builder),
             streams: StreamRateParams::register(builder),
         }
     }

@@ -15,6 +15,7 @@ use mavlink::dialects::ardupilotmega::{
 use super::{Core, Destination};
 use crate::control::mixer;
 use crate::geo::{wrap_2pi, wrap_pi};
+use crate::modes::Mode;
 use crate::telemetry::identity::{self, VehicleStatus};
 use crate::telemetry::streams::{StreamGroup, StreamMsg};
 
@@ -274,9 +275,33 @@ impl Core {
         }
     }
 
+    /// How much a heading in the local frame must turn to be a true heading
+    /// at the vehicle (meridian convergence, plant-grid rotation): MAVLink
+    /// headings are true.
+    fn true_heading_offset_rad(&self) -> f64 {
+        let e = self.estimator.estimate();
+        match self.frame() {
+            Some(frame) => {
+                let at = frame.to_geodetic(&e.position);
+                if at.is_valid() {
+                    wrap_pi(frame.heading_to_true(&at, e.yaw_rad) - e.yaw_rad)
+                } else {
+                    0.0
+                }
+            }
+            None => 0.0,
+        }
+    }
+
     fn global_position_int(&self) -> Option<GLOBAL_POSITION_INT_DATA> {
         let frame = self.frame()?;
         let e = self.estimator.estimate();
+        let turn = self.true_heading_offset_rad();
+        let (sin, cos) = turn.sin_cos();
+        let (vn, ve) = (
+            e.vel_north_mps * cos - e.vel_east_mps * sin,
+            e.vel_north_mps * sin + e.vel_east_mps * cos,
+        );
         let p = frame.to_geodetic(&e.position);
         let alt_m = self.estimator.gnss().alt_msl_m;
         let home_alt = self.home.map_or(alt_m, |h| h.alt_m);
@@ -286,11 +311,11 @@ impl Core {
             lon: p.lon_e7(),
             alt: (alt_m * 1000.0).round() as i32,
             relative_alt: ((alt_m - home_alt) * 1000.0).round() as i32,
-            vx: (e.vel_north_mps * 100.0).round().clamp(-32768.0, 32767.0) as i16,
-            vy: (e.vel_east_mps * 100.0).round().clamp(-32768.0, 32767.0) as i16,
+            vx: (vn * 100.0).round().clamp(-32768.0, 32767.0) as i16,
+            vy: (ve * 100.0).round().clamp(-32768.0, 32767.0) as i16,
             vz: 0,
             hdg: if e.heading_valid {
-                cdeg_0_36000(e.yaw_rad)
+                cdeg_0_36000(e.yaw_rad + turn)
             } else {
                 u16::MAX
             },
@@ -303,7 +328,7 @@ impl Core {
             time_boot_ms: self.now.boot_ms(),
             roll: 0.0,
             pitch: 0.0,
-            yaw: wrap_pi(e.yaw_rad) as f32,
+            yaw: wrap_pi(e.yaw_rad + self.true_heading_offset_rad()) as f32,
             rollspeed: 0.0,
             pitchspeed: 0.0,
             yawspeed: e.yaw_rate_rad_s as f32,
@@ -318,7 +343,10 @@ impl Core {
             groundspeed: speed,
             alt: self.estimator.gnss().alt_msl_m as f32,
             climb: 0.0,
-            heading: (wrap_2pi(e.yaw_rad).to_degrees().round() as i16) % 360,
+            heading: (wrap_2pi(e.yaw_rad + self.true_heading_offset_rad())
+                .to_degrees()
+                .round() as i16)
+                % 360,
             throttle: (self.drive.throttle.abs() * 100.0).round() as u16,
         }
     }
@@ -328,7 +356,23 @@ impl Core {
             return None;
         }
         let s = self.navigator.status();
-        let deg = |rad: f64| (wrap_pi(rad).to_degrees().round()) as i16;
+        let turn = self.true_heading_offset_rad();
+        let deg = |rad: f64| (wrap_pi(rad + turn).to_degrees().round()) as i16;
+        if self.mode == Mode::Magnetic {
+            // The tape is the path: its offset from the sensors' midpoint.
+            let m = &self.magnetic.status;
+            let yaw = self.estimator.estimate().yaw_rad;
+            return Some(NAV_CONTROLLER_OUTPUT_DATA {
+                nav_roll: 0.0,
+                nav_pitch: 0.0,
+                alt_error: 0.0,
+                aspd_error: 0.0,
+                xtrack_error: -m.lateral_m as f32,
+                nav_bearing: deg(yaw + m.steer_rad),
+                target_bearing: deg(yaw + m.angle_rad),
+                wp_dist: 0,
+            });
+        }
         Some(NAV_CONTROLLER_OUTPUT_DATA {
             nav_roll: 0.0,
             nav_pitch: 0.0,
@@ -379,7 +423,7 @@ impl Core {
     }
 
     fn servo_output_raw(&self) -> SERVO_OUTPUT_RAW_DATA {
-        let mut pwm = mixer::servo_pwm(&self.drive.actuators);
+        let mut pwm = mixer::servo_pwm(&self.drive.actuators, self.drive.wheels.as_ref());
         // Channels the drive train does not use carry what missions set.
         for (slot, aux) in pwm.iter_mut().zip(self.missions.servo_us) {
             if *slot == 0 && aux != 0 {
@@ -421,18 +465,27 @@ impl Core {
                 | EkfStatusFlags::EKF_PRED_POS_HORIZ_REL
                 | EkfStatusFlags::EKF_PRED_POS_HORIZ_ABS;
         }
-        // ArduPilot reports test ratios (1.0 = at the limit); this estimator
-        // reports its σ against a 1 m position and 0.5 m/s velocity budget.
-        let pos_ratio = if e.position_valid {
-            (e.horiz_sigma_m / 1.0).min(1.5)
-        } else {
-            1.5
+        // As ArduPilot: the "variances" are the innovation test ratios'
+        // square roots (1.0 = at the gate), which GCSs colour by.
+        let Some(status) = self.estimator.ekf_status().filter(|s| s.initialised) else {
+            return EKF_STATUS_REPORT_DATA {
+                velocity_variance: 0.0,
+                pos_horiz_variance: 0.0,
+                pos_vert_variance: 0.0,
+                compass_variance: 0.0,
+                terrain_alt_variance: 0.0,
+                flags: EkfStatusFlags::EKF_UNINITIALIZED,
+                airspeed_variance: 0.0,
+            };
         };
+        if status.gnss_position.consecutive_rejected > 0 {
+            flags |= EkfStatusFlags::EKF_GPS_GLITCHING;
+        }
         EKF_STATUS_REPORT_DATA {
-            velocity_variance: if e.position_valid { 0.05 } else { 1.5 },
-            pos_horiz_variance: pos_ratio as f32,
+            velocity_variance: status.gnss_velocity.report_value(),
+            pos_horiz_variance: status.gnss_position.report_value(),
             pos_vert_variance: 0.0,
-            compass_variance: if e.heading_valid { 0.05 } else { 1.5 },
+            compass_variance: status.heading.report_value(),
             terrain_alt_variance: 0.0,
             flags,
             airspeed_variance: 0.0,

@@ -112,12 +112,24 @@ pub struct GnssAccuracy {
     pub sigma_up_m: Option<f64>,
 }
 
-/// True heading (dual-antenna receivers) from HDT, or THS in autonomous mode.
+/// What a heading is measured from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HeadingReference {
+    /// True north: a dual-antenna receiver (HDT, THS).
+    True,
+    /// Magnetic north: a compass (HDM, HDG with its deviation applied); the
+    /// user of the sample adds the declination.
+    Magnetic,
+}
+
+/// A heading: true from HDT or THS in autonomous mode, magnetic from HDM
+/// or HDG.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GnssHeading {
     pub t: Duration,
     /// 0 = north, clockwise, as sent (nominally [0, 360)).
     pub heading_deg: f64,
+    pub reference: HeadingReference,
 }
 
 /// UTC from RMC date and time.
@@ -142,7 +154,8 @@ pub enum GnssSample {
 /// so garbage before it is a line of its own) lands in exactly one counter.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct NmeaStats {
-    /// Sentences of a consumed type (GGA, RMC, VTG, GST, HDT, THS) that parsed.
+    /// Sentences of a consumed type (GGA, RMC, VTG, GST, HDT, THS, HDM, HDG)
+    /// that parsed.
     pub sentences: u64,
     /// Well-framed sentences whose checksum did not match.
     pub checksum_errors: u64,

@@ -1,7 +1,7 @@
 //! One complete line → samples. Framing and checksum are checked here (so a
 //! bad checksum is told apart from an unknown type), then the consumed types
-//! go to `nmea::parse_str` one sentence at a time, and THS, which the `nmea`
-//! crate does not know, is parsed by hand.
+//! go to `nmea::parse_str` one sentence at a time, and THS, HDM and HDG,
+//! which the `nmea` crate does not know, are parsed by hand.
 
 use std::time::Duration;
 
@@ -10,7 +10,9 @@ use nmea::ParseResult;
 use nmea::sentences::rmc::RmcStatusOfFix;
 use nmea::sentences::{FixType, GgaData, GstData, HdtData, RmcData, VtgData};
 
-use super::{FixQuality, GnssAccuracy, GnssFix, GnssHeading, GnssSample, GnssTime, GnssVelocity, nmea_checksum};
+use super::{
+    FixQuality, GnssAccuracy, GnssFix, GnssHeading, GnssSample, GnssTime, GnssVelocity, HeadingReference, nmea_checksum,
+};
 
 const MPS_PER_KNOT: f64 = 1852.0 / 3600.0;
 
@@ -51,6 +53,8 @@ pub(super) fn parse_line(line: &[u8], t: Duration, out: &mut Vec<GnssSample>) ->
     let before = out.len();
     let result = match &address[2..] {
         "THS" => parse_ths(body, t, out),
+        "HDM" => parse_hdm(body, t, out),
+        "HDG" => parse_hdg(body, t, out),
         "GGA" | "RMC" | "VTG" | "GST" | "HDT" => match nmea::parse_str(text) {
             Ok(parsed) => samples_from(&parsed, t, out),
             Err(_) => Err(BadValue),
@@ -195,6 +199,7 @@ fn samples_from_hdt(hdt: &HdtData, t: Duration, out: &mut Vec<GnssSample>) -> Re
         out.push(GnssSample::Heading(GnssHeading {
             t,
             heading_deg: f64::from(heading),
+            reference: HeadingReference::True,
         }));
     }
     Ok(())
@@ -219,7 +224,69 @@ fn parse_ths(body: &str, t: Duration, out: &mut Vec<GnssSample>) -> Result<(), B
         }
     };
     if let (Some(heading_deg), "A") = (heading_deg, mode) {
-        out.push(GnssSample::Heading(GnssHeading { t, heading_deg }));
+        out.push(GnssSample::Heading(GnssHeading {
+            t,
+            heading_deg,
+            reference: HeadingReference::True,
+        }));
+    }
+    Ok(())
+}
+
+/// An empty field is `None`; anything else must be a finite number.
+fn optional_number(field: &str) -> Result<Option<f64>, BadValue> {
+    if field.is_empty() {
+        return Ok(None);
+    }
+    match field.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(Some(v)),
+        _ => Err(BadValue),
+    }
+}
+
+/// `$xxHDM,heading,M`: magnetic heading.
+fn parse_hdm(body: &str, t: Duration, out: &mut Vec<GnssSample>) -> Result<(), BadValue> {
+    let mut fields = body.split(',').skip(1);
+    let (Some(heading), Some(unit), None) = (fields.next(), fields.next(), fields.next()) else {
+        return Err(BadValue);
+    };
+    if unit != "M" {
+        return Err(BadValue);
+    }
+    if let Some(heading_deg) = optional_number(heading)? {
+        out.push(GnssSample::Heading(GnssHeading {
+            t,
+            heading_deg,
+            reference: HeadingReference::Magnetic,
+        }));
+    }
+    Ok(())
+}
+
+/// `$xxHDG,sensor heading,deviation,E|W,variation,E|W`: the magnetic
+/// heading is the sensor's plus its deviation (east positive). The
+/// variation is left to `COMPASS_DEC`, as the autopilot's own setting.
+fn parse_hdg(body: &str, t: Duration, out: &mut Vec<GnssSample>) -> Result<(), BadValue> {
+    let fields: Vec<&str> = body.split(',').skip(1).collect();
+    let [heading, deviation, deviation_dir, variation, variation_dir] = fields[..] else {
+        return Err(BadValue);
+    };
+    let signed = |value: Option<f64>, dir: &str| -> Result<f64, BadValue> {
+        match (value, dir) {
+            (None, "") => Ok(0.0),
+            (Some(v), "E") => Ok(v),
+            (Some(v), "W") => Ok(-v),
+            _ => Err(BadValue),
+        }
+    };
+    let deviation_deg = signed(optional_number(deviation)?, deviation_dir)?;
+    signed(optional_number(variation)?, variation_dir)?;
+    if let Some(sensor_deg) = optional_number(heading)? {
+        out.push(GnssSample::Heading(GnssHeading {
+            t,
+            heading_deg: sensor_deg + deviation_deg,
+            reference: HeadingReference::Magnetic,
+        }));
     }
     Ok(())
 }

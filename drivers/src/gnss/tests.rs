@@ -149,7 +149,8 @@ fn ths_only_when_autonomous() {
         samples,
         [GnssSample::Heading(GnssHeading {
             t: T,
-            heading_deg: 77.52
+            heading_deg: 77.52,
+            reference: HeadingReference::True,
         })]
     );
     assert_eq!(stats.sentences, 1);
@@ -183,6 +184,38 @@ fn ths_only_when_autonomous() {
     let (samples, stats) = read(b"$GNTHS,77.52,A*00\r\n");
     assert!(samples.is_empty());
     assert_eq!(stats.checksum_errors, 1);
+}
+
+#[test]
+fn compass_headings_are_magnetic_with_deviation_applied() {
+    let heading = |body: &str| match read(sentence(body).as_bytes()).0[..] {
+        [GnssSample::Heading(h)] => Some((h.heading_deg, h.reference)),
+        _ => None,
+    };
+    assert_eq!(heading("HCHDM,238.5,M"), Some((238.5, HeadingReference::Magnetic)));
+    assert_eq!(
+        heading("HCHDG,98.3,1.5,E,12.6,W"),
+        Some((99.8, HeadingReference::Magnetic))
+    );
+    assert_eq!(heading("HCHDG,98.3,1.5,W,,"), Some((96.8, HeadingReference::Magnetic)));
+    assert_eq!(heading("HCHDG,98.3,,,,"), Some((98.3, HeadingReference::Magnetic)));
+    assert_eq!(heading("GNHDT,98.5,T"), Some((98.5, HeadingReference::True)));
+    let (samples, stats) = read(sentence("HCHDM,,M").as_bytes());
+    assert!(samples.is_empty());
+    assert_eq!(stats.sentences, 1, "an empty heading is a valid 'no heading'");
+    for bad in [
+        "HCHDM,238.5,T",
+        "HCHDM,abc,M",
+        "HCHDM,1,M,2",
+        "HCHDG,98.3,1.5,N,12.6,W",
+        "HCHDG,98.3,1.5,E,12.6",
+        "HCHDG,98.3,x,E,12.6,W",
+        "HCHDG,NaN,1.5,E,12.6,W",
+    ] {
+        let (samples, stats) = read(sentence(bad).as_bytes());
+        assert!(samples.is_empty(), "{bad}");
+        assert_eq!(stats.malformed, 1, "{bad}");
+    }
 }
 
 #[test]

@@ -3,6 +3,8 @@
 
 use crate::gnss::FixQuality;
 
+use super::MagneticSensorConfig;
+
 /// A WGS-84 position. `alt_m` is height above the ellipsoid; the simulated
 /// receiver reports a geoid separation of 0, so it is also its MSL altitude.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -184,6 +186,9 @@ pub struct WorldConfig {
     pub vehicle: VehicleModel,
     pub gnss: GnssSimConfig,
     pub battery: BatterySimConfig,
+    /// The magnetic guide sensors; they read only once a tape is laid
+    /// ([`super::World::set_tape`]).
+    pub magnetic: MagneticSensorConfig,
     /// Physics sub-steps per second, capped at 100 kHz; ≤ 0 or NaN means 400.
     pub physics_rate_hz: f64,
     /// UTC at simulated time zero.
@@ -203,6 +208,7 @@ impl Default for WorldConfig {
             vehicle: VehicleModel::default(),
             gnss: GnssSimConfig::default(),
             battery: BatterySimConfig::default(),
+            magnetic: MagneticSensorConfig::default(),
             physics_rate_hz: 400.0,
             // 2025-01-01T00:00:00Z: a fixed date keeps runs reproducible.
             utc_start_unix_us: 1_735_689_600_000_000,

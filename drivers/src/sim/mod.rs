@@ -11,6 +11,7 @@ mod battery;
 mod config;
 mod geo;
 mod gnss_sim;
+mod magnetic;
 mod nmea_out;
 mod vehicle;
 mod world;
@@ -22,6 +23,9 @@ pub use battery::BatterySample;
 pub use config::{
     AckermannConfig, ActuatorDemand, BatterySimConfig, DifferentialConfig, GeoPoint, GnssSimConfig, VehicleModel,
     WorldConfig,
+};
+pub use magnetic::{
+    MAGNETIC_PROBES, MagneticSensor, MagneticSensorConfig, MagneticTape, TapeBuilder, TapeFix, TapeSegment,
 };
 pub use vehicle::VehicleTruth;
 pub use world::World;

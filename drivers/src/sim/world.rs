@@ -6,8 +6,9 @@ use std::time::Duration;
 use super::battery::{Battery, BatterySample};
 use super::geo::LocalFrame;
 use super::gnss_sim::GnssSim;
+use super::magnetic::MagneticTape;
 use super::vehicle::{self, VehicleTruth, wrap_pi};
-use super::{ActuatorDemand, GeoPoint, GnssSimConfig, VehicleModel, WorldConfig};
+use super::{ActuatorDemand, GeoPoint, GnssSimConfig, MagneticSensorConfig, VehicleModel, WorldConfig};
 
 /// The physics rate used when the configured one is unusable (≤ 0, NaN).
 const FALLBACK_PHYSICS_RATE_HZ: f64 = 400.0;
@@ -22,6 +23,10 @@ pub struct World {
     truth: VehicleTruth,
     battery: Battery,
     gnss: GnssSim,
+    /// The magnetic guide tape, if one is laid.
+    tape: Option<MagneticTape>,
+    /// Seeds the magnetic sensors' edge noise (a stream of its own).
+    seed: u64,
 }
 
 impl World {
@@ -39,6 +44,8 @@ impl World {
             time: Duration::ZERO,
             truth,
             battery: Battery::default(),
+            tape: None,
+            seed,
         }
     }
 
@@ -148,5 +155,33 @@ impl World {
     pub fn set_vehicle_model(&mut self, model: VehicleModel) {
         vehicle::adapt(&model, &mut self.truth);
         self.config.vehicle = model;
+    }
+
+    /// Lay (or lift, with `None`) the magnetic guide tape. Nothing else in the
+    /// world depends on it.
+    pub fn set_tape(&mut self, tape: Option<MagneticTape>) {
+        self.tape = tape;
+    }
+
+    pub fn tape(&self) -> Option<&MagneticTape> {
+        self.tape.as_ref()
+    }
+
+    /// Takes effect at the next reading.
+    pub fn set_magnetic_config(&mut self, magnetic: MagneticSensorConfig) {
+        self.config.magnetic = magnetic;
+    }
+
+    /// The magnetic sensors' probe masks (front, rear) for the true pose now,
+    /// bit i−1 = probe i, probe 1 rightmost (see [`MagneticSensorConfig`]);
+    /// 0 = that sensor is off the tape. `None` when no tape is laid. Reading
+    /// changes nothing: the same instant reads the same.
+    pub fn magnetic_sensors(&self) -> Option<(u16, u16)> {
+        let tape = self.tape.as_ref()?;
+        Some(
+            self.config
+                .magnetic
+                .read_both(tape, &self.truth, self.seed, self.time.as_nanos()),
+        )
     }
 }

@@ -1,0 +1,630 @@
+//! Double magnetic guide tracking (seed 002 §2 and §4; DESIGN §5.4): two
+//! 16-probe sensors, front and rear, read the tape; their deviations give the
+//! vehicle's lateral and angle deviation; a PD on the lateral deviation sets
+//! the steering angle and a PID on the angle deviation the speed, both in
+//! incremental form (eq. 15).
+//!
+//! Signs (the seed's eq. 1–2 use magnitudes and lose them; fixed here):
+//! - probe i is bit i−1 of the mask, probe 1 the rightmost (the seed's §4.2
+//!   numbering: deviated left ⇒ right probes ⇒ num < 17), so
+//!   `error = 17 − num` counts half pitches of tape offset to the right, and
+//!   a sensor's deviation e = error·pitch/2 is positive when the tape is to
+//!   the right of the sensor's centre;
+//! - with the front and rear deviations e1, e2 at spacing d, the tape runs
+//!   through body points (x_f, e1) and (x_r, e2): its direction relative to
+//!   the body is α = atan2(e1 − e2, d) (positive = the tape heads to the
+//!   right: turn right), and the midpoint between the sensors is
+//!   (e1 + e2)/2·cos α from it, perpendicular (positive = tape to the right:
+//!   steer right). Seed eq. 2 uses |e1| + |e2|, which is |e1 − e2| only when
+//!   the sensors are on opposite sides of the tape; seed eq. 1's sum e1 + e2
+//!   is twice the midpoint's offset (a gain of 2 in its PD).
+//!
+//! Both deviations therefore want positive (right) steering when positive,
+//! which makes the steering law δ = δ_I + PD(lateral), δ_I the integral
+//! (with the seed's K_I = 0: whatever steering the guide took over, see
+//! [`MagneticGuide::engaged_at`]).
+//!
+//! Beyond the seed, each for a reason found in SITL (`magnetic_scenario`):
+//! - the D term's rate is by default the kinematic one, v·tan α − ω·x_mid
+//!   ([`LateralRate::Kinematic`]): the reading moves in 2.5 mm steps, and
+//!   differenced at 50 Hz (eq. 15 as written) that is 0.125 m/s of noise per
+//!   step; filtered enough to use, it lags so much that the vehicle loses the
+//!   tape in every start of the scenario. The two sensors measure the tape's
+//!   angle directly, which is what the seed's second sensor is for;
+//! - the PD part is limited to ±`steer_correction_max_rad` about the
+//!   integral: the seed's "correction angle within ±10°";
+//! - one sensor off the tape: its deviation is placed just beyond its
+//!   outermost probe (±8 pitches), or further out if the other sensor's rate
+//!   says so (that rate is v·tan α − ω·x, so it gives α), on the side the
+//!   tape left it or, never having seen the tape, the side that rate puts it,
+//!   decided once the rate has settled; the tape cannot change sides of a
+//!   sensor unseen;
+//! - both off the tape: for `lost_hold_s` keep the last demands (the tape
+//!   passing between the sensors' ranges, an edge probe flickering), then
+//!   steer straight at the search speed (seed §4.3, Fig. 4c) and forget
+//!   everything; `lost` is reported throughout;
+//! - the speed PID acts on |α| minus a dead band and only lowers the speed
+//!   from the cruise speed; with the dead band its integral winds back down
+//!   once the vehicle is aligned;
+//! - the incremental form keeps its accumulator unclamped for the P and D
+//!   increments and integrates only while that does not push further past a
+//!   limit: the literal form, clamped, "remembers" saturation (a 1 rad
+//!   demand clamped to 0.5 rad comes back as −0.5 rad when the error goes).
+
+/// Probes per sensor.
+pub const PROBES: u32 = 16;
+/// `num` with the tape centred under the sensor (seed 002 §4.2).
+pub const NUM_CENTRED: f64 = (PROBES + 1) as f64;
+/// A lost sensor's deviation, in pitches: just beyond the outermost probe
+/// (probe 1 is 7.5 pitches right of the centre).
+const LOST_EDGE_PITCHES: f64 = PROBES as f64 / 2.0;
+
+/// Seed 002 §4.2's `num`: twice the mean 1-based index of the triggered
+/// probes, 2..=32, 17 = centred; `None` when no probe triggers.
+pub fn probe_num(mask: u16) -> Option<f64> {
+    if mask == 0 {
+        return None;
+    }
+    let (sum, count) = (0..PROBES)
+        .filter(|bit| mask & (1 << bit) != 0)
+        .fold((0u32, 0u32), |(s, c), bit| (s + bit + 1, c + 1));
+    Some(2.0 * f64::from(sum) / f64::from(count))
+}
+
+/// The tape's offset from a sensor's centre, positive = tape to the right:
+/// (17 − num)·pitch/2. `None` off the tape.
+pub fn sensor_deviation_m(mask: u16, probe_pitch_m: f64) -> Option<f64> {
+    probe_num(mask).map(|num| (NUM_CENTRED - num) * probe_pitch_m / 2.0)
+}
+
+/// Seed eq. 1–2 with signs: (lateral deviation of the midpoint between the
+/// sensors, angle deviation) from the front and rear deviations and the
+/// sensor spacing. Both positive when the vehicle should steer right.
+pub fn lateral_and_angle(front_m: f64, rear_m: f64, spacing_m: f64) -> (f64, f64) {
+    let angle_rad = (front_m - rear_m).atan2(spacing_m);
+    (0.5 * (front_m + rear_m) * angle_rad.cos(), angle_rad)
+}
+
+/// Gains of an incremental PID, in time units so they do not depend on the
+/// loop rate: per sample K_I = ki·T and K_D = kd/T (seed eq. 15: K_I =
+/// Kp·T/Ti, K_D = Kp·Td/T).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct IncrementalPidGains {
+    pub kp: f64,
+    /// Per second.
+    pub ki: f64,
+    /// Seconds.
+    pub kd: f64,
+    /// Cut-off of a first-order low-pass on the derivative; 0 = none.
+    pub d_filter_hz: f64,
+}
+
+/// The seed's eq. 15, Δu(k) = K_P(e_k − e_{k−1}) + K_I·e_k +
+/// K_D(e_k − 2e_{k−1} + e_{k−2}), accumulated into u(k). The D increment is
+/// kept as the change of a (filterable) derivative, which is eq. 15 exactly
+/// for a fixed T without the filter.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct IncrementalPid {
+    last_error: Option<f64>,
+    last_derivative: f64,
+    /// u(k−1) before the output limits.
+    accumulated: f64,
+    /// The integral the first update starts from.
+    initial_integral: f64,
+    /// The integral after the last update (u − P − D).
+    integral: f64,
+}
+
+/// One update, with the positional-equivalent terms for telemetry.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct IncrementalTerms {
+    /// kp·e_k.
+    pub p: f64,
+    /// The integral so far (u − p − d).
+    pub i: f64,
+    /// kd·(de/dt)_k.
+    pub d: f64,
+    /// Δu(k), as applied.
+    pub delta: f64,
+    /// u(k), within the output limits.
+    pub output: f64,
+}
+
+impl IncrementalPid {
+    /// A controller whose integral starts at `integral` (bumpless transfer
+    /// from whatever set the output before); non-finite means 0.
+    pub fn starting_at(integral: f64) -> Self {
+        let integral = if integral.is_finite() { integral } else { 0.0 };
+        IncrementalPid {
+            initial_integral: integral,
+            integral,
+            ..IncrementalPid::default()
+        }
+    }
+
+    /// The integral term as of the last update (the starting one before any).
+    pub fn integral(&self) -> f64 {
+        self.integral
+    }
+
+    /// Advances by `dt_s` with `error`, differencing it for the D term (seed
+    /// eq. 15); the output is kept within `min..=max`. The first sample
+    /// starts from u = kp·e plus the starting integral, without a derivative
+    /// kick, as the positional form does. A non-finite error or step changes
+    /// nothing.
+    pub fn update(
+        &mut self,
+        gains: &IncrementalPidGains,
+        error: f64,
+        dt_s: f64,
+        min: f64,
+        max: f64,
+    ) -> IncrementalTerms {
+        if !(error.is_finite() && dt_s.is_finite() && dt_s > 0.0) {
+            return self.held(min, max);
+        }
+        let rate = self.last_error.map_or(0.0, |e| (error - e) / dt_s);
+        self.advance(gains, error, rate, dt_s, min, max)
+    }
+
+    /// As [`Self::update`], with the error's rate measured rather than
+    /// differenced (the D increment is then kd·(ė_k − ė_{k−1})).
+    pub fn update_with_rate(
+        &mut self,
+        gains: &IncrementalPidGains,
+        error: f64,
+        rate: f64,
+        dt_s: f64,
+        min: f64,
+        max: f64,
+    ) -> IncrementalTerms {
+        if !(error.is_finite() && rate.is_finite() && dt_s.is_finite() && dt_s > 0.0) {
+            return self.held(min, max);
+        }
+        self.advance(gains, error, rate, dt_s, min, max)
+    }
+
+    fn held(&self, min: f64, max: f64) -> IncrementalTerms {
+        IncrementalTerms {
+            i: self.integral,
+            output: self.accumulated.clamp(min, max),
+            ..IncrementalTerms::default()
+        }
+    }
+
+    fn advance(
+        &mut self,
+        gains: &IncrementalPidGains,
+        error: f64,
+        raw_rate: f64,
+        dt_s: f64,
+        min: f64,
+        max: f64,
+    ) -> IncrementalTerms {
+        let first = self.last_error.is_none();
+        let (last_error, last_derivative) = match self.last_error {
+            Some(e) => (e, self.last_derivative),
+            None => {
+                // Start where the positional form would: u = kp·e + I, the
+                // D term following from a zero last rate.
+                self.accumulated = gains.kp * error + self.initial_integral;
+                (error, 0.0)
+            }
+        };
+        let derivative = if gains.d_filter_hz > 0.0 && !first {
+            low_pass(last_derivative, raw_rate, gains.d_filter_hz, dt_s)
+        } else {
+            raw_rate
+        };
+        let delta_pd = gains.kp * (error - last_error) + gains.kd * (derivative - last_derivative);
+        let delta_i = gains.ki * error * dt_s;
+        let unwound = self.accumulated + delta_pd;
+        // Integrate only while it does not push further past a limit.
+        let delta_i = if (unwound + delta_i > max && delta_i > 0.0) || (unwound + delta_i < min && delta_i < 0.0) {
+            0.0
+        } else {
+            delta_i
+        };
+        self.accumulated = unwound + delta_i;
+        self.last_error = Some(error);
+        self.last_derivative = derivative;
+        let p = gains.kp * error;
+        let d = gains.kd * derivative;
+        self.integral = self.accumulated - p - d;
+        IncrementalTerms {
+            p,
+            i: self.integral,
+            d,
+            delta: delta_pd + delta_i,
+            output: self.accumulated.clamp(min, max),
+        }
+    }
+
+    pub fn reset(&mut self) {
+        *self = IncrementalPid::default();
+    }
+}
+
+/// One step of a first-order low-pass with cut-off `cutoff_hz`.
+fn low_pass(last: f64, input: f64, cutoff_hz: f64, dt_s: f64) -> f64 {
+    let rc_s = 1.0 / (std::f64::consts::TAU * cutoff_hz);
+    last + dt_s / (dt_s + rc_s) * (input - last)
+}
+
+/// Where the lateral deviation's rate for the steering D term comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LateralRate {
+    /// Differenced from sample to sample, as seed eq. 15 writes it. The
+    /// reading moves in 2.5 mm steps (the mean of two 5 mm ones): at 50 Hz
+    /// each step is a 0.125 m/s spike, so it wants `d_filter_hz`.
+    Difference,
+    /// From the geometry the two sensors measure: the midpoint's offset
+    /// changes at v·tan α − ω·x_mid (x_mid from the rear axle). Its
+    /// resolution is v·pitch/(2d): 3.75 mm/s at 1.5 m/s over 2 m.
+    Kinematic,
+}
+
+/// Everything the guide needs; the `MAG_*` parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MagneticGuideConfig {
+    /// Probe pitch of both sensors.
+    pub probe_pitch_m: f64,
+    /// Body x of the sensors' centres from the point that does not slip
+    /// sideways (the rear axle centre; the wheel axle of a differential
+    /// vehicle). The spacing d is their difference.
+    pub front_x_m: f64,
+    pub rear_x_m: f64,
+    /// Lateral deviation (m) → centre steering angle (rad): kp rad/m,
+    /// ki rad/(m·s) (0 in the seed), kd rad·s/m.
+    pub steer: IncrementalPidGains,
+    pub steer_max_rad: f64,
+    /// Limit of the PD terms: the correction about the integral.
+    pub steer_correction_max_rad: f64,
+    pub lateral_rate: LateralRate,
+    /// |angle deviation| − dead band (rad) → speed reduction (m/s).
+    pub speed: IncrementalPidGains,
+    pub angle_deadband_rad: f64,
+    /// Speed on the tape when aligned.
+    pub cruise_speed_mps: f64,
+    /// The speed PID never asks for less.
+    pub min_speed_mps: f64,
+    /// Speed while both sensors are off the tape.
+    pub lost_speed_mps: f64,
+    /// For this long after both sensors lose the tape, keep the last demands
+    /// (and what the sensors last saw) before going straight; 0 = straight at
+    /// once, as the seed.
+    pub lost_hold_s: f64,
+    /// Low-pass on each sensor's own rate, which places a sensor that is off
+    /// the tape when the other one is on it.
+    pub sensor_rate_filter_hz: f64,
+}
+
+impl Default for MagneticGuideConfig {
+    /// For general driving on the bench vehicle (2.9 m wheelbase, 30°/s
+    /// steering) with the sensors 1 m either side of the rear axle, at
+    /// 50 Hz: an integral so that curves entered from a straight are held
+    /// without a standing offset, and no correction limit below full lock.
+    /// In `magnetic_scenario`'s grid (offsets to 6 cm, headings to 2.5°, a
+    /// 15 m arc) it never loses the tape, re-acquires within 3.5 s when
+    /// knocked off the arc and within 6.1 s when the arc starts under a
+    /// vehicle driving straight. [`Self::seed_figure`] is faster but
+    /// narrower.
+    fn default() -> Self {
+        Self {
+            probe_pitch_m: 0.010,
+            front_x_m: 1.0,
+            rear_x_m: -1.0,
+            steer: IncrementalPidGains {
+                kp: 6.0,
+                ki: 2.0,
+                kd: 4.0,
+                d_filter_hz: 0.0,
+            },
+            steer_max_rad: 30f64.to_radians(),
+            steer_correction_max_rad: 30f64.to_radians(),
+            lateral_rate: LateralRate::Kinematic,
+            // Slowing down costs time to re-acquire (the steering, not the
+            // speed, limits it): only past 5° and gently.
+            speed: IncrementalPidGains {
+                kp: 3.0,
+                ki: 1.0,
+                kd: 0.0,
+                d_filter_hz: 0.0,
+            },
+            angle_deadband_rad: 5f64.to_radians(),
+            cruise_speed_mps: 1.5,
+            min_speed_mps: 0.5,
+            lost_speed_mps: 0.5,
+            lost_hold_s: 0.3,
+            sensor_rate_filter_hz: 3.0,
+        }
+    }
+}
+
+impl MagneticGuideConfig {
+    /// d, front sensor to rear sensor.
+    pub fn sensor_spacing_m(&self) -> f64 {
+        self.front_x_m - self.rear_x_m
+    }
+
+    /// Tuned for seed 002's figure (back on a curve within 2 s, correction
+    /// within ±10°) on the same vehicle: the seed's PD (K_I = 0) with the
+    /// correction limited to ±10° about the steering it took over. Without
+    /// an integral, a curve needing more than 10° beyond that steering (on
+    /// the bench vehicle: tighter than 16.4 m, entered from a straight) is
+    /// beyond it, and any curve is held with a standing offset of
+    /// steering/kp.
+    pub fn seed_figure() -> Self {
+        Self {
+            steer: IncrementalPidGains {
+                kp: 9.0,
+                ki: 0.0,
+                kd: 6.0,
+                d_filter_hz: 0.0,
+            },
+            steer_correction_max_rad: 10f64.to_radians(),
+            ..Self::default()
+        }
+    }
+}
+
+/// One control step's inputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MagneticInput {
+    /// Probe masks, bit i−1 = probe i, probe 1 rightmost.
+    pub front_mask: u16,
+    pub rear_mask: u16,
+    /// Measured (or, lacking that, commanded) forward speed and yaw rate
+    /// (positive = clockwise): the kinematic rate and a lost sensor's
+    /// placement need them.
+    pub speed_mps: f64,
+    pub yaw_rate_rad_s: f64,
+}
+
+/// What the guide saw and decided in one update.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MagneticStatus {
+    /// Seed §4.2 `num` of each sensor (`None` off the tape).
+    pub front_num: Option<f64>,
+    pub rear_num: Option<f64>,
+    /// e1, e2 as read (positive = tape to the right).
+    pub front_m: Option<f64>,
+    pub rear_m: Option<f64>,
+    /// e1, e2 as used: a lost sensor's is placed from the other's.
+    pub front_used_m: f64,
+    pub rear_used_m: f64,
+    /// Midpoint's lateral deviation, its rate as used by the D term, and the
+    /// angle deviation (all 0 when lost).
+    pub lateral_m: f64,
+    pub lateral_rate_mps: f64,
+    pub angle_rad: f64,
+    /// Neither sensor sees the tape.
+    pub lost: bool,
+    /// Both sensors see the tape.
+    pub acquired: bool,
+    pub steer: IncrementalTerms,
+    pub speed: IncrementalTerms,
+    /// The demands: centre (bicycle) steering angle, positive = right, and
+    /// vehicle speed.
+    pub steer_rad: f64,
+    pub speed_mps: f64,
+}
+
+/// A sensor's history since the tape was last fully lost.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct SensorTrack {
+    /// The last reading, while it is on the tape.
+    current_m: Option<f64>,
+    /// Its filtered rate while on the tape.
+    rate_mps: f64,
+    /// How long it has been on the tape without a break.
+    on_tape_s: f64,
+    /// While it is off the tape: the side the tape is on (±1), once known.
+    /// It cannot change without the sensor seeing the tape on the way
+    /// across, so it is kept until then.
+    side: Option<f64>,
+}
+
+impl SensorTrack {
+    fn update(&mut self, reading_m: Option<f64>, cutoff_hz: f64, dt_s: f64) {
+        self.rate_mps = match (self.current_m, reading_m) {
+            (Some(last), Some(now)) if dt_s > 0.0 => low_pass(self.rate_mps, (now - last) / dt_s, cutoff_hz, dt_s),
+            _ => 0.0,
+        };
+        self.on_tape_s = match (self.current_m, reading_m) {
+            (Some(_), Some(_)) => self.on_tape_s + dt_s.max(0.0),
+            _ => 0.0,
+        };
+        self.current_m = reading_m;
+        if let Some(now) = reading_m.filter(|r| *r != 0.0) {
+            self.side = Some(now.signum());
+        }
+    }
+}
+
+/// The guide's state between updates.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MagneticGuide {
+    steer: IncrementalPid,
+    speed: IncrementalPid,
+    front: SensorTrack,
+    rear: SensorTrack,
+    /// How long both sensors have been off the tape.
+    lost_s: f64,
+    /// The last demands made with the tape in sight.
+    last_steer_rad: f64,
+    last_speed_mps: f64,
+}
+
+/// A sensor's rate, and the side of the other sensor it implies, is trusted
+/// after this many time constants of its filter.
+const RATE_SETTLE_TIME_CONSTANTS: f64 = 3.0;
+/// Below this speed a sensor's rate says nothing about the tape's direction.
+const MIN_RATE_SPEED_MPS: f64 = 0.05;
+
+impl MagneticGuide {
+    /// A guide taking over a vehicle that already steers `steer_rad` (the
+    /// mode engaging while driving): the steering PID's integral starts
+    /// there, so the incremental form carries the steering a curve needs
+    /// instead of asking the lateral error to hold it.
+    pub fn engaged_at(steer_rad: f64) -> Self {
+        MagneticGuide {
+            steer: IncrementalPid::starting_at(steer_rad),
+            last_steer_rad: if steer_rad.is_finite() { steer_rad } else { 0.0 },
+            ..MagneticGuide::default()
+        }
+    }
+
+    pub fn reset(&mut self) {
+        *self = MagneticGuide::default();
+    }
+
+    /// One control step, `dt_s` after the last.
+    pub fn update(&mut self, config: &MagneticGuideConfig, input: &MagneticInput, dt_s: f64) -> MagneticStatus {
+        let pitch_m = config.probe_pitch_m;
+        let front_m = sensor_deviation_m(input.front_mask, pitch_m);
+        let rear_m = sensor_deviation_m(input.rear_mask, pitch_m);
+        let mut status = MagneticStatus {
+            front_num: probe_num(input.front_mask),
+            rear_num: probe_num(input.rear_mask),
+            front_m,
+            rear_m,
+            lost: front_m.is_none() && rear_m.is_none(),
+            acquired: front_m.is_some() && rear_m.is_some(),
+            ..MagneticStatus::default()
+        };
+        if front_m.is_some() || rear_m.is_some() {
+            self.lost_s = 0.0;
+        }
+        let cutoff_hz = config.sensor_rate_filter_hz;
+        self.front.update(front_m, cutoff_hz, dt_s);
+        self.rear.update(rear_m, cutoff_hz, dt_s);
+        let spacing_m = config.sensor_spacing_m();
+        let speed_mps = input.speed_mps;
+        let yaw_rate = input.yaw_rate_rad_s;
+        // A sensor moving along the tape sees it drift across at v·tan α − ω·x.
+        let tan_alpha = |track: &SensorTrack, x_m: f64| {
+            if speed_mps.abs() > MIN_RATE_SPEED_MPS {
+                (track.rate_mps + yaw_rate * x_m) / speed_mps
+            } else {
+                0.0
+            }
+        };
+        let (e1, e2) = match (front_m, rear_m) {
+            (Some(f), Some(r)) => (f, r),
+            (Some(f), None) => {
+                let estimate_m = f - spacing_m * tan_alpha(&self.front, config.front_x_m);
+                (f, Self::place_lost(&mut self.rear, &self.front, estimate_m, config))
+            }
+            (None, Some(r)) => {
+                let estimate_m = r + spacing_m * tan_alpha(&self.rear, config.rear_x_m);
+                (Self::place_lost(&mut self.front, &self.rear, estimate_m, config), r)
+            }
+            (None, None) => {
+                self.lost_s += dt_s.max(0.0);
+                if self.lost_s <= config.lost_hold_s {
+                    // A gap between the sensors' ranges, or an edge probe
+                    // flickering: carry on as commanded.
+                    status.steer_rad = self.last_steer_rad;
+                    status.speed_mps = self.last_speed_mps;
+                } else {
+                    // Seed §4.3: drive straight until a sensor finds the
+                    // tape. What the sensors saw is stale by then; the
+                    // steering integral (what the path's curvature needs) is
+                    // not, so the guide starts from it when the tape is back.
+                    let integral = self.steer.integral();
+                    let lost_s = self.lost_s;
+                    *self = MagneticGuide {
+                        steer: IncrementalPid::starting_at(integral),
+                        lost_s,
+                        ..MagneticGuide::default()
+                    };
+                    status.speed_mps = config.lost_speed_mps;
+                }
+                return status;
+            }
+        };
+        let (lateral_m, angle_rad) = lateral_and_angle(e1, e2, spacing_m);
+        let steer_max_rad = config.steer_max_rad.abs();
+        let (steer, lateral_rate_mps) = match config.lateral_rate {
+            LateralRate::Difference => {
+                let terms = self
+                    .steer
+                    .update(&config.steer, lateral_m, dt_s, -steer_max_rad, steer_max_rad);
+                (
+                    terms,
+                    if config.steer.kd != 0.0 {
+                        terms.d / config.steer.kd
+                    } else {
+                        0.0
+                    },
+                )
+            }
+            LateralRate::Kinematic => {
+                let mid_x_m = (config.front_x_m + config.rear_x_m) / 2.0;
+                let rate_mps = speed_mps * angle_rad.tan() - yaw_rate * mid_x_m;
+                let terms = self.steer.update_with_rate(
+                    &config.steer,
+                    lateral_m,
+                    rate_mps,
+                    dt_s,
+                    -steer_max_rad,
+                    steer_max_rad,
+                );
+                (terms, rate_mps)
+            }
+        };
+        let max_cut_mps = (config.cruise_speed_mps - config.min_speed_mps).max(0.0);
+        let speed = self.speed.update(
+            &config.speed,
+            angle_rad.abs() - config.angle_deadband_rad,
+            dt_s,
+            0.0,
+            max_cut_mps,
+        );
+        // The seed's "correction angle": the PD part, about the integral
+        // (which holds what the path's curvature needs).
+        let correction_max_rad = config.steer_correction_max_rad.abs();
+        let steer_rad = (steer.i + (steer.p + steer.d).clamp(-correction_max_rad, correction_max_rad))
+            .clamp(-steer_max_rad, steer_max_rad);
+        self.last_steer_rad = steer_rad;
+        self.last_speed_mps = config.cruise_speed_mps - speed.output;
+        MagneticStatus {
+            front_used_m: e1,
+            rear_used_m: e2,
+            lateral_m,
+            lateral_rate_mps,
+            angle_rad,
+            steer,
+            speed,
+            steer_rad,
+            speed_mps: config.cruise_speed_mps - speed.output,
+            ..status
+        }
+    }
+
+    /// Where a sensor that is off the tape probably has it: at least just
+    /// past its outermost probe, on the side it last saw it (the tape left
+    /// through that edge) or, never having seen it, on the side the other
+    /// sensor's reading and rate put it (decided once that rate has settled);
+    /// further out if they say so.
+    fn place_lost(lost: &mut SensorTrack, seen: &SensorTrack, estimate_m: f64, config: &MagneticGuideConfig) -> f64 {
+        let edge_m = LOST_EDGE_PITCHES * config.probe_pitch_m;
+        let side = match lost.side {
+            Some(side) => side,
+            None if estimate_m == 0.0 => return 0.0,
+            None => {
+                let settle_s = RATE_SETTLE_TIME_CONSTANTS / (std::f64::consts::TAU * config.sensor_rate_filter_hz);
+                if seen.on_tape_s >= settle_s {
+                    lost.side = Some(estimate_m.signum());
+                }
+                estimate_m.signum()
+            }
+        };
+        if estimate_m.signum() == side {
+            estimate_m.abs().max(edge_m) * side
+        } else {
+            edge_m * side
+        }
+    }
+}
