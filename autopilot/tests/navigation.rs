@@ -7,6 +7,7 @@ mod common;
 use autopilot::modes::Mode;
 use autopilot::sitl::simulation::ModelKind;
 use common::Harness;
+use mavlink::dialects::ardupilotmega::MavMessage;
 
 fn guided(seed: u64) -> Harness {
     let mut h = Harness::new(seed, ModelKind::Ackermann);
@@ -80,6 +81,22 @@ fn rtk_float_slows_down_and_a_single_fix_holds() {
     assert_eq!(h.sim.core().mode(), Mode::Hold, "{:?}", h.texts());
     assert!(h.texts().iter().any(|t| t == "GPS fix degraded: HOLD"));
     assert!(h.sim.world().truth().speed_mps.abs() < 0.05);
+    let reports: Vec<f32> = h
+        .received
+        .iter()
+        .filter_map(|o| match &o.message {
+            MavMessage::EKF_STATUS_REPORT(r) => Some(r.pos_horiz_variance),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        reports.first().is_some_and(|v| *v < 0.5),
+        "RTK fixed: green, {reports:?}"
+    );
+    assert!(
+        reports.last().is_some_and(|v| *v > 0.8),
+        "single: red (Mission Planner: > 0.8), {reports:?}"
+    );
 
     // With both actions at "continue" a downgrade is only reported.
     let mut h = guided(5);
@@ -89,7 +106,7 @@ fn rtk_float_slows_down_and_a_single_fix_holds() {
     h.run_for(10.0);
     set(&mut h, "SIM_GPS_QUALITY", 1.0);
     h.run_for(5.0);
-    assert_eq!(h.sim.core().mode(), Mode::Guided);
+    assert_eq!(h.sim.core().mode(), Mode::Guided, "{:?}", h.texts());
     assert!(h.sim.world().truth().speed_mps > 1.5);
     assert!(h.texts().iter().any(|t| t == "GPS: RTK fixed lost, now single"));
 }

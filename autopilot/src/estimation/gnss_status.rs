@@ -69,6 +69,17 @@ impl GnssStatus {
         Self::quality_sigma_m(self.quality)
     }
 
+    /// The least 1-σ per axis a fix of this quality can have.
+    pub fn quality_sigma_floor_m(quality: Option<FixQuality>) -> f64 {
+        match quality {
+            Some(FixQuality::RtkFixed) => 0.002,
+            Some(FixQuality::RtkFloat) => 0.05,
+            Some(FixQuality::Dgps) => 0.3,
+            Some(FixQuality::Single) => 1.0,
+            _ => 10.0,
+        }
+    }
+
     /// Typical 1-σ per axis of a fix of this quality.
     pub fn quality_sigma_m(quality: Option<FixQuality>) -> f64 {
         match quality {

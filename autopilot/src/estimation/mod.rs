@@ -160,14 +160,15 @@ impl Estimator {
     /// `held_still`: the vehicle is commanded to stand (no drive demand for a
     /// while), so a GNSS speed near zero means it is at rest.
     pub fn update(&mut self, now: Duration, config: &EstimatorConfig, samples: &[GnssSample], held_still: bool) {
+        let tuning = self.tuning(config);
         let mut ekf = match self.ekf.take() {
             Some(mut ekf) => {
-                if *ekf.config() != config.ekf && ekf.set_config(config.ekf).is_err() {
+                if *ekf.config() != tuning && ekf.set_config(tuning).is_err() {
                     // A refused tuning keeps the last good one.
                 }
                 ekf
             }
-            None => match Ekf::new(config.ekf).or_else(|_| Ekf::new(EkfConfig::default())) {
+            None => match Ekf::new(tuning).or_else(|_| Ekf::new(EkfConfig::default())) {
                 Ok(ekf) => ekf,
                 Err(_) => return,
             },
@@ -219,12 +220,15 @@ impl Estimator {
                         from: self.fix_quality,
                         to: fix.quality,
                     });
-                    // A different kind of fix is a different error: start the
-                    // position from it rather than gate it against the old one.
-                    if ekf.is_initialised() && self.fix_quality.is_some() {
+                    let had_fix = self.fix_quality.is_some();
+                    self.fix_quality = Some(fix.quality);
+                    // A different kind of fix is a different error, mostly a
+                    // slow one: model it so, and start the position from the
+                    // fix rather than gate it against the old one.
+                    let _ = ekf.set_config(self.tuning(config));
+                    if ekf.is_initialised() && had_fix {
                         let _ = ekf.reset_position_to_gnss(antenna.north_m, antenna.east_m, sigma.0, sigma.1);
                     }
-                    self.fix_quality = Some(fix.quality);
                 }
                 let fusion = ekf.update_gnss_position(antenna.north_m, antenna.east_m, sigma.0, sigma.1);
                 self.position_fusion(ekf, fusion);
@@ -274,12 +278,30 @@ impl Estimator {
         }
     }
 
+    /// The filter's tuning for the current fix: the slowly wandering part of
+    /// the GNSS error is `EKF_GPS_WALK` with RTK fixed, and most of the error
+    /// of a float or single fix (which averaging does not remove).
+    fn tuning(&self, config: &EstimatorConfig) -> EkfConfig {
+        let slow = 0.7 * GnssStatus::quality_sigma_floor_m(self.fix_quality);
+        EkfConfig {
+            gnss_walk_sigma_m: if self.fix_quality == Some(FixQuality::RtkFixed) || self.fix_quality.is_none() {
+                config.ekf.gnss_walk_sigma_m
+            } else {
+                config.ekf.gnss_walk_sigma_m.max(slow)
+            },
+            ..config.ekf
+        }
+    }
+
     /// Per-axis σ of the fix: GST when it is current, else the typical
-    /// figure for the fix quality.
+    /// figure for the fix quality; never less than the quality allows (a
+    /// receiver whose GST stays at centimetres after losing RTK is not
+    /// believed).
     fn position_sigma(&self, t: Duration) -> (f64, f64) {
         let fresh = self.accuracy_t.is_some_and(|a| t.saturating_sub(a) <= ACCURACY_MAX_AGE);
+        let floor = GnssStatus::quality_sigma_floor_m(self.gnss.quality);
         match (fresh, self.gnss.sigma_north_m, self.gnss.sigma_east_m) {
-            (true, Some(n), Some(e)) if n > 0.0 && e > 0.0 => (n, e),
+            (true, Some(n), Some(e)) if n > 0.0 && e > 0.0 => (n.max(floor), e.max(floor)),
             _ => {
                 let s = GnssStatus::quality_sigma_m(self.gnss.quality);
                 (s, s)

@@ -45,6 +45,9 @@ impl Core {
                 f64::from(vehicle.antenna_x_m.get(t)),
                 f64::from(vehicle.antenna_y_m.get(t)),
             ),
+            // A single fix (σ ≈ 1–2.5 m) is still a position: whether to
+            // drive on it is GPS_SINGLE_ACT's call, not the filter's health.
+            healthy_max_position_sigma_m: 5.0,
             ..EkfConfig::default()
         };
         let base = match self.drive_train {

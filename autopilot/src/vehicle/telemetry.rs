@@ -481,9 +481,13 @@ impl Core {
         if status.gnss_position.consecutive_rejected > 0 {
             flags |= EkfStatusFlags::EKF_GPS_GLITCHING;
         }
+        // The position bar also shows the fix: its σ against 1 m, so a
+        // downgrade to single (σ ≈ 2.5 m per axis) turns it red, RTK float
+        // (≈ 0.3 m) leaves it green, as the test ratio alone would not.
+        let position = status.gnss_position.report_value().max(status.position_sigma_m as f32);
         EKF_STATUS_REPORT_DATA {
             velocity_variance: status.gnss_velocity.report_value(),
-            pos_horiz_variance: status.gnss_position.report_value(),
+            pos_horiz_variance: position,
             pos_vert_variance: 0.0,
             compass_variance: status.heading.report_value(),
             terrain_alt_variance: 0.0,
