@@ -27,6 +27,7 @@ pub mod geo;
 pub mod guidance;
 pub mod link;
 pub mod modes;
+pub mod obstacles;
 pub mod offline;
 pub mod sched;
 pub mod sitl;

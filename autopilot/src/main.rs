@@ -41,6 +41,8 @@ enum BenchCommand {
     Sitl(autopilot::bench::sitl::SitlBenchArgs),
     /// Path-tracking and stop accuracy on the reference courses, seeds 1..20, with SVG plots.
     Tracking(autopilot::bench::tracking::TrackingBenchArgs),
+    /// Obstacle scenarios (crossing people, head-on, parked car, box, reversing, corridor) at 1 and 2 m/s.
+    Obstacles(autopilot::bench::obstacles::ObstacleBenchArgs),
 }
 
 #[derive(clap::Args)]
@@ -75,6 +77,9 @@ struct SitlArgs {
     /// Radius of the tape's corner arcs, metres.
     #[arg(long, default_value_t = 15.0, value_parser = parse_tape_radius)]
     tape_radius: f64,
+    /// A world file (TOML: static and moving obstacles, tape; see tests/data/worlds/README.md), reloaded when it changes.
+    #[arg(long)]
+    world: Option<PathBuf>,
     /// TCP server port instead of 5760+10·I (0: any free port, printed at start).
     #[arg(long)]
     tcp_port: Option<u16>,
@@ -183,6 +188,7 @@ fn main() -> ExitCode {
                 mavlink: args.mavlink,
                 tlog: args.tlog,
                 tape: args.tape.map(|path| (path, args.tape_radius)),
+                world: args.world,
             })
         }
         Command::Params(args) => autopilot::offline::params::run(&args),
@@ -193,6 +199,9 @@ fn main() -> ExitCode {
         Command::Bench {
             which: BenchCommand::Tracking(args),
         } => autopilot::bench::tracking::run(&args),
+        Command::Bench {
+            which: BenchCommand::Obstacles(args),
+        } => autopilot::bench::obstacles::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

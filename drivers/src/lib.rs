@@ -12,4 +12,5 @@
 
 pub mod gnss;
 pub mod magnetic;
+pub mod scanner;
 pub mod sim;

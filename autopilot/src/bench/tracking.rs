@@ -67,7 +67,7 @@ pub struct TrackingBenchArgs {
     pub params: Vec<(String, f64)>,
 }
 
-fn parse_param(text: &str) -> Result<(String, f64), String> {
+pub(crate) fn parse_param(text: &str) -> Result<(String, f64), String> {
     let (name, value) = text
         .split_once('=')
         .ok_or_else(|| format!("{text:?}: expected NAME=VALUE"))?;

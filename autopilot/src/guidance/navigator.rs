@@ -39,6 +39,9 @@ pub struct NavConfig {
     pub speed: SpeedConfig,
     /// Caps every speed, the mission's included (a degraded fix, say).
     pub speed_limit_mps: Option<f64>,
+    /// Raises the cruise speed, the mission's included, to at least this
+    /// (passing before a crossing obstacle); the limit still caps it.
+    pub speed_boost_mps: Option<f64>,
     /// `WP_RADIUS`: within it a drive-through target without an arc counts
     /// as reached.
     pub wp_radius_m: f64,
@@ -346,6 +349,7 @@ impl Navigator {
             cruise_mps: target
                 .speed_mps
                 .unwrap_or(config.speed.cruise_mps)
+                .max(config.speed_boost_mps.unwrap_or(0.0))
                 .min(config.speed_limit_mps.unwrap_or(f64::INFINITY)),
             ..config.speed
         };
@@ -461,6 +465,7 @@ mod tests {
                 approach_gain_per_s: 0.6,
             },
             speed_limit_mps: None,
+            speed_boost_mps: None,
             wp_radius_m: 2.0,
             arc_radius_m: 6.0,
             min_arc_radius_m: 5.0,

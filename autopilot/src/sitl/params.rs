@@ -3,8 +3,10 @@
 //! ArduPilot's SITL).
 
 use drivers::gnss::FixQuality;
-use drivers::sim::GnssSimConfig;
+use drivers::sim::{GnssSimConfig, SimScannerConfig};
 use params::{ParamTable, declare_params};
+
+use crate::obstacles::params::ScannerParams;
 
 declare_params! {
     pub struct SimParams {
@@ -48,6 +50,30 @@ declare_params! {
             default: 0.0, range: -10.0, 10.0, unit: "m",
             desc: "Simulated antenna position right of the rear axle centre",
         },
+        scan_disable: i8 = "SIM_SCAN_DISABLE" => {
+            default: 0, range: 0, 3, unit: "",
+            desc: "Bitmask of simulated scanners that stop sending (1 front, 2 rear): a scanner stall",
+        },
+        scan_rate_hz: f32 = "SIM_SCAN_RATE" => {
+            default: 50.0, range: 1.0, 100.0, unit: "Hz",
+            desc: "Simulated laser scans per second (LMS1xx: 25 or 50)",
+        },
+        scan_fov_deg: f32 = "SIM_SCAN_FOV" => {
+            default: 270.0, range: 10.0, 360.0, unit: "deg",
+            desc: "Simulated scanner field of view",
+        },
+        scan_step_deg: f32 = "SIM_SCAN_STEP" => {
+            default: 0.5, range: 0.1, 5.0, unit: "deg",
+            desc: "Simulated scanner angular step",
+        },
+        scan_noise_m: f32 = "SIM_SCAN_NOISE" => {
+            default: 0.01, range: 0.0, 1.0, unit: "m",
+            desc: "Simulated scanner range noise (1 sigma)",
+        },
+        scan_dropout: f32 = "SIM_SCAN_DROP" => {
+            default: 0.002, range: 0.0, 1.0, unit: "",
+            desc: "Probability that a simulated beam returns nothing",
+        },
     }
 }
 
@@ -56,6 +82,42 @@ impl SimParams {
     pub fn speedup(&self, table: &ParamTable) -> Option<f64> {
         let s = f64::from(self.speedup.get(table));
         (s > 0.0).then_some(s)
+    }
+
+    /// The simulated scanners, at the mounts the autopilot is told of
+    /// (`SCANn_*`): index 0 front, 1 rear.
+    pub fn scanner_configs(&self, table: &ParamTable, scanners: &ScannerParams) -> Vec<SimScannerConfig> {
+        let disabled = self.scan_disable.get(table);
+        let mounts = [
+            (
+                scanners.scan1_enable.get(table),
+                scanners.scan1_x_m,
+                scanners.scan1_y_m,
+                scanners.scan1_yaw_deg,
+            ),
+            (
+                scanners.scan2_enable.get(table),
+                scanners.scan2_x_m,
+                scanners.scan2_y_m,
+                scanners.scan2_yaw_deg,
+            ),
+        ];
+        mounts
+            .iter()
+            .enumerate()
+            .map(|(i, (fitted, x, y, yaw))| SimScannerConfig {
+                enabled: *fitted && disabled & (1 << i) == 0,
+                mount_x_m: f64::from(x.get(table)),
+                mount_y_m: f64::from(y.get(table)),
+                mount_yaw_rad: f64::from(yaw.get(table)).to_radians(),
+                fov_rad: f64::from(self.scan_fov_deg.get(table)).to_radians(),
+                step_rad: f64::from(self.scan_step_deg.get(table)).to_radians(),
+                rate_hz: f64::from(self.scan_rate_hz.get(table)),
+                max_range_m: f64::from(scanners.max_range_m.get(table)),
+                range_sigma_m: f64::from(self.scan_noise_m.get(table)),
+                dropout_probability: f64::from(self.scan_dropout.get(table)),
+            })
+            .collect()
     }
 
     /// The receiver the `SIM_GPS_*` parameters describe.

@@ -41,6 +41,9 @@ pub struct SitlOptions {
     pub tlog: Option<PathBuf>,
     /// A magnetic tape through a waypoint file's points, corner radius.
     pub tape: Option<(PathBuf, f64)>,
+    /// A world file (obstacles, moving people, tape), reloaded when it
+    /// changes.
+    pub world: Option<PathBuf>,
 }
 
 /// Reads the wall clock for task timing (the edge's clock, injected into
@@ -108,6 +111,21 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         tracing::info!("magnetic tape laid: {:.1} m from {}", tape.length_m(), path.display());
         sim.world_mut().set_tape(Some(tape));
     }
+    let mut world_watch = match &options.world {
+        Some(path) => {
+            let file = drivers::sim::load_world_file(path).map_err(|e| format!("--world {}: {e}", path.display()))?;
+            if file.tape().is_some() && options.tape.is_some() {
+                return Err(format!(
+                    "--world {} lays a tape and so does --tape: give one",
+                    path.display()
+                ));
+            }
+            apply_world(&mut sim, &file);
+            tracing::info!("world loaded from {}", path.display());
+            Some(WorldWatch::new(path.clone()))
+        }
+        None => None,
+    };
     for (severity, text) in session.notices.drain(..) {
         sim.core_mut().add_startup_notice(severity, text);
     }
@@ -166,6 +184,9 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         let outputs = sim.step(start.elapsed(), &mut timer);
         forward(outputs, &channels.outbound, &mut dropped_out);
         persistence.sync(&sim, &session, &writer);
+        if let Some(watch) = &mut world_watch {
+            watch.poll(start.elapsed(), &mut sim);
+        }
         // Until the next tick: answer link traffic as it comes.
         let next_sim = sim.time() + sim.core().loop_period();
         if let Some(delay) = pacer.delay(next_sim, start.elapsed(), sim.speedup()) {
@@ -194,6 +215,65 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
     );
     drop(links);
     Ok(())
+}
+
+/// Puts a world file's obstacles (and tape, if it has one) into the
+/// simulation.
+fn apply_world(sim: &mut Simulation, file: &drivers::sim::WorldFile) {
+    sim.world_mut().set_obstacles(Some(file.obstacles()));
+    if let Some(tape) = file.tape() {
+        sim.world_mut().set_tape(Some(tape));
+    }
+}
+
+/// Reloads the world file when its modification time changes (checked
+/// once a wall second). A file that no longer parses keeps the old world
+/// and says why.
+struct WorldWatch {
+    path: PathBuf,
+    modified: Option<std::time::SystemTime>,
+    next_check: Duration,
+}
+
+impl WorldWatch {
+    const EVERY: Duration = Duration::from_secs(1);
+
+    fn new(path: PathBuf) -> Self {
+        let modified = std::fs::metadata(&path).and_then(|m| m.modified()).ok();
+        WorldWatch {
+            path,
+            modified,
+            next_check: Self::EVERY,
+        }
+    }
+
+    fn poll(&mut self, wall: Duration, sim: &mut Simulation) {
+        if wall < self.next_check {
+            return;
+        }
+        self.next_check = wall + Self::EVERY;
+        let modified = std::fs::metadata(&self.path).and_then(|m| m.modified()).ok();
+        if modified.is_none() || modified == self.modified {
+            return;
+        }
+        self.modified = modified;
+        use mavlink::dialects::ardupilotmega::MavSeverity;
+        match drivers::sim::load_world_file(&self.path) {
+            Ok(file) => {
+                apply_world(sim, &file);
+                tracing::info!("world reloaded from {}", self.path.display());
+                sim.core_mut()
+                    .announce(MavSeverity::MAV_SEVERITY_INFO, "SIM: world reloaded");
+            }
+            Err(e) => {
+                tracing::warn!("world file {}: {e}; keeping the old world", self.path.display());
+                sim.core_mut().announce(
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    "SIM: world file invalid, kept old world",
+                );
+            }
+        }
+    }
 }
 
 /// Saves parameters and plans after they change: the core only counts

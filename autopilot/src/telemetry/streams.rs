@@ -73,7 +73,7 @@ impl StreamGroup {
             StreamGroup::Position => "GLOBAL_POSITION_INT stream rate",
             StreamGroup::Extra1 => "ATTITUDE stream rate",
             StreamGroup::Extra2 => "VFR_HUD stream rate",
-            StreamGroup::Extra3 => "SYSTEM_TIME, BATTERY_STATUS, EKF_STATUS_REPORT stream rate",
+            StreamGroup::Extra3 => "SYSTEM_TIME, BATTERY_STATUS, EKF_STATUS_REPORT, OBSTACLE_DISTANCE stream rate",
             StreamGroup::Params => "Parameter streaming rate",
             StreamGroup::Adsb => "ADS-B stream rate",
         }
@@ -116,10 +116,11 @@ pub enum StreamMsg {
     MissionCurrent,
     FenceStatus,
     RelayStatus,
+    ObstacleDistance,
 }
 
 impl StreamMsg {
-    pub const COUNT: usize = 16;
+    pub const COUNT: usize = 17;
     pub const ALL: [StreamMsg; Self::COUNT] = [
         StreamMsg::SysStatus,
         StreamMsg::GpsRawInt,
@@ -137,6 +138,7 @@ impl StreamMsg {
         StreamMsg::MissionCurrent,
         StreamMsg::FenceStatus,
         StreamMsg::RelayStatus,
+        StreamMsg::ObstacleDistance,
     ];
 
     pub fn message_id(self) -> u32 {
@@ -157,6 +159,7 @@ impl StreamMsg {
             StreamMsg::MissionCurrent => 42,
             StreamMsg::FenceStatus => 162,
             StreamMsg::RelayStatus => 376,
+            StreamMsg::ObstacleDistance => 330,
         }
     }
 
@@ -182,7 +185,8 @@ impl StreamMsg {
             StreamMsg::SystemTime
             | StreamMsg::BatteryStatus
             | StreamMsg::EkfStatusReport
-            | StreamMsg::ExtendedSysState => Some(StreamGroup::Extra3),
+            | StreamMsg::ExtendedSysState
+            | StreamMsg::ObstacleDistance => Some(StreamGroup::Extra3),
             StreamMsg::HomePosition => None,
         }
     }

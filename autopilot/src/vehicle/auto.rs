@@ -58,7 +58,8 @@ impl Core {
     pub(super) fn run_mission(&mut self) {
         let status = self.navigator.status();
         let report = VehicleReport {
-            arrived: self.navigator.arrived(),
+            // On a detour the leg's waypoint is not reached yet.
+            arrived: self.navigator.arrived() && !self.obstacles.detouring(),
             distance_to_destination_m: status.wp_dist_m,
             utc_time_of_day_s: self
                 .estimator

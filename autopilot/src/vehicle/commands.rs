@@ -177,6 +177,15 @@ impl Core {
             MavCmd::MAV_CMD_DO_REPOSITION => self.do_reposition(c),
             MavCmd::MAV_CMD_DO_SET_HOME => self.do_set_home(c),
             MavCmd::MAV_CMD_DO_CHANGE_SPEED => self.do_change_speed(p1, p2),
+            // Continue releases an obstacle stop held for the GCS
+            // (OA_RESUME 0) once the way is clear; pausing is not supported.
+            MavCmd::MAV_CMD_DO_PAUSE_CONTINUE if p1 == 1.0 => {
+                if self.obstacle_continue() || !self.obstacle_status().stopped {
+                    MavResult::MAV_RESULT_ACCEPTED
+                } else {
+                    MavResult::MAV_RESULT_TEMPORARILY_REJECTED
+                }
+            }
             MavCmd::MAV_CMD_REQUEST_MESSAGE => {
                 let response = if c.z == 2.0 {
                     Destination::AllLinks

@@ -11,8 +11,9 @@ use crate::control::pid::PidGains;
 use crate::control::speed::SpeedControlConfig;
 use crate::guidance::navigator::{NavConfig, NavDemand, StopReport, StopTolerance};
 use crate::guidance::speed::SpeedConfig;
-use crate::guidance::tracker::TrackerConfig;
+use crate::guidance::tracker::{Direction, TrackerConfig};
 use crate::modes::Mode;
+use crate::obstacles::policy::Verdict;
 
 const GRAVITY_MPS2: f64 = 9.80665;
 
@@ -99,7 +100,11 @@ impl Core {
                 min_mps: 0.1,
                 approach_gain_per_s: f64::from(nav.approach_gain.get(t)),
             },
-            speed_limit_mps: self.degraded_fix_speed_limit(),
+            speed_limit_mps: match (self.degraded_fix_speed_limit(), self.obstacles.status().speed_limit_mps) {
+                (Some(a), Some(b)) => Some(a.min(b)),
+                (a, b) => a.or(b),
+            },
+            speed_boost_mps: self.obstacles.status().speed_up_mps,
             wp_radius_m: f64::from(nav.wp_radius_m.get(t)),
             arc_radius_m: tightest_turn_m * f64::from(nav.arc_margin.get(t)),
             // Room for the tracker's corrections on top of the arc.
@@ -152,9 +157,16 @@ impl Core {
         if self.mode == Mode::Auto {
             self.run_mission();
         }
+        let obstacle_stop = self.obstacle_tick();
         let demand = match self.mode {
             Mode::Manual => self.manual_demand(),
+            Mode::Guided | Mode::Rtl | Mode::Auto if obstacle_stop => {
+                self.maybe_plan_detour(true);
+                Demand::Stop
+            }
+            Mode::Magnetic if obstacle_stop => Demand::Stop,
             Mode::Guided | Mode::Rtl | Mode::Auto => {
+                self.maybe_plan_detour(false);
                 let was_arrived = self.navigator.arrived();
                 let config = self.nav_config();
                 let estimate = *self.estimator.estimate();
@@ -162,6 +174,7 @@ impl Core {
                 if let Some(report) = self.navigator.take_stop_report() {
                     self.report_stop(&report);
                 }
+                self.advance_detour();
                 // AUTO reports its own arrivals (MISSION_ITEM_REACHED).
                 if self.mode != Mode::Auto
                     && self.navigator.arrived()
@@ -187,6 +200,29 @@ impl Core {
             _ => Demand::Stop,
         };
         self.apply_demand(demand, dt_s);
+    }
+
+    /// The obstacle policy for this tick; true when it stops the vehicle.
+    fn obstacle_tick(&mut self) -> bool {
+        let active = self.armed && self.mode.self_driving();
+        let (wants_to_move, direction, planned_mps) = match self.navigator.target() {
+            _ if self.mode == Mode::Magnetic => (
+                active,
+                Direction::Forward,
+                f64::from(self.p.nav.wp_speed_mps.get(&self.params)),
+            ),
+            Some(target) => {
+                let cruise = self.nav_config().speed.cruise_mps;
+                (
+                    active && !self.navigator.stopping(),
+                    target.direction,
+                    target.speed_mps.unwrap_or(cruise),
+                )
+            }
+            None => (false, Direction::Forward, 0.0),
+        };
+        let verdict = self.obstacle_verdict(active, wants_to_move, direction, planned_mps);
+        matches!(verdict, Verdict::Stop(_))
     }
 
     /// The achieved stop error, as the estimate has it once the vehicle

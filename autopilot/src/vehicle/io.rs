@@ -67,6 +67,15 @@ pub struct Inputs {
     pub battery: Option<BatterySample>,
     /// The magnetic-tape sensors, when the vehicle has them.
     pub magnetic: Option<MagneticSample>,
+    /// Laser scans received since the last tick.
+    pub scans: Vec<ScanInput>,
+}
+
+/// A scan and which scanner sent it (0 = SCAN1, 1 = SCAN2).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScanInput {
+    pub scanner: usize,
+    pub scan: drivers::scanner::Scan,
 }
 
 impl Inputs {
@@ -77,6 +86,7 @@ impl Inputs {
         self.gnss.clear();
         self.battery = None;
         self.magnetic = None;
+        self.scans.clear();
     }
 }
 

@@ -15,6 +15,7 @@ mod messages;
 mod mission_protocol;
 mod mission_state;
 mod modes;
+mod obstacles;
 mod param_protocol;
 pub mod params;
 mod telemetry;
@@ -40,7 +41,8 @@ use crate::telemetry::streams::LinkStreams;
 use crate::time::{Now, TaskTimer};
 
 pub use drive::DriveState;
-pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, UndecodableItem};
+pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, ScanInput, UndecodableItem};
+pub use obstacles::ObstacleStatus;
 pub use params::CoreParams;
 
 /// After this long without a drive demand the vehicle counts as held still.
@@ -89,6 +91,7 @@ pub struct Core {
     battery: Option<BatterySample>,
     magnetic_sample: Option<MagneticSample>,
     magnetic: magnetic::MagneticState,
+    obstacles: obstacles::ObstacleState,
     /// Since when the drive demand has been neutral.
     neutral_since: Option<Duration>,
     last_gcs_heartbeat_wall: Option<Duration>,
@@ -134,6 +137,7 @@ impl Core {
             battery: None,
             magnetic_sample: None,
             magnetic: magnetic::MagneticState::default(),
+            obstacles: obstacles::ObstacleState::default(),
             neutral_since: None,
             last_gcs_heartbeat_wall: None,
             statustext_id: 0,
@@ -216,6 +220,12 @@ impl Core {
         self.startup_notices.push((severity, text.into()));
     }
 
+    /// A STATUSTEXT from the edge to every link (a simulated world reloaded,
+    /// a device lost): it goes out with the next step's messages.
+    pub fn announce(&mut self, severity: MavSeverity, text: &str) {
+        self.send_text(severity, text);
+    }
+
     pub fn param_handles(&self) -> &CoreParams {
         &self.p
     }
@@ -242,6 +252,16 @@ impl Core {
 
     pub fn navigator(&self) -> &Navigator {
         &self.navigator
+    }
+
+    /// What the obstacle pipeline concluded on the last tick.
+    pub fn obstacle_status(&self) -> ObstacleStatus {
+        *self.obstacles.status()
+    }
+
+    /// The obstacle tracks (confirmed and tentative).
+    pub fn obstacle_tracks(&self) -> &[crate::obstacles::Track] {
+        self.obstacles.tracks()
     }
 
     pub fn scheduler(&self) -> &Scheduler {
@@ -332,6 +352,7 @@ impl Core {
         if let Some(m) = inputs.magnetic {
             self.magnetic_sample = Some(m);
         }
+        self.read_scans(&inputs.scans);
         if self.home.is_none() && self.estimator.estimate().position_valid {
             self.set_home_to_current(false);
         }

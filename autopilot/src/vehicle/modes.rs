@@ -65,6 +65,7 @@ impl Core {
         self.mode = mode;
         self.speed_override_mps = None;
         self.navigator.clear();
+        self.obstacles_mode_changed();
         match mode {
             Mode::Rtl => {
                 if let Some(target) = self.rtl_target() {

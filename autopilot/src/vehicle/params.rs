@@ -6,6 +6,7 @@ use params::{Param, ParamDef, ParamFlags, ParamName, ParamTableBuilder, ParamTyp
 
 use crate::estimation::{EkfParams, GnssQualityParams};
 use crate::geo::GeoParams;
+use crate::obstacles::params::ObstacleParams;
 use crate::telemetry::streams::StreamGroup;
 
 declare_params! {
@@ -362,6 +363,7 @@ pub struct CoreParams {
     pub ekf: EkfParams,
     pub gnss_quality: GnssQualityParams,
     pub streams: StreamRateParams,
+    pub obstacles: ObstacleParams,
 }
 
 impl CoreParams {
@@ -379,6 +381,7 @@ impl CoreParams {
             ekf: EkfParams::register(builder),
             gnss_quality: GnssQualityParams::register(builder),
             streams: StreamRateParams::register(builder),
+            obstacles: ObstacleParams::register(builder),
         }
     }
 }

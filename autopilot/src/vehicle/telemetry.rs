@@ -111,6 +111,7 @@ impl Core {
             StreamMsg::MissionCurrent => MavMessage::MISSION_CURRENT(self.mission_current()),
             StreamMsg::FenceStatus => MavMessage::FENCE_STATUS(self.fence_status()?),
             StreamMsg::RelayStatus => MavMessage::RELAY_STATUS(self.relay_status()?),
+            StreamMsg::ObstacleDistance => MavMessage::OBSTACLE_DISTANCE(self.obstacle_distance()?),
         })
     }
 
@@ -155,7 +156,19 @@ impl Core {
         if fence_present {
             present |= MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE;
         }
+        let obstacles = self.obstacle_status();
+        if obstacles.enabled {
+            present |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_PROXIMITY
+                | MavSysStatusSensor::MAV_SYS_STATUS_OBSTACLE_AVOIDANCE;
+        }
         let mut health = present;
+        // Both are healthy while every fitted scanner is live: without scans
+        // avoidance cannot work (and the vehicle will not drive).
+        if !obstacles.scans_fresh {
+            health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_PROXIMITY);
+            health.remove(MavSysStatusSensor::MAV_SYS_STATUS_OBSTACLE_AVOIDANCE);
+        }
+
         // As ArduPilot: the geofence health bit means "not breached", so a
         // vehicle without a fence reports it healthy (MAVProxy announces a
         // breach otherwise).
@@ -179,6 +192,9 @@ impl Core {
         }
         if !self.mode.is_autopilot() {
             enabled.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL);
+        }
+        if !(self.mode.self_driving() && self.armed) {
+            enabled.remove(MavSysStatusSensor::MAV_SYS_STATUS_OBSTACLE_AVOIDANCE);
         }
         if !fence_enabled {
             enabled.remove(MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE);

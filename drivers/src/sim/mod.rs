@@ -1,5 +1,6 @@
 //! The SITL world. Its simulated devices emit what real ones do: the GNSS
-//! receiver writes NMEA bytes for [`crate::gnss::NmeaReader`].
+//! receiver writes NMEA bytes for [`crate::gnss::NmeaReader`]; the laser
+//! scanners ray-cast the obstacles into [`crate::scanner::Scan`]s.
 //!
 //! Frames: NED about the home point (`north_m`, `east_m`); yaw 0 = north,
 //! clockwise, in [-π, π); body x forward, y right; the vehicle reference point
@@ -13,8 +14,11 @@ mod geo;
 mod gnss_sim;
 mod magnetic;
 mod nmea_out;
+mod obstacles;
+mod scanner;
 mod vehicle;
 mod world;
+mod world_file;
 
 #[cfg(test)]
 mod tests;
@@ -27,5 +31,8 @@ pub use config::{
 pub use magnetic::{
     MAGNETIC_PROBES, MagneticSensor, MagneticSensorConfig, MagneticTape, TapeBuilder, TapeFix, TapeSegment,
 };
+pub use obstacles::{MovingObstacle, ObstacleWorld, Rectangle, Shape, VehicleOutline};
+pub use scanner::{MAX_BEAMS, SimScanner, SimScannerConfig, SimScannerConfigError, render_scan};
 pub use vehicle::VehicleTruth;
 pub use world::World;
+pub use world_file::{PERSON_RADIUS_M, WorldFile, WorldFileError, load_world_file, parse_world_file};

@@ -1,19 +1,28 @@
-//! The SITL world: one vehicle on the WGS-84 ellipsoid, its battery, and its
-//! GNSS receiver, advanced in simulated time.
+//! The SITL world: one vehicle on the WGS-84 ellipsoid, its battery, its
+//! GNSS receiver, and optionally obstacles and laser scanners, advanced in
+//! simulated time.
 
+use std::collections::VecDeque;
 use std::time::Duration;
 
 use super::battery::{Battery, BatterySample};
 use super::geo::LocalFrame;
 use super::gnss_sim::GnssSim;
 use super::magnetic::MagneticTape;
+use super::obstacles::{ObstacleWorld, VehicleOutline};
+use super::scanner::{SimScanner, SimScannerConfig, scanner_seed};
 use super::vehicle::{self, VehicleTruth, wrap_pi};
 use super::{ActuatorDemand, GeoPoint, GnssSimConfig, MagneticSensorConfig, VehicleModel, WorldConfig};
+use crate::scanner::Scan;
 
 /// The physics rate used when the configured one is unusable (≤ 0, NaN).
 const FALLBACK_PHYSICS_RATE_HZ: f64 = 400.0;
 /// A mistyped rate must not turn one step into billions of sub-steps.
 const MAX_PHYSICS_RATE_HZ: f64 = 100_000.0;
+/// Scans nobody takes are dropped oldest first beyond this (two scanners'
+/// worth of a bit over a second at 50 Hz): a reader that stalls sees a gap
+/// in `scan_counter`, as it would on the wire, and memory stays bounded.
+const MAX_PENDING_SCANS: usize = 128;
 
 #[derive(Clone, Debug)]
 pub struct World {
@@ -25,8 +34,14 @@ pub struct World {
     gnss: GnssSim,
     /// The magnetic guide tape, if one is laid.
     tape: Option<MagneticTape>,
-    /// Seeds the magnetic sensors' edge noise (a stream of its own).
+    /// Seeds the magnetic sensors' edge noise and the scanners' noise
+    /// (streams of their own, apart from the receiver's).
     seed: u64,
+    /// What the scanners see and the vehicle can hit, if anything.
+    obstacles: Option<ObstacleWorld>,
+    scanners: Vec<SimScanner>,
+    /// Scans taken and not yet collected, with their scanner's index.
+    scans: VecDeque<(usize, Scan)>,
 }
 
 impl World {
@@ -46,6 +61,9 @@ impl World {
             battery: Battery::default(),
             tape: None,
             seed,
+            obstacles: None,
+            scanners: Vec::new(),
+            scans: VecDeque::new(),
         }
     }
 
@@ -55,8 +73,9 @@ impl World {
 
     /// Advance by `dt` with `demand` held. Physics runs in sub-steps of
     /// 1/`physics_rate_hz` (the last one shorter, so time lands exactly); GNSS
-    /// epochs fall at exact multiples of 1/`rate_hz` and sample the state at
-    /// that instant, inside a sub-step if need be.
+    /// epochs and laser scans fall at exact multiples of their own periods
+    /// and sample the state at that instant, re-integrated inside a sub-step
+    /// if need be.
     pub fn step(&mut self, dt: Duration, demand: &ActuatorDemand) {
         let end = self.time + dt;
         let now_state = self.truth;
@@ -78,19 +97,25 @@ impl World {
         }
     }
 
-    /// Emit every epoch due by now; `start` is the state at `start_t`, the
-    /// beginning of the sub-step just taken (or now, before any).
+    /// The vehicle at `t`, which lies in the sub-step that began at
+    /// `start_t` in state `start` and ends now.
+    fn state_at(&self, start: &VehicleTruth, start_t: Duration, t: Duration, demand: &ActuatorDemand) -> VehicleTruth {
+        if t >= self.time {
+            return self.truth;
+        }
+        let mut state = *start;
+        let into_s = t.saturating_sub(start_t).as_secs_f64();
+        vehicle::step(&self.config.vehicle, &mut state, demand, into_s);
+        state
+    }
+
+    /// Emit every GNSS epoch and laser scan due by now; `start` is the state
+    /// at `start_t`, the beginning of the sub-step just taken (or now,
+    /// before any).
     fn emit_due_epochs(&mut self, start: &VehicleTruth, start_t: Duration, demand: &ActuatorDemand) {
         while let Some(epoch_t) = self.gnss.due(self.time) {
-            let state = if epoch_t >= self.time {
-                self.truth
-            } else {
-                // Re-integrate the part of the sub-step up to the epoch.
-                let mut state = *start;
-                let into_s = epoch_t.saturating_sub(start_t).as_secs_f64();
-                vehicle::step(&self.config.vehicle, &mut state, demand, into_s);
-                state
-            };
+            // Re-integrate the part of the sub-step up to the epoch.
+            let state = self.state_at(start, start_t, epoch_t, demand);
             self.gnss.emit(
                 epoch_t,
                 &state,
@@ -98,6 +123,36 @@ impl World {
                 self.frame,
                 self.config.utc_start_unix_us,
             );
+        }
+        self.emit_due_scans(start, start_t, demand);
+    }
+
+    /// Take every scan due by now, earliest first (the lower index on a
+    /// tie), each from the true pose at its own instant.
+    fn emit_due_scans(&mut self, start: &VehicleTruth, start_t: Duration, demand: &ActuatorDemand) {
+        if self.scanners.is_empty() {
+            return;
+        }
+        let empty = ObstacleWorld::default();
+        loop {
+            let next = self
+                .scanners
+                .iter()
+                .enumerate()
+                .filter_map(|(i, s)| s.due(self.time).map(|t| (t, i)))
+                .min();
+            let Some((scan_t, index)) = next else {
+                return;
+            };
+            let state = self.state_at(start, start_t, scan_t, demand);
+            let obstacles = self.obstacles.as_ref().unwrap_or(&empty);
+            let Some(scan) = self.scanners[index].scan(obstacles, &state) else {
+                return;
+            };
+            if self.scans.len() >= MAX_PENDING_SCANS {
+                self.scans.pop_front();
+            }
+            self.scans.push_back((index, scan));
         }
     }
 
@@ -165,6 +220,50 @@ impl World {
 
     pub fn tape(&self) -> Option<&MagneticTape> {
         self.tape.as_ref()
+    }
+
+    /// Place (or clear, with `None`) the obstacles. Scanners see them from
+    /// their next scan; nothing else in the world depends on them (the
+    /// vehicle drives through obstacles: see [`Self::clearance_m`]).
+    pub fn set_obstacles(&mut self, obstacles: Option<ObstacleWorld>) {
+        self.obstacles = obstacles;
+    }
+
+    pub fn obstacles(&self) -> Option<&ObstacleWorld> {
+        self.obstacles.as_ref()
+    }
+
+    /// Fit these scanners (replacing any, and dropping their uncollected
+    /// scans); scanner `i` is index `i` in [`Self::take_scans`]. Each scans
+    /// from the first multiple of its period from now, with noise of its own
+    /// drawn from the world's seed, so adding scanners leaves the GNSS and
+    /// magnetic noise as they were. With no obstacles set they scan an empty
+    /// world (all NaN).
+    pub fn set_scanners(&mut self, scanners: Vec<SimScannerConfig>) {
+        self.scans.clear();
+        self.scanners = scanners
+            .into_iter()
+            .enumerate()
+            .map(|(i, config)| SimScanner::new(config, scanner_seed(self.seed, i), self.time))
+            .collect();
+    }
+
+    pub fn scanner_configs(&self) -> impl Iterator<Item = &SimScannerConfig> {
+        self.scanners.iter().map(SimScanner::config)
+    }
+
+    /// Append the scans taken since the last call (scanner index, scan),
+    /// in time order, then forget them.
+    pub fn take_scans(&mut self, out: &mut Vec<(usize, Scan)>) {
+        out.extend(self.scans.drain(..));
+    }
+
+    /// The gap between the vehicle's outline at its true pose and the
+    /// nearest obstacle now: ≤ 0 is a collision. `None` without obstacles.
+    pub fn clearance_m(&self, outline: &VehicleOutline) -> Option<f64> {
+        let obstacles = self.obstacles.as_ref()?;
+        let rect = outline.rectangle(self.truth.north_m, self.truth.east_m, self.truth.yaw_rad);
+        Some(obstacles.clearance_m(&rect, self.time.as_secs_f64()))
     }
 
     /// Takes effect at the next reading.

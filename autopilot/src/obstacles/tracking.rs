@@ -1,0 +1,659 @@
+//! Clusters → tracks (seed 004 §III.B): one constant-velocity Kalman filter
+//! ([`CvKalman`]) per object, clusters associated to tracks by Mahalanobis
+//! gating and a global (greedy by ascending cost) assignment, births from
+//! clusters no track claims, confirmation after a few hits, coasting and
+//! deletion by time.
+//!
+//! Several scanners may call [`ObstacleTracker::update`] in turn, each with
+//! its own clusters and position. A track that one scanner already updated
+//! at `t` is simply updated again by another scanner's cluster at the same
+//! `t` (the second prediction is over zero time), and a cluster that falls
+//! in any track's gate never gives birth, so an object seen by two scanners
+//! is one track.
+//!
+//! Time is whatever clock the scans carry. A scan older than the newest one
+//! seen (two scanners' scans arriving slightly out of order) is applied at
+//! the newest time — the filter never goes back, and the error is the
+//! object's speed times the lateness. A clock that jumps back by more than
+//! [`CLOCK_JUMP`] starts the tracker afresh.
+
+use std::time::Duration;
+
+use nalgebra::Matrix2;
+
+use super::cluster::Cluster;
+use super::kalman::{CvKalman, chi2_gate_2dof, polar_measurement_covariance};
+use super::{Track, TrackStatus};
+use crate::geo::Ned;
+
+/// A scan this much older than the newest one means the clock was reset.
+pub const CLOCK_JUMP: Duration = Duration::from_secs(1);
+
+/// A cluster this many times the radius of the track it would update, that
+/// also lies in another track's gate, is two objects seen as one (people
+/// passing close): neither track is updated with it, they coast on their
+/// velocity until the objects separate. Updating one of them with the
+/// merged centroid would drag it towards the other and can swap identities.
+const MERGED_RADIUS_RATIO: f64 = 1.5;
+
+/// Tracking parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrackingConfig {
+    /// Power spectral density `q` of the white acceleration (eq. 6's `a`),
+    /// m²/s³ per axis; a walking person: about 1–2.
+    pub accel_density: f64,
+    /// Range and bearing σ of the scanner (the corrected eq. 7).
+    pub range_sigma_m: f64,
+    pub bearing_sigma_rad: f64,
+    /// Extra σ per axis for the cluster centroid's jitter (how much of the
+    /// object is visible changes from scan to scan), added to `R`.
+    pub centroid_sigma_m: f64,
+    /// The gate keeps the true cluster with this probability (χ², 2 dof).
+    pub gate_probability: f64,
+    /// A tentative track is confirmed after this many scan instants with a
+    /// cluster.
+    pub confirm_hits: u32,
+    /// Unseen this long (s): a confirmed track coasts, a tentative one is
+    /// deleted.
+    pub coast_s: f64,
+    /// Unseen this long (s): deleted.
+    pub delete_s: f64,
+    /// A track whose position σ grows above this (m) is deleted.
+    pub max_position_sigma_m: f64,
+    /// Prior σ of a new track's velocity, per axis.
+    pub initial_velocity_sigma_mps: f64,
+}
+
+impl Default for TrackingConfig {
+    fn default() -> Self {
+        TrackingConfig {
+            accel_density: 1.5,
+            // LMS1xx class: ~12 mm systematic + statistical range error.
+            range_sigma_m: 0.02,
+            // Half a 0.5° beam step.
+            bearing_sigma_rad: 0.0044,
+            centroid_sigma_m: 0.03,
+            gate_probability: 0.99,
+            confirm_hits: 3,
+            coast_s: 0.3,
+            // Beyond ~1 s a coasting person's σ (q·T³/3 alone is 0.5 m² at
+            // q = 1.5) reaches the σ limit anyway.
+            delete_s: 1.0,
+            // Leigh et al. delete a person track at σ > 0.9 m.
+            max_position_sigma_m: 0.9,
+            initial_velocity_sigma_mps: 2.0,
+        }
+    }
+}
+
+/// What one call to [`ObstacleTracker::update`] left behind.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TrackingStatus {
+    /// Confirmed or coasting tracks (the ones to act on).
+    pub confirmed: usize,
+    pub tentative: usize,
+    /// Tracks born and deleted in this call.
+    pub births: u32,
+    pub deaths: u32,
+    /// The confirmed or coasting track whose edge (centre distance minus its
+    /// radius, at least 0) is nearest the calling scanner: (id, metres).
+    pub nearest: Option<(u32, f64)>,
+}
+
+/// A track and what only the tracker needs to know about it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Entry {
+    track: Track,
+    kf: CvKalman,
+    /// The time the filter's state is at.
+    filter_t: Duration,
+    born_t: Duration,
+    seen_t: Duration,
+}
+
+/// Every tracked object, and the next id to give.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObstacleTracker {
+    entries: Vec<Entry>,
+    /// The tracks of `entries`, in the same order, for [`Self::tracks`].
+    tracks: Vec<Track>,
+    next_id: u32,
+    newest_t: Option<Duration>,
+}
+
+impl Default for ObstacleTracker {
+    fn default() -> Self {
+        ObstacleTracker {
+            entries: Vec::new(),
+            tracks: Vec::new(),
+            next_id: 1,
+            newest_t: None,
+        }
+    }
+}
+
+/// A cluster that can update a track: its index and measurement covariance.
+struct Measurement {
+    cluster: usize,
+    r: Matrix2<f64>,
+}
+
+impl ObstacleTracker {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The tracks, oldest first.
+    pub fn tracks(&self) -> &[Track] {
+        &self.tracks
+    }
+
+    /// Forgets every track (ids keep counting up, so an old id never names a
+    /// new object).
+    pub fn clear(&mut self) {
+        self.entries.clear();
+        self.tracks.clear();
+        self.newest_t = None;
+    }
+
+    /// One scanner's clusters taken at `t` from `sensor` (local frame).
+    pub fn update(
+        &mut self,
+        t: Duration,
+        sensor: Ned,
+        clusters: &[Cluster],
+        config: &TrackingConfig,
+    ) -> TrackingStatus {
+        let mut status = TrackingStatus::default();
+        if self.newest_t.is_some_and(|newest| t + CLOCK_JUMP < newest) {
+            status.deaths += count_u32(self.entries.len());
+            self.clear();
+        }
+        let now = self.newest_t.map_or(t, |newest| newest.max(t));
+        self.newest_t = Some(now);
+
+        status.deaths += self.predict_all(now, config);
+
+        let measurements: Vec<Measurement> = clusters
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| !c.is_structure && c.centroid.north_m.is_finite() && c.centroid.east_m.is_finite())
+            .map(|(cluster, c)| Measurement {
+                cluster,
+                r: measurement_covariance(sensor, c.centroid, config),
+            })
+            .collect();
+
+        // A partly hidden cluster's centroid can be off by up to the
+        // object's radius: it may keep a track alive and roughly in place,
+        // but must not steer its velocity.
+        let r_for = |entry: &Entry, meas: &Measurement| -> Matrix2<f64> {
+            if clusters[meas.cluster].occluded {
+                meas.r + Matrix2::identity() * entry.track.radius_m * entry.track.radius_m
+            } else {
+                meas.r
+            }
+        };
+        let gate = chi2_gate_2dof(config.gate_probability);
+        // Every (track, measurement) pair inside the gate, cheapest first;
+        // ties broken by index so the outcome never depends on sort details.
+        let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+        for (i, entry) in self.entries.iter().enumerate() {
+            for (m, meas) in measurements.iter().enumerate() {
+                let d2 = entry
+                    .kf
+                    .mahalanobis_sq(clusters[meas.cluster].centroid, &r_for(entry, meas));
+                if d2 <= gate {
+                    pairs.push((d2, i, m));
+                }
+            }
+        }
+        pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+
+        let mut assigned: Vec<Option<usize>> = vec![None; self.entries.len()];
+        let mut taken = vec![false; measurements.len()];
+        let mut gated = vec![false; measurements.len()];
+        for &(_, i, m) in &pairs {
+            gated[m] = true;
+            if assigned[i].is_none() && !taken[m] {
+                assigned[i] = Some(m);
+                taken[m] = true;
+            }
+        }
+
+        // Merged objects: a big cluster another, unserved track also claims.
+        let mut merged = vec![false; measurements.len()];
+        for (i, slot) in assigned.iter().enumerate() {
+            let Some(m) = *slot else { continue };
+            let cluster = &clusters[measurements[m].cluster];
+            let shared = pairs
+                .iter()
+                .any(|&(_, k, mm)| mm == m && k != i && assigned[k].is_none());
+            if shared && cluster.radius_m > MERGED_RADIUS_RATIO * self.entries[i].track.radius_m {
+                merged[m] = true;
+            }
+        }
+
+        let mut failed = vec![false; self.entries.len()];
+        for (i, entry) in self.entries.iter_mut().enumerate() {
+            let hit = assigned[i].filter(|&m| !merged[m]);
+            match hit {
+                Some(m) => {
+                    let cluster = &clusters[measurements[m].cluster];
+                    let r = r_for(entry, &measurements[m]);
+                    if entry.kf.update(cluster.centroid, &r).is_err() {
+                        failed[i] = true;
+                        continue;
+                    }
+                    // Two scanners at one instant are one hit.
+                    if entry.track.hits == 0 || entry.seen_t < now {
+                        entry.track.hits = entry.track.hits.saturating_add(1);
+                    }
+                    entry.track.misses = 0;
+                    if !cluster.occluded {
+                        entry.track.radius_m = cluster.radius_m;
+                    }
+                    entry.seen_t = now;
+                }
+                None if entry.seen_t < now => entry.track.misses = entry.track.misses.saturating_add(1),
+                None => {}
+            }
+        }
+        status.deaths += self.remove(&failed);
+
+        for (m, meas) in measurements.iter().enumerate() {
+            if gated[m] {
+                continue;
+            }
+            let cluster = &clusters[meas.cluster];
+            let Ok(kf) = CvKalman::new(cluster.centroid, &meas.r, config.initial_velocity_sigma_mps) else {
+                continue;
+            };
+            let id = self.take_id();
+            self.entries.push(Entry {
+                track: Track {
+                    id,
+                    status: TrackStatus::Tentative,
+                    position: cluster.centroid,
+                    vel_north_mps: 0.0,
+                    vel_east_mps: 0.0,
+                    position_sigma_m: kf.position_sigma_m(),
+                    velocity_sigma_mps: kf.velocity_sigma_mps(),
+                    radius_m: cluster.radius_m,
+                    age_s: 0.0,
+                    unseen_s: 0.0,
+                    hits: 1,
+                    misses: 0,
+                },
+                kf,
+                filter_t: now,
+                born_t: now,
+                seen_t: now,
+            });
+            status.births += 1;
+        }
+
+        status.deaths += self.age_all(now, config);
+        self.tracks.clear();
+        self.tracks.extend(self.entries.iter().map(|e| e.track));
+
+        for track in &self.tracks {
+            if track.status == TrackStatus::Tentative {
+                status.tentative += 1;
+                continue;
+            }
+            status.confirmed += 1;
+            let edge_m = (sensor.distance_to(&track.position) - track.radius_m).max(0.0);
+            if status.nearest.is_none_or(|(_, d)| edge_m < d) {
+                status.nearest = Some((track.id, edge_m));
+            }
+        }
+        status
+    }
+
+    /// Every filter to `now`; a refused step deletes the track. Returns the
+    /// number deleted.
+    fn predict_all(&mut self, now: Duration, config: &TrackingConfig) -> u32 {
+        let mut failed = vec![false; self.entries.len()];
+        for (entry, failed) in self.entries.iter_mut().zip(failed.iter_mut()) {
+            let dt_s = now.saturating_sub(entry.filter_t).as_secs_f64();
+            if entry.kf.predict(dt_s, config.accel_density).is_err() {
+                *failed = true;
+            } else {
+                entry.filter_t = now;
+            }
+        }
+        self.remove(&failed)
+    }
+
+    /// Ages, statuses and the public view of every track; deletes the ones
+    /// unseen too long or too uncertain. Returns the number deleted.
+    fn age_all(&mut self, now: Duration, config: &TrackingConfig) -> u32 {
+        let mut dead = vec![false; self.entries.len()];
+        for (entry, dead) in self.entries.iter_mut().zip(dead.iter_mut()) {
+            let unseen_s = now.saturating_sub(entry.seen_t).as_secs_f64();
+            let track = &mut entry.track;
+            track.age_s = now.saturating_sub(entry.born_t).as_secs_f64();
+            track.unseen_s = unseen_s;
+            track.position = entry.kf.position();
+            (track.vel_north_mps, track.vel_east_mps) = entry.kf.velocity_mps();
+            track.position_sigma_m = entry.kf.position_sigma_m();
+            track.velocity_sigma_mps = entry.kf.velocity_sigma_mps();
+            // A NaN σ or limit deletes.
+            let too_uncertain = !at_most(track.position_sigma_m, config.max_position_sigma_m);
+            *dead = too_uncertain
+                || match track.status {
+                    // A tentative track never coasts: unconfirmed, it may be noise.
+                    TrackStatus::Tentative => !at_most(unseen_s, config.coast_s),
+                    TrackStatus::Confirmed | TrackStatus::Coasting => !at_most(unseen_s, config.delete_s),
+                };
+            if *dead {
+                continue;
+            }
+            track.status = match track.status {
+                TrackStatus::Tentative if track.hits >= config.confirm_hits => TrackStatus::Confirmed,
+                TrackStatus::Tentative => TrackStatus::Tentative,
+                _ if unseen_s > config.coast_s => {
+                    // A streak of hits ends when the track coasts.
+                    track.hits = 0;
+                    TrackStatus::Coasting
+                }
+                _ => TrackStatus::Confirmed,
+            };
+        }
+        self.remove(&dead)
+    }
+
+    /// Drops the entries marked in `dead` (same order); returns how many.
+    fn remove(&mut self, dead: &[bool]) -> u32 {
+        let before = self.entries.len();
+        let mut flags = dead.iter();
+        self.entries.retain(|_| !flags.next().copied().unwrap_or(false));
+        count_u32(before - self.entries.len())
+    }
+
+    fn take_id(&mut self) -> u32 {
+        let id = self.next_id;
+        // 0 is never an id: MAVLink and the GCS read it as "none".
+        self.next_id = self.next_id.checked_add(1).unwrap_or(1);
+        id
+    }
+}
+
+/// `R` of a cluster centroid: the scanner's range/bearing σ through the
+/// polar→Cartesian Jacobian, plus the centroid's own jitter on each axis.
+fn measurement_covariance(sensor: Ned, centroid: Ned, config: &TrackingConfig) -> Matrix2<f64> {
+    polar_measurement_covariance(sensor, centroid, config.range_sigma_m, config.bearing_sigma_rad)
+        + Matrix2::identity() * config.centroid_sigma_m * config.centroid_sigma_m
+}
+
+/// `value ≤ limit`, false when either is NaN.
+fn at_most(value: f64, limit: f64) -> bool {
+    value <= limit
+}
+
+fn count_u32(n: usize) -> u32 {
+    u32::try_from(n).unwrap_or(u32::MAX)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A person-sized cluster centred at `c`, seen from the origin.
+    fn person(c: Ned) -> Cluster {
+        Cluster {
+            centroid: c,
+            nearest: c,
+            first: c,
+            last: c,
+            extent_m: 0.45,
+            radius_m: 0.25,
+            points: 20,
+            range_m: Ned::default().distance_to(&c),
+            bearing_rad: Ned::default().bearing_to(&c),
+            is_structure: false,
+            occluded: false,
+        }
+    }
+
+    fn at_ms(ms: u64) -> Duration {
+        Duration::from_millis(ms)
+    }
+
+    #[test]
+    fn confirms_after_n_hits_then_coasts_and_is_deleted() {
+        // The σ limit out of the way: this is about the timeouts.
+        let config = TrackingConfig {
+            max_position_sigma_m: 100.0,
+            ..TrackingConfig::default()
+        };
+        let mut tracker = ObstacleTracker::new();
+        let c = [person(Ned::new(4.0, 1.0))];
+        let s = tracker.update(at_ms(0), Ned::default(), &c, &config);
+        assert_eq!((s.births, s.tentative, s.confirmed), (1, 1, 0));
+        let id = tracker.tracks()[0].id;
+        for k in 1..config.confirm_hits as u64 {
+            let s = tracker.update(at_ms(20 * k), Ned::default(), &c, &config);
+            let expect_confirmed = k + 1 >= config.confirm_hits as u64;
+            assert_eq!(s.confirmed == 1, expect_confirmed, "after {} hits", k + 1);
+            assert_eq!(s.births, 0);
+        }
+        assert_eq!(tracker.tracks()[0].status, TrackStatus::Confirmed);
+        assert_eq!(tracker.tracks()[0].id, id);
+        let s = tracker.update(at_ms(60), Ned::default(), &c, &config);
+        assert_eq!(s.nearest.map(|n| n.0), Some(id));
+        let edge = s.nearest.map_or(0.0, |n| n.1);
+        assert!(
+            (edge - (Ned::new(4.0, 1.0).distance_to(&Ned::default()) - 0.25)).abs() < 0.01,
+            "{edge}"
+        );
+
+        // Gone: coasting after coast_s, deleted after delete_s.
+        let last_seen_ms = 60;
+        let mut coasting_at = None;
+        let mut deleted_at = None;
+        for k in 1..200u64 {
+            let t = last_seen_ms + 20 * k;
+            let s = tracker.update(at_ms(t), Ned::default(), &[], &config);
+            if coasting_at.is_none()
+                && tracker
+                    .tracks()
+                    .first()
+                    .is_some_and(|t| t.status == TrackStatus::Coasting)
+            {
+                coasting_at = Some(t);
+            }
+            if s.deaths == 1 {
+                deleted_at = Some(t);
+                break;
+            }
+        }
+        let coast_ms = (config.coast_s * 1000.0) as u64;
+        let delete_ms = (config.delete_s * 1000.0) as u64;
+        let coasting_at = coasting_at.map(|t| t - last_seen_ms);
+        let deleted_at = deleted_at.map(|t| t - last_seen_ms);
+        assert!(
+            coasting_at.is_some_and(|t| t > coast_ms && t <= coast_ms + 20),
+            "{coasting_at:?}"
+        );
+        assert!(
+            deleted_at.is_some_and(|t| t > delete_ms && t <= delete_ms + 20),
+            "{deleted_at:?}"
+        );
+        assert!(tracker.tracks().is_empty());
+    }
+
+    #[test]
+    fn a_track_too_uncertain_is_deleted_before_its_timeout() {
+        let config = TrackingConfig {
+            max_position_sigma_m: 0.3,
+            delete_s: 10.0,
+            ..TrackingConfig::default()
+        };
+        let mut tracker = ObstacleTracker::new();
+        for k in 0..10u64 {
+            tracker.update(at_ms(20 * k), Ned::default(), &[person(Ned::new(3.0, 0.0))], &config);
+        }
+        let mut died_at = None;
+        for k in 10..500u64 {
+            let sigma_before = tracker.tracks().first().map_or(0.0, |t| t.position_sigma_m);
+            let s = tracker.update(at_ms(20 * k), Ned::default(), &[], &config);
+            if s.deaths > 0 {
+                died_at = Some(k);
+                assert!(sigma_before <= 0.3);
+                break;
+            }
+            assert!(tracker.tracks()[0].position_sigma_m <= 0.3);
+        }
+        assert!(died_at.is_some_and(|k| k < 10 + 500 / 2), "{died_at:?}");
+    }
+
+    #[test]
+    fn an_unconfirmed_track_dies_without_coasting() {
+        let config = TrackingConfig::default();
+        let mut tracker = ObstacleTracker::new();
+        tracker.update(at_ms(0), Ned::default(), &[person(Ned::new(3.0, 0.0))], &config);
+        let mut died = None;
+        for k in 1..100u64 {
+            let s = tracker.update(at_ms(20 * k), Ned::default(), &[], &config);
+            assert!(tracker.tracks().iter().all(|t| t.status == TrackStatus::Tentative));
+            if s.deaths > 0 {
+                died = Some(20 * k);
+                break;
+            }
+        }
+        assert!(
+            died.is_some_and(|t| t as f64 > config.coast_s * 1000.0 && (t as f64) <= config.coast_s * 1000.0 + 20.0)
+        );
+    }
+
+    #[test]
+    fn a_big_cluster_two_tracks_claim_updates_neither() {
+        // A wide gate (σ of a coasting track) makes the point.
+        let config = TrackingConfig {
+            centroid_sigma_m: 0.3,
+            ..TrackingConfig::default()
+        };
+        let mut tracker = ObstacleTracker::new();
+        let (left, right) = (Ned::new(5.0, -0.3), Ned::new(5.0, 0.3));
+        for k in 0..5u64 {
+            tracker.update(at_ms(20 * k), Ned::default(), &[person(left), person(right)], &config);
+        }
+        let before: Vec<Ned> = tracker.tracks().iter().map(|t| t.position).collect();
+        let mut merged = person(Ned::new(5.0, 0.05));
+        merged.radius_m = 0.55;
+        let s = tracker.update(at_ms(100), Ned::default(), &[merged], &config);
+        assert_eq!((s.births, s.deaths), (0, 0));
+        for (track, before) in tracker.tracks().iter().zip(&before) {
+            assert_eq!(track.misses, 1, "{track:?}");
+            assert!(track.position.distance_to(before) < 1e-9);
+            assert!((track.radius_m - 0.25).abs() < 1e-12);
+        }
+        // The same cluster at a single track's size is that track's.
+        merged.radius_m = 0.25;
+        tracker.update(at_ms(120), Ned::default(), &[merged], &config);
+        let misses: Vec<u32> = tracker.tracks().iter().map(|t| t.misses).collect();
+        assert_eq!(misses, vec![2, 0]);
+    }
+
+    #[test]
+    fn an_occluded_cluster_keeps_a_track_but_barely_moves_it() {
+        let config = TrackingConfig::default();
+        let mut tracker = ObstacleTracker::new();
+        let c = Ned::new(5.0, 0.0);
+        for k in 0..25u64 {
+            tracker.update(at_ms(20 * k), Ned::default(), &[person(c)], &config);
+        }
+        // Inside the gate of an ordinary update too.
+        let mut sliver = person(Ned::new(4.94, 0.06));
+        sliver.radius_m = 0.08;
+        let mut plain = tracker.clone();
+        plain.update(at_ms(500), Ned::default(), &[sliver], &config);
+        sliver.occluded = true;
+        let s = tracker.update(at_ms(500), Ned::default(), &[sliver], &config);
+        assert_eq!(s.births, 0);
+        let track = tracker.tracks()[0];
+        assert_eq!(track.misses, 0);
+        assert_eq!(track.radius_m, 0.25);
+        let plain_moved = plain.tracks()[0].position.distance_to(&c);
+        let moved = track.position.distance_to(&c);
+        assert_eq!(plain.tracks().len(), 1);
+        assert!(moved < 0.1 * plain_moved, "{moved} vs {plain_moved}");
+    }
+
+    #[test]
+    fn structure_is_never_tracked() {
+        let mut wall = person(Ned::new(5.0, 0.0));
+        wall.is_structure = true;
+        let mut tracker = ObstacleTracker::new();
+        let s = tracker.update(at_ms(0), Ned::default(), &[wall], &TrackingConfig::default());
+        assert_eq!(s.births, 0);
+        assert!(tracker.tracks().is_empty());
+    }
+
+    #[test]
+    fn two_scanners_at_one_instant_make_one_track_and_one_hit() {
+        let config = TrackingConfig::default();
+        let mut tracker = ObstacleTracker::new();
+        let (front, rear) = (Ned::new(1.0, 0.0), Ned::new(-1.0, 0.0));
+        let truth = Ned::new(3.0, 3.0);
+        for k in 0..3u64 {
+            // Each scanner's centroid is a little off, as it would be.
+            let a = tracker.update(at_ms(20 * k), front, &[person(Ned::new(3.02, 3.0))], &config);
+            let b = tracker.update(at_ms(20 * k), rear, &[person(Ned::new(2.98, 3.01))], &config);
+            assert_eq!(a.births + b.births, if k == 0 { 1 } else { 0 });
+            assert_eq!(tracker.tracks().len(), 1);
+            assert_eq!(tracker.tracks()[0].hits, k as u32 + 1);
+        }
+        assert_eq!(tracker.tracks()[0].status, TrackStatus::Confirmed);
+        assert!(tracker.tracks()[0].position.distance_to(&truth) < 0.03);
+    }
+
+    #[test]
+    fn bad_input_never_panics_and_never_tracks() {
+        let config = TrackingConfig::default();
+        let mut tracker = ObstacleTracker::new();
+        let bad = [person(Ned::new(f64::NAN, 1.0)), person(Ned::new(1.0, f64::INFINITY))];
+        let s = tracker.update(at_ms(0), Ned::default(), &bad, &config);
+        assert_eq!(s.births, 0);
+        // A NaN sensor gives a NaN covariance: the filter refuses it.
+        let s = tracker.update(
+            at_ms(20),
+            Ned::new(f64::NAN, 0.0),
+            &[person(Ned::new(2.0, 0.0))],
+            &config,
+        );
+        assert_eq!(s.births, 0);
+        // A NaN process noise drops the track rather than poisoning it.
+        tracker.update(at_ms(40), Ned::default(), &[person(Ned::new(2.0, 0.0))], &config);
+        assert_eq!(tracker.tracks().len(), 1);
+        let broken = TrackingConfig {
+            accel_density: f64::NAN,
+            ..config
+        };
+        let s = tracker.update(at_ms(60), Ned::default(), &[], &broken);
+        assert_eq!(s.deaths, 1);
+        assert!(tracker.tracks().is_empty());
+    }
+
+    #[test]
+    fn late_scans_are_applied_now_and_a_clock_reset_starts_afresh() {
+        let config = TrackingConfig::default();
+        let mut tracker = ObstacleTracker::new();
+        let c = [person(Ned::new(3.0, 0.0))];
+        tracker.update(at_ms(5000), Ned::default(), &c, &config);
+        tracker.update(at_ms(5020), Ned::default(), &c, &config);
+        // 10 ms late: same track, its time does not go back.
+        let s = tracker.update(at_ms(5010), Ned::default(), &c, &config);
+        assert_eq!((s.births, s.deaths), (0, 0));
+        assert!((tracker.tracks()[0].age_s - 0.02).abs() < 1e-9);
+        // The clock restarts from zero: everything is forgotten.
+        let s = tracker.update(at_ms(0), Ned::default(), &c, &config);
+        assert_eq!((s.births, s.deaths), (1, 1));
+        assert_eq!(tracker.tracks()[0].age_s, 0.0);
+        assert!(tracker.tracks()[0].id > 1);
+        tracker.clear();
+        assert!(tracker.tracks().is_empty());
+    }
+}

@@ -1,0 +1,718 @@
+//! The obstacle pipeline in the core (DESIGN §5.5): every scan becomes
+//! points, clusters and Kalman tracks; every tick the protective field (raw
+//! points), the collision predictions (tracks) and the policy decide whether
+//! the self-driving modes may drive on, slow, or must stop; the stops and
+//! resumes are announced, and the scans are summarised for the GCS
+//! proximity view (OBSTACLE_DISTANCE).
+
+use std::time::Duration;
+
+use mavlink::dialects::ardupilotmega::{MavDistanceSensor, MavFrame, MavSeverity, OBSTACLE_DISTANCE_DATA};
+
+use super::{Core, ScanInput};
+use crate::geo::{Ned, wrap_pi};
+use crate::guidance::tracker::Direction;
+use crate::modes::Mode;
+use crate::obstacles::cluster::{Cluster, ClusterConfig, ScanPoint, cluster_points, scan_points};
+use crate::obstacles::detour::{DetourConfig, DetourRefusal, plan_detour};
+use crate::obstacles::field::{FieldConfig, check_field, fields, warning_speed_limit};
+use crate::obstacles::policy::{ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, StopCause, Verdict};
+use crate::obstacles::prediction::{CollisionPrediction, VehicleMotion, predict_collision};
+use crate::obstacles::tracking::{ObstacleTracker, TrackingConfig};
+use crate::obstacles::{Footprint, Pose, ScannerMount, Track, TrackStatus};
+
+/// How many scanners the core reads (SCAN1 front, SCAN2 rear).
+pub const SCANNERS: usize = 2;
+/// OBSTACLE_DISTANCE: 72 sectors of 5°.
+const SECTORS: usize = 72;
+const SECTOR_DEG: f64 = 5.0;
+/// A scanner silent this long drops out of the proximity view.
+const VIEW_TIMEOUT: Duration = Duration::from_secs(1);
+/// How far ahead a detour looks for static obstacles in the lane, m.
+const DETOUR_LOOKAHEAD_M: f64 = 15.0;
+/// A track slower than this counts as a static obstacle (detour candidate).
+const STATIC_SPEED_MPS: f64 = 0.2;
+
+/// One scanner's latest scan, reduced to what the tick needs.
+#[derive(Clone, Debug)]
+struct ScannerView {
+    t: Option<Duration>,
+    /// Returns in the body frame (x forward, y right, from the reference
+    /// point): the protective field is checked on these.
+    body_points: Vec<(f64, f64)>,
+    /// The same returns in the local frame (detour planning).
+    local_points: Vec<Ned>,
+    /// Which OBSTACLE_DISTANCE sectors the scan's beams cover.
+    covered: [bool; SECTORS],
+}
+
+impl Default for ScannerView {
+    fn default() -> Self {
+        ScannerView {
+            t: None,
+            body_points: Vec::new(),
+            local_points: Vec::new(),
+            covered: [false; SECTORS],
+        }
+    }
+}
+
+/// What the obstacle pipeline concluded this tick (telemetry, tests).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ObstacleStatus {
+    pub enabled: bool,
+    /// Every fitted scanner has sent a scan recently.
+    pub scans_fresh: bool,
+    pub stopped: bool,
+    /// The speed limit the warning field or a followed obstacle imposes.
+    pub speed_limit_mps: Option<f64>,
+    /// Pass first (OA_PASS): the speed to drive at until the obstacle is
+    /// passed.
+    pub speed_up_mps: Option<f64>,
+    pub confirmed_tracks: usize,
+    pub tentative_tracks: usize,
+    /// Nearest return to the vehicle's outline, metres.
+    pub nearest_m: Option<f64>,
+    pub detouring: bool,
+}
+
+/// A detour in progress: the waypoints still to drive through, then the
+/// leg it interrupted.
+#[derive(Clone, Debug)]
+struct ActiveDetour {
+    waypoints: std::collections::VecDeque<Ned>,
+    target: crate::guidance::navigator::NavTarget,
+    /// The obstacle being passed (centre, radius of its returns).
+    obstacle: (Ned, f64),
+}
+
+#[derive(Default)]
+pub(super) struct ObstacleState {
+    tracker: ObstacleTracker,
+    policy: ObstaclePolicy,
+    views: [ScannerView; SCANNERS],
+    points: Vec<ScanPoint>,
+    clusters: Vec<Cluster>,
+    status: ObstacleStatus,
+    /// Since when the vehicle has been held for a static obstacle (s).
+    static_stop_since: Option<f64>,
+    detour: Option<ActiveDetour>,
+    detour_refusal_reported: bool,
+    next_detour_attempt_s: f64,
+}
+
+impl ObstacleState {
+    pub fn status(&self) -> &ObstacleStatus {
+        &self.status
+    }
+
+    pub fn tracks(&self) -> &[Track] {
+        self.tracker.tracks()
+    }
+
+    pub fn detouring(&self) -> bool {
+        self.detour.is_some()
+    }
+}
+
+impl Core {
+    pub(super) fn footprint(&self) -> Footprint {
+        let f = &self.p.obstacles.footprint;
+        Footprint {
+            front_m: f64::from(f.front_m.get(&self.params)),
+            rear_m: f64::from(f.rear_m.get(&self.params)),
+            half_width_m: f64::from(f.width_m.get(&self.params)) / 2.0,
+        }
+    }
+
+    fn scanner_mount(&self, index: usize) -> Option<ScannerMount> {
+        let s = &self.p.obstacles.scanners;
+        let t = &self.params;
+        let (fitted, x, y, yaw) = match index {
+            0 => (s.scan1_enable, s.scan1_x_m, s.scan1_y_m, s.scan1_yaw_deg),
+            1 => (s.scan2_enable, s.scan2_x_m, s.scan2_y_m, s.scan2_yaw_deg),
+            _ => return None,
+        };
+        fitted.get(t).then(|| ScannerMount {
+            x_m: f64::from(x.get(t)),
+            y_m: f64::from(y.get(t)),
+            yaw_rad: f64::from(yaw.get(t)).to_radians(),
+        })
+    }
+
+    fn tracking_config(&self) -> TrackingConfig {
+        let a = &self.p.obstacles.avoidance;
+        let t = &self.params;
+        TrackingConfig {
+            accel_density: f64::from(a.track_accel.get(t)),
+            range_sigma_m: f64::from(a.range_sigma_m.get(t)),
+            bearing_sigma_rad: f64::from(a.bearing_sigma_deg.get(t)).to_radians(),
+            ..TrackingConfig::default()
+        }
+    }
+
+    fn field_config(&self) -> FieldConfig {
+        let a = &self.p.obstacles.avoidance;
+        let t = &self.params;
+        FieldConfig {
+            reaction_s: f64::from(a.reaction_s.get(t)),
+            decel_mps2: f64::from(a.decel_mps2.get(t)),
+            margin_m: f64::from(a.field_margin_m.get(t)),
+            lateral_margin_m: f64::from(a.field_side_m.get(t)),
+            warning_time_s: f64::from(a.warning_s.get(t)),
+            ..FieldConfig::default()
+        }
+    }
+
+    fn policy_config(&self) -> PolicyConfig {
+        let a = &self.p.obstacles.avoidance;
+        let t = &self.params;
+        PolicyConfig {
+            resume_s: f64::from(a.resume_s.get(t)),
+            auto_resume: a.auto_resume.get(t),
+            pass_first: a.pass_first.get(t),
+            max_speed_mps: f64::from(a.pass_speed_mps.get(t)),
+            accel_mps2: f64::from(self.p.nav.accel_max_mps2.get(t)).max(0.1),
+            safe_distance_m: f64::from(a.margin_m.get(t)),
+            stop_horizon_s: f64::from(a.horizon_s.get(t)),
+            scan_timeout_s: f64::from(a.scan_timeout_s.get(t)),
+        }
+    }
+
+    fn obstacles_enabled(&self) -> bool {
+        self.p.obstacles.avoidance.enable.get(&self.params)
+    }
+
+    /// Each new scan: points in the body and local frames, clusters, tracks.
+    pub(super) fn read_scans(&mut self, scans: &[ScanInput]) {
+        if scans.is_empty() {
+            return;
+        }
+        let estimate = *self.estimator.estimate();
+        let located = estimate.position_valid && estimate.heading_valid;
+        let max_range = f64::from(self.p.obstacles.scanners.max_range_m.get(&self.params));
+        let tracking = self.tracking_config();
+        let cluster_config = ClusterConfig::default();
+        for input in scans {
+            let Some(mount) = self.scanner_mount(input.scanner) else {
+                continue;
+            };
+            // The pose when the scan was taken: the estimate moved back by
+            // the scan's age (a tick at most).
+            let age_s = self.now.boot.saturating_sub(input.scan.t).as_secs_f64();
+            let back_m = estimate.speed_mps * age_s;
+            let pose = Pose {
+                position: Ned::new(
+                    estimate.position.north_m - back_m * estimate.yaw_rad.cos(),
+                    estimate.position.east_m - back_m * estimate.yaw_rad.sin(),
+                ),
+                yaw_rad: estimate.yaw_rad,
+            };
+            let obs = &mut self.obstacles;
+            let sensor = scan_points(&input.scan, &pose, &mount, max_range, &mut obs.points);
+            let view = &mut obs.views[input.scanner];
+            view.t = Some(input.scan.t);
+            view.body_points.clear();
+            view.local_points.clear();
+            for p in &obs.points {
+                view.body_points.push((p.body_x_m, p.body_y_m));
+                view.local_points.push(p.position);
+            }
+            view.covered = [false; SECTORS];
+            for beam in 0..input.scan.ranges_m.len() {
+                let body_deg = (input.scan.angle_rad(beam) + mount.yaw_rad).to_degrees();
+                view.covered[sector_of(body_deg)] = true;
+            }
+            if located {
+                cluster_points(&obs.points, &cluster_config, &mut obs.clusters);
+                obs.tracker.update(input.scan.t, sensor, &obs.clusters, &tracking);
+            }
+        }
+    }
+
+    /// Whether a self-driving mode may drive this tick: `Go`, `Slow` or
+    /// `Stop`, with the stop/resume announcements. `wants_to_move`: the mode
+    /// has somewhere to go; `direction`: the way it would drive;
+    /// `planned_mps`: the speed it would drive at.
+    pub(super) fn obstacle_verdict(
+        &mut self,
+        active: bool,
+        wants_to_move: bool,
+        direction: Direction,
+        planned_mps: f64,
+    ) -> Verdict {
+        let now_s = self.now.boot.as_secs_f64();
+        let footprint = self.footprint();
+        let estimate = *self.estimator.estimate();
+        let fresh_after = VIEW_TIMEOUT;
+        let mut scan_age_s: Option<f64> = None;
+        let mut fitted = 0;
+        for i in 0..SCANNERS {
+            if self.scanner_mount(i).is_none() {
+                continue;
+            }
+            fitted += 1;
+            // The policy cares about the stalest fitted scanner.
+            let age = self.obstacles.views[i]
+                .t
+                .map(|t| self.now.boot.saturating_sub(t).as_secs_f64());
+            scan_age_s = match (fitted, scan_age_s, age) {
+                (1, _, a) => a,
+                (_, Some(worst), Some(a)) => Some(worst.max(a)),
+                _ => None,
+            };
+        }
+        let enabled = self.obstacles_enabled() && fitted > 0;
+        let scans_fresh = scan_age_s.is_some_and(|a| a <= fresh_after.as_secs_f64());
+        let confirmed = self
+            .obstacles
+            .tracker
+            .tracks()
+            .iter()
+            .filter(|t| t.status != TrackStatus::Tentative)
+            .count();
+        let tentative = self.obstacles.tracker.tracks().len() - confirmed;
+        let nearest_m = self.nearest_return_m(&footprint);
+        self.obstacles.status = ObstacleStatus {
+            enabled,
+            scans_fresh,
+            stopped: false,
+            speed_limit_mps: None,
+            speed_up_mps: None,
+            confirmed_tracks: confirmed,
+            tentative_tracks: tentative,
+            nearest_m,
+            detouring: self.obstacles.detour.is_some(),
+        };
+        if !enabled || !active {
+            self.obstacles.policy.reset();
+            self.obstacles.static_stop_since = None;
+            return Verdict::Go;
+        }
+
+        let sign = direction.sign();
+        let speed = if estimate.position_valid && estimate.heading_valid {
+            estimate.speed_mps
+        } else {
+            0.0
+        };
+        let field_config = self.field_config();
+        let body_points = || {
+            self.obstacles
+                .views
+                .iter()
+                .filter(|v| v.t.is_some_and(|t| self.now.boot.saturating_sub(t) <= fresh_after))
+                .flat_map(|v| v.body_points.iter().copied())
+        };
+        // Standing still, the field looks the way the vehicle would drive.
+        let here_fields = fields(
+            if speed.abs() > 0.05 { speed } else { 1e-3 * sign },
+            &footprint,
+            &field_config,
+        );
+        let field = check_field(&here_fields, &footprint, body_points());
+        let resume_fields = fields(planned_mps.abs() * sign, &footprint, &field_config);
+        let field_at_resume = check_field(&resume_fields, &footprint, body_points());
+
+        let pose = Pose {
+            position: estimate.position,
+            yaw_rad: estimate.yaw_rad,
+        };
+        let motion = |v: f64| VehicleMotion {
+            pose,
+            vel_north_mps: v * estimate.yaw_rad.cos(),
+            vel_east_mps: v * estimate.yaw_rad.sin(),
+        };
+        let margin = f64::from(self.p.obstacles.avoidance.margin_m.get(&self.params));
+        let horizon = f64::from(self.p.obstacles.avoidance.horizon_s.get(&self.params)) * 2.0;
+        let passing = self.obstacles.detour.as_ref().map(|d| d.obstacle);
+        let velocity_gate_mps = f64::from(self.p.obstacles.avoidance.velocity_gate_mps.get(&self.params));
+        let mut predictions: Vec<CollisionPrediction> = Vec::new();
+        let mut predictions_at_resume: Vec<CollisionPrediction> = Vec::new();
+        if estimate.position_valid && estimate.heading_valid {
+            for track in self.obstacles.tracker.tracks() {
+                if track.status != TrackStatus::Confirmed {
+                    continue;
+                }
+                // On a detour the obstacle being passed is beside the path
+                // by design; the field still guards against it.
+                if let Some((centre, radius_m)) = passing
+                    && track.position.distance_to(&centre) <= radius_m + 1.0
+                {
+                    continue;
+                }
+                // A velocity not yet settled (a track a few scans old, or one
+                // that has just started moving) says little: until it does,
+                // the obstacle is predicted as standing still.
+                let track = &if track.velocity_sigma_mps > velocity_gate_mps {
+                    Track {
+                        vel_north_mps: 0.0,
+                        vel_east_mps: 0.0,
+                        ..*track
+                    }
+                } else {
+                    *track
+                };
+                if let Some(p) = predict_collision(track, &motion(speed), &footprint, margin, horizon) {
+                    predictions.push(p);
+                }
+                if let Some(p) =
+                    predict_collision(track, &motion(planned_mps.abs() * sign), &footprint, margin, horizon)
+                {
+                    predictions_at_resume.push(p);
+                }
+            }
+        }
+        let config = self.policy_config();
+        // At rest the fields that matter are those it would start with.
+        let at_rest = speed.abs() <= 0.05;
+        let warning_limit_mps = if at_rest {
+            warning_speed_limit(&resume_fields, &field_at_resume, &field_config, planned_mps.abs())
+        } else {
+            warning_speed_limit(&here_fields, &field, &field_config, planned_mps.abs())
+        };
+        let inputs = PolicyInputs {
+            t_s: now_s,
+            wants_to_move,
+            speed_mps: speed,
+            scan_age_s,
+            field: &field,
+            field_at_resume: &field_at_resume,
+            predictions: &predictions,
+            predictions_at_resume: &predictions_at_resume,
+            tracks: self.obstacles.tracker.tracks(),
+            pose,
+            footprint: &footprint,
+            warning_limit_mps,
+        };
+        let status = self.obstacles.policy.update(&inputs, &config);
+        for event in &status.events {
+            self.report_obstacle_event(event);
+        }
+        let verdict = status.verdict;
+        self.obstacles.status.stopped = status.stopped;
+        self.obstacles.status.speed_limit_mps = match verdict {
+            Verdict::Slow { limit_mps } => Some(limit_mps),
+            _ => None,
+        };
+        self.obstacles.status.speed_up_mps = match verdict {
+            Verdict::SpeedUp { target_mps } => Some(target_mps),
+            _ => None,
+        };
+
+        // A static obstacle that keeps the vehicle stopped: plan round it.
+        let static_block = match &verdict {
+            Verdict::Stop(StopCause::Collision { track_id, .. }) => self
+                .obstacles
+                .tracker
+                .tracks()
+                .iter()
+                .find(|t| t.id == *track_id)
+                .is_some_and(|t| t.speed_mps() < STATIC_SPEED_MPS),
+            Verdict::Stop(StopCause::ProtectiveField { .. }) => true,
+            _ => false,
+        };
+        self.obstacles.static_stop_since = if static_block && wants_to_move {
+            self.obstacles.static_stop_since.or(Some(now_s))
+        } else {
+            None
+        };
+        verdict
+    }
+
+    fn report_obstacle_event(&mut self, event: &PolicyEvent) {
+        match event {
+            PolicyEvent::Stopped(cause) => {
+                self.send_text(MavSeverity::MAV_SEVERITY_WARNING, &format!("Obstacle stop: {cause}"));
+            }
+            PolicyEvent::Resumed { stopped_s } => {
+                self.send_text(
+                    MavSeverity::MAV_SEVERITY_INFO,
+                    &format!("Obstacle clear: resuming after {stopped_s:.1} s"),
+                );
+            }
+            PolicyEvent::WaitingForOperator(cause) => {
+                self.send_text(
+                    MavSeverity::MAV_SEVERITY_NOTICE,
+                    &format!("Obstacle clear ({cause}): waiting for GCS continue"),
+                );
+            }
+            PolicyEvent::PassingFirst { track_id } => {
+                self.send_text(
+                    MavSeverity::MAV_SEVERITY_INFO,
+                    &format!("Obstacle #{track_id}: passing first"),
+                );
+            }
+            PolicyEvent::Slowing => {}
+        }
+    }
+
+    /// The deliberate resume after an obstacle stop held for the GCS
+    /// (MAV_CMD_DO_PAUSE_CONTINUE with param1 = 1).
+    pub(super) fn obstacle_continue(&mut self) -> bool {
+        let released = self.obstacles.policy.operator_resume(self.now.boot.as_secs_f64());
+        if released {
+            self.send_text(MavSeverity::MAV_SEVERITY_INFO, "Obstacle stop released by GCS");
+        }
+        released
+    }
+
+    /// A mode change is a deliberate act: it clears any obstacle stop and
+    /// abandons a detour.
+    pub(super) fn obstacles_mode_changed(&mut self) {
+        self.obstacles.policy.reset();
+        self.obstacles.detour = None;
+        self.obstacles.static_stop_since = None;
+    }
+
+    /// Distance from the outline to the nearest fresh return.
+    fn nearest_return_m(&self, footprint: &Footprint) -> Option<f64> {
+        self.obstacles
+            .views
+            .iter()
+            .filter(|v| v.t.is_some_and(|t| self.now.boot.saturating_sub(t) <= VIEW_TIMEOUT))
+            .flat_map(|v| v.body_points.iter())
+            .map(|&(x, y)| outline_distance(footprint, x, y))
+            .min_by(f64::total_cmp)
+    }
+
+    /// OBSTACLE_DISTANCE in the body frame: 72 sectors of 5° from the centre
+    /// of the outline, clockwise from ahead; sectors no scanner sees are
+    /// "unknown", seen but empty ones "beyond range".
+    pub(super) fn obstacle_distance(&self) -> Option<OBSTACLE_DISTANCE_DATA> {
+        let views: Vec<&ScannerView> = self
+            .obstacles
+            .views
+            .iter()
+            .filter(|v| v.t.is_some_and(|t| self.now.boot.saturating_sub(t) <= VIEW_TIMEOUT))
+            .collect();
+        if views.is_empty() {
+            return None;
+        }
+        let footprint = self.footprint();
+        let max_range_m = f64::from(self.p.obstacles.scanners.max_range_m.get(&self.params));
+        let max_cm = (max_range_m * 100.0).round().min(f64::from(u16::MAX - 2)) as u16;
+        let centre_x = (footprint.front_m - footprint.rear_m) / 2.0;
+        let mut distances = [u16::MAX; SECTORS];
+        for view in &views {
+            for (i, covered) in view.covered.iter().enumerate() {
+                if *covered && distances[i] == u16::MAX {
+                    distances[i] = max_cm + 1;
+                }
+            }
+        }
+        for view in &views {
+            for &(x, y) in &view.body_points {
+                let (dx, dy) = (x - centre_x, y);
+                let sector = sector_of(dy.atan2(dx).to_degrees());
+                let cm = (dx.hypot(dy) * 100.0).round().clamp(0.0, f64::from(max_cm)) as u16;
+                if distances[sector] > max_cm || cm < distances[sector] {
+                    distances[sector] = cm;
+                }
+            }
+        }
+        Some(OBSTACLE_DISTANCE_DATA {
+            time_usec: self.now.boot.as_micros() as u64,
+            distances,
+            increment: SECTOR_DEG as u8,
+            min_distance: 5,
+            max_distance: max_cm,
+            sensor_type: MavDistanceSensor::MAV_DISTANCE_SENSOR_LASER,
+            increment_f: SECTOR_DEG as f32,
+            angle_offset: 0.0,
+            frame: MavFrame::MAV_FRAME_BODY_FRD,
+        })
+    }
+
+    /// OA_TYPE 1: a stop for a static obstacle that has lasted
+    /// OA_DETOUR_WAIT becomes a tangent-bug detour round it, if one fits in
+    /// the corridor; the interrupted leg resumes from where the detour
+    /// rejoins it.
+    ///
+    /// Driving (`stopped` false), it looks `DETOUR_LOOKAHEAD_M` ahead for
+    /// static returns in the lane, so the detour starts while there is room
+    /// to steer round (a stop a few metres short leaves none for an
+    /// Ackermann vehicle).
+    pub(super) fn maybe_plan_detour(&mut self, stopped: bool) {
+        let a = &self.p.obstacles.avoidance;
+        if a.kind.get(&self.params) != 1 || self.obstacles.detour.is_some() {
+            return;
+        }
+        let now_s = self.now.boot.as_secs_f64();
+        if stopped {
+            let wait_s = f64::from(a.detour_wait_s.get(&self.params));
+            let Some(since) = self.obstacles.static_stop_since else {
+                return;
+            };
+            if now_s - since < wait_s {
+                return;
+            }
+        }
+        if now_s < self.obstacles.next_detour_attempt_s {
+            return;
+        }
+        self.obstacles.next_detour_attempt_s = now_s + 0.5;
+        let (Some(target), Some(from)) = (self.navigator.target().copied(), self.navigator.leg_start()) else {
+            return;
+        };
+        let estimate = *self.estimator.estimate();
+        let pose = Pose {
+            position: estimate.position,
+            yaw_rad: estimate.yaw_rad,
+        };
+        let footprint = self.footprint();
+        let corridor_m = f64::from(a.corridor_m.get(&self.params));
+        let sign = target.direction.sign();
+        // The obstacle: the returns ahead within the corridor, in the
+        // driving direction; the others the detour must also clear.
+        let (mut obstacle, mut others) = (Vec::new(), Vec::new());
+        let moving: Vec<Ned> = self
+            .obstacles
+            .tracker
+            .tracks()
+            .iter()
+            .filter(|t| t.speed_mps() >= STATIC_SPEED_MPS)
+            .map(|t| t.position)
+            .collect();
+        for view in &self.obstacles.views {
+            for (p, &(x, _)) in view.local_points.iter().zip(&view.body_points) {
+                let ahead = if sign > 0.0 {
+                    x - footprint.front_m
+                } else {
+                    -footprint.rear_m - x
+                };
+                let lateral = cross_track(from, target.point, *p);
+                let moving_near = moving.iter().any(|m| m.distance_to(p) < 1.0);
+                if (0.0..DETOUR_LOOKAHEAD_M).contains(&ahead)
+                    && lateral.abs() <= footprint.half_width_m + 0.5
+                    && !moving_near
+                {
+                    obstacle.push(*p);
+                } else if lateral.abs() <= corridor_m + footprint.half_width_m + 1.0 {
+                    others.push(*p);
+                }
+            }
+        }
+        if obstacle.is_empty() {
+            self.obstacles.detour_refusal_reported = false;
+            return;
+        }
+        let config = DetourConfig {
+            clearance_m: 0.5,
+            corridor_m,
+            min_turn_radius_m: self.nav_config().min_arc_radius_m,
+        };
+        match plan_detour(from, target.point, &pose, &footprint, &obstacle, &others, &config) {
+            Ok(detour) => {
+                self.send_text(
+                    MavSeverity::MAV_SEVERITY_INFO,
+                    &format!(
+                        "Obstacle detour {}, {:.1} m off the path",
+                        match detour.side {
+                            crate::obstacles::detour::Side::Left => "left",
+                            crate::obstacles::detour::Side::Right => "right",
+                        },
+                        detour.max_offset_m
+                    ),
+                );
+                self.obstacles.policy.reset();
+                self.obstacles.static_stop_since = None;
+                let n = obstacle.len() as f64;
+                let centre = Ned::new(
+                    obstacle.iter().map(|p| p.north_m).sum::<f64>() / n,
+                    obstacle.iter().map(|p| p.east_m).sum::<f64>() / n,
+                );
+                let radius_m = obstacle.iter().map(|p| p.distance_to(&centre)).fold(0.0, f64::max);
+                self.obstacles.detour = Some(ActiveDetour {
+                    waypoints: detour.waypoints.into_iter().collect(),
+                    target,
+                    obstacle: (centre, radius_m),
+                });
+                self.next_detour_leg(estimate.position);
+            }
+            // Nothing in the way yet (or only beyond the leg): keep looking.
+            Err(DetourRefusal::NotInTheWay) => {}
+            Err(why) => {
+                if !self.obstacles.detour_refusal_reported && (stopped || why != DetourRefusal::TooClose) {
+                    self.obstacles.detour_refusal_reported = true;
+                    self.send_text(MavSeverity::MAV_SEVERITY_WARNING, &format!("No detour: {why:?}"));
+                }
+            }
+        }
+    }
+
+    /// Drives to the next detour waypoint, or back onto the interrupted leg.
+    fn next_detour_leg(&mut self, from: Ned) {
+        let Some(detour) = &mut self.obstacles.detour else {
+            return;
+        };
+        use crate::guidance::navigator::NavTarget;
+        match detour.waypoints.pop_front() {
+            Some(point) => {
+                let next = detour.waypoints.front().copied().or(Some(detour.target.point));
+                let target = NavTarget {
+                    point,
+                    speed_mps: detour.target.speed_mps,
+                    direction: detour.target.direction,
+                    stop: false,
+                    next,
+                    seq: None,
+                };
+                self.navigator.set_target(from, target);
+            }
+            None => {
+                let target = detour.target;
+                self.obstacles.detour = None;
+                self.navigator.set_target(from, target);
+                self.send_text(MavSeverity::MAV_SEVERITY_INFO, "Obstacle detour done: back on the path");
+            }
+        }
+    }
+
+    /// On a detour, an arrived waypoint moves on to the next.
+    pub(super) fn advance_detour(&mut self) {
+        if self.obstacles.detour.is_some() && self.navigator.arrived() {
+            let here = self
+                .navigator
+                .target()
+                .map_or(self.estimator.estimate().position, |t| t.point);
+            self.next_detour_leg(here);
+        }
+    }
+}
+
+fn sector_of(body_deg: f64) -> usize {
+    let wrapped = wrap_pi((body_deg + SECTOR_DEG / 2.0).to_radians()).to_degrees();
+    let from_zero = if wrapped < 0.0 { wrapped + 360.0 } else { wrapped };
+    ((from_zero / SECTOR_DEG).floor() as usize).min(SECTORS - 1)
+}
+
+/// Distance from a body-frame point to the outline (0 inside).
+fn outline_distance(f: &Footprint, x: f64, y: f64) -> f64 {
+    let dx = if x > f.front_m {
+        x - f.front_m
+    } else if x < -f.rear_m {
+        -f.rear_m - x
+    } else {
+        0.0
+    };
+    let dy = (y.abs() - f.half_width_m).max(0.0);
+    dx.hypot(dy)
+}
+
+/// Signed distance of `p` right of the line from `a` to `b`.
+fn cross_track(a: Ned, b: Ned, p: Ned) -> f64 {
+    let (dn, de) = (b.north_m - a.north_m, b.east_m - a.east_m);
+    let len = dn.hypot(de);
+    if len < 1e-9 {
+        return a.distance_to(&p);
+    }
+    ((p.east_m - a.east_m) * dn - (p.north_m - a.north_m) * de) / len
+}
+
+impl Mode {
+    /// The modes the obstacle policy governs: those that drive by themselves.
+    pub fn self_driving(self) -> bool {
+        matches!(self, Mode::Auto | Mode::Guided | Mode::Rtl | Mode::Magnetic)
+    }
+}
