@@ -652,6 +652,28 @@ fn person_walking_away_ahead_is_followed_not_stopped_for() {
 }
 
 #[test]
+fn a_person_overtaking_from_the_side_is_stopped_for_not_followed() {
+    // Beside the vehicle (ahead of the axle, behind the front bumper),
+    // walking forward faster than the vehicle and closing in from the left.
+    let config = PolicyConfig::default();
+    let mut policy = ObstaclePolicy::new();
+    let overtaker = track(8, 0.4, -1.5, 1.4, 1.4, 0.25);
+    let scene = Scene::clear(0.0, 1.0).with_tracks(vec![overtaker], 1.0);
+    assert!(!scene.predictions.is_empty(), "it is on a collision course");
+    let status = policy.update(&scene.inputs(), &config);
+    assert!(
+        matches!(status.verdict, Verdict::Stop(StopCause::Collision { track_id: 8, .. })),
+        "{:?}",
+        status.verdict
+    );
+    // The same walker in the lane ahead of the bumper is followed.
+    let mut policy = ObstaclePolicy::new();
+    let ahead = track(8, 1.9, 0.0, 0.6, 0.0, 0.25);
+    let status = policy.update(&Scene::clear(0.0, 1.0).with_tracks(vec![ahead], 1.0).inputs(), &config);
+    assert_eq!(status.verdict, Verdict::Slow { limit_mps: 0.6 });
+}
+
+#[test]
 fn tentative_tracks_do_not_stop_the_vehicle() {
     let config = PolicyConfig::default();
     let mut policy = ObstaclePolicy::new();

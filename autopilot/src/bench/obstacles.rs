@@ -8,6 +8,15 @@
 //! that nothing justified, and the tracker's velocity error once a track is
 //! 1 s old.
 //!
+//! A stop is justified when, at that instant, something truly is in the
+//! protective field, or an obstacle comes within `OA_MARGIN` + 0.25 m of
+//! the outline within the horizon — either on its true future path or on
+//! its true present velocity extended in a straight line (what a perfect
+//! tracker would predict: a person walking towards the path who turns away
+//! later was on a collision course when the vehicle stopped). Any other
+//! stop — a ghost, a noisy velocity, a static object seen as moving — is
+//! false.
+//!
 //! Movers are placed on a collision course: each reaches the crossing point
 //! on the path at the instant the vehicle's leading edge would have (taken
 //! from the empty run with the same seed), so doing nothing would hit.
@@ -409,17 +418,44 @@ fn stop_justified(sim: &Simulation, world: &ObstacleWorld, fp: &Footprint, speed
     let base = outline(sim, fp.front_m, fp.rear_m, fp.half_width_m);
     let yaw = sim.world().truth().yaw_rad;
     let steps = (horizon_s / 0.1).ceil() as usize;
-    (0..=steps).any(|k| {
-        let tau = k as f64 * 0.1;
-        let rect = Rectangle {
-            center: [
-                base.center[0] + speed_mps * tau * yaw.cos(),
-                base.center[1] + speed_mps * tau * yaw.sin(),
-            ],
-            ..base
+    let comes_near = |w: &ObstacleWorld| {
+        (0..=steps).any(|k| {
+            let tau = k as f64 * 0.1;
+            let rect = Rectangle {
+                center: [
+                    base.center[0] + speed_mps * tau * yaw.cos(),
+                    base.center[1] + speed_mps * tau * yaw.sin(),
+                ],
+                ..base
+            };
+            w.clearance_m(&rect, t0 + tau) < margin
+        })
+    };
+    comes_near(world) || comes_near(&constant_velocity_world(world, t0))
+}
+
+/// The world as a perfect tracker predicts it at `t0_s`: every mover goes
+/// on straight at its present velocity (a person about to turn away from
+/// the path is, until the turn, on a collision course: a stop for it is
+/// not a perception error).
+fn constant_velocity_world(world: &ObstacleWorld, t0_s: f64) -> ObstacleWorld {
+    let mut predicted = world.clone();
+    for (i, mover) in predicted.movers.iter_mut().enumerate() {
+        let Some((position, velocity)) = world.mover_state(i, t0_s) else {
+            continue;
         };
-        world.clearance_m(&rect, t0 + tau) < margin
-    })
+        let speed_mps = velocity[0].hypot(velocity[1]);
+        let far_s = 1000.0;
+        mover.path = vec![
+            position,
+            [position[0] + velocity[0] * far_s, position[1] + velocity[1] * far_s],
+        ];
+        mover.speed_mps = speed_mps;
+        mover.start_s = t0_s;
+        mover.looped = false;
+        mover.vanish_at_end = false;
+    }
+    predicted
 }
 
 fn run_one(spec: &RunSpec<'_>, setup: Option<&Setup>) -> Result<(RunResult, Timeline), String> {
@@ -474,7 +510,6 @@ fn run_one(spec: &RunSpec<'_>, setup: Option<&Setup>) -> Result<(RunResult, Time
         let rear_n = truth.north_m - fp.rear_m * truth.yaw_rad.cos();
         timeline.samples.push((t, front_n, rear_n, reversing));
         let here = Ned::new(truth.north_m, truth.east_m);
-
         for text in &texts {
             if std::env::var("FURROW_DEBUG_TEXTS").is_ok() {
                 eprintln!("t {:.2} TEXT {text}", sim.time().as_secs_f64());

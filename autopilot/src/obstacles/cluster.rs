@@ -133,6 +133,14 @@ impl Default for ClusterConfig {
     }
 }
 
+/// A cluster whose chord lies within 25° of the beam is a surface seen
+/// edge-on (cos 25°).
+const EDGE_ON_COS: f64 = 0.906;
+
+/// Shorter chords are judged neither way: two returns a few centimetres
+/// apart can point anywhere after range noise (σ ≈ 2 cm).
+const EDGE_ON_MIN_EXTENT_M: f64 = 0.08;
+
 /// One group of neighbouring returns.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cluster {
@@ -195,14 +203,21 @@ pub fn cluster_points(points: &[ScanPoint], config: &ClusterConfig, out: &mut Ve
 }
 
 /// Whether two returns of successive usable beams belong to different objects.
+///
+/// One beam without an echo between two returns that are close enough for
+/// the two beam steps between them is a dropout (dust, a dark patch), not a
+/// gap between objects: splitting there would cut a person in two, and the
+/// half off the track's gate would give birth to a second track.
 fn splits(a: &ScanPoint, b: &ScanPoint, config: &ClusterConfig) -> bool {
-    if a.beam.checked_add(1) != Some(b.beam) {
-        return true;
-    }
+    let steps = match b.beam.checked_sub(a.beam) {
+        Some(1) => 1.0,
+        Some(2) => 2.0,
+        _ => return true,
+    };
     // The nearer range: where a near object stands in front of a far one,
     // the gap that separates them must be the near object's.
     let range_m = a.range_m.min(b.range_m);
-    let gap_m = config.gap_m.max(config.gap_per_m * range_m);
+    let gap_m = steps * config.gap_m.max(config.gap_per_m * range_m);
     // A NaN distance splits.
     !at_most(a.position.distance_to(&b.position), gap_m)
 }
@@ -272,7 +287,21 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig) -> Option<Cluster>
                 ((pn * de - pe * dn) / chord).abs() <= config.straight_tolerance_m
             })
     };
-    let is_structure = extent_m > config.max_track_extent_m || straight;
+    // A surface seen edge-on (a car's rear face or a wall end as the
+    // scanner passes its plane) returns points strung out along the beam;
+    // a body's near side faces the scanner, its returns spread across the
+    // beam. Such slivers change with every metre the vehicle drives and
+    // would look like objects sliding sideways.
+    let edge_on = points.len() >= 2 && extent_m > EDGE_ON_MIN_EXTENT_M && {
+        let (dn, de) = (
+            last.position.north_m - first.position.north_m,
+            last.position.east_m - first.position.east_m,
+        );
+        let chord = dn.hypot(de);
+        let (sin_b, cos_b) = sensor.bearing_to(&mean).sin_cos();
+        chord > 0.0 && ((dn * cos_b + de * sin_b) / chord).abs() > EDGE_ON_COS
+    };
+    let is_structure = extent_m > config.max_track_extent_m || straight || edge_on;
     let centroid = if is_structure {
         mean
     } else {
@@ -492,6 +521,67 @@ mod tests {
     }
 
     #[test]
+    fn a_wall_seen_at_a_grazing_angle_is_structure_to_its_far_tip() {
+        // A corridor wall 1.6 m to the left: far along it the beams hit so
+        // obliquely that it breaks into fragments of a few returns.
+        let wall = (Ned::new(0.5, -1.6), Ned::new(19.0, -1.6));
+        let scan = ray_cast(&[], Some(wall));
+        let mut points = Vec::new();
+        scan_points(&scan, &Pose::default(), &ScannerMount::default(), 20.0, &mut points);
+        let config = ClusterConfig::default();
+        let breaks = points.windows(2).filter(|w| splits(&w[0], &w[1], &config)).count();
+        assert!(breaks > 3, "the wall does break up ({breaks} breaks)");
+        let clusters = clusters_of(&scan);
+        let loose: Vec<_> = clusters.iter().filter(|c| !c.is_structure).collect();
+        assert!(loose.is_empty(), "{loose:?}");
+        // A person standing 0.6 m off that wall is still a person.
+        let clusters = clusters_of(&ray_cast(&[(8.0, -0.75, 0.25)], Some(wall)));
+        let people: Vec<_> = clusters.iter().filter(|c| !c.is_structure).collect();
+        assert_eq!(people.len(), 1, "{clusters:?}");
+        assert!(
+            people[0].centroid.distance_to(&Ned::new(8.0, -0.75)) < 0.1,
+            "{people:?}"
+        );
+    }
+
+    #[test]
+    fn a_surface_seen_edge_on_is_structure() {
+        // Three returns of neighbouring beams strung 6 cm apart along the
+        // beam (a car's rear face seen almost along its plane): too short
+        // to be judged straight, yet no body returns such a sliver.
+        let along = |ranges: &[f64], step_rad: f64| -> Vec<ScanPoint> {
+            ranges
+                .iter()
+                .enumerate()
+                .map(|(beam, &range_m)| {
+                    let bearing_rad = -1.2 + beam as f64 * step_rad;
+                    let position = Ned::new(range_m * bearing_rad.cos(), range_m * bearing_rad.sin());
+                    ScanPoint {
+                        position,
+                        range_m,
+                        bearing_rad,
+                        body_x_m: position.north_m,
+                        body_y_m: position.east_m,
+                        beam,
+                    }
+                })
+                .collect()
+        };
+        let mut out = Vec::new();
+        cluster_points(
+            &along(&[3.0, 3.06, 3.12], STEP_RAD),
+            &ClusterConfig::default(),
+            &mut out,
+        );
+        assert_eq!(out.len(), 1);
+        assert!(out[0].is_structure, "{out:?}");
+        // Returns spread across the beam (a body's near side) are not.
+        cluster_points(&along(&[3.0, 2.98, 3.0], 0.04), &ClusterConfig::default(), &mut out);
+        assert_eq!(out.len(), 1);
+        assert!(!out[0].is_structure, "{out:?}");
+    }
+
+    #[test]
     fn a_person_at_fifteen_metres_is_one_cluster() {
         // Beams are 15 · 0.5° = 0.131 m apart there, and the flanks add depth.
         for k in 0..20 {
@@ -523,7 +613,7 @@ mod tests {
     }
 
     #[test]
-    fn a_missing_beam_splits_and_tiny_clusters_are_dropped() {
+    fn a_dropout_joins_two_missing_beams_split_and_tiny_clusters_are_dropped() {
         let mut scan = ray_cast(&[(3.0, 0.0, 0.25)], None);
         let hits: Vec<usize> = (0..scan.ranges_m.len())
             .filter(|&i| scan.ranges_m[i].is_finite())
@@ -533,7 +623,15 @@ mod tests {
         // An isolated single return elsewhere is noise.
         scan.ranges_m[0] = 5.0;
         let clusters = clusters_of(&scan);
-        assert_eq!(clusters.len(), 2, "{clusters:?}");
+        assert_eq!(
+            clusters.len(),
+            1,
+            "one dropout does not cut the person in two: {clusters:?}"
+        );
+        assert!((clusters[0].centroid.north_m - 3.0).abs() < 0.05, "{clusters:?}");
+        scan.ranges_m[middle + 1] = f32::NAN;
+        let clusters = clusters_of(&scan);
+        assert_eq!(clusters.len(), 2, "two missing beams are a gap: {clusters:?}");
         let mut out = vec![];
         cluster_points(&[], &ClusterConfig::default(), &mut out);
         assert!(out.is_empty());

@@ -560,17 +560,29 @@ fn travel_direction(speed_mps: f64) -> f64 {
     if speed_mps < 0.0 { -1.0 } else { 1.0 }
 }
 
-/// A track ahead walking away in the travel direction: its speed along it.
+/// A track in the lane ahead of the leading bumper walking away in the
+/// travel direction: its speed along it. Only such a walker can be followed;
+/// one beside the vehicle that outruns it while closing in from the side
+/// (overtaking at an angle) is a collision to stop for, however fast it
+/// walks forward.
 fn follow_speed(track: &Track, inputs: &PolicyInputs) -> Option<f64> {
     let direction = travel_direction(inputs.speed_mps);
-    let (x, _) = to_body(
+    let (x, y) = to_body(
         inputs.pose.yaw_rad,
         track.position.north_m - inputs.pose.position.north_m,
         track.position.east_m - inputs.pose.position.east_m,
     );
     let (vx, _) = to_body(inputs.pose.yaw_rad, track.vel_north_mps, track.vel_east_mps);
     let along_mps = vx * direction;
-    (x * direction > 0.0 && along_mps >= MIN_FOLLOW_SPEED_MPS).then_some(along_mps)
+    let leading_m = if direction > 0.0 {
+        inputs.footprint.front_m
+    } else {
+        inputs.footprint.rear_m
+    };
+    let radius_m = track.radius_m.max(0.0);
+    let ahead = x * direction > leading_m + radius_m;
+    let in_lane = y.abs() < inputs.footprint.half_width_m + radius_m;
+    (ahead && in_lane && along_mps >= MIN_FOLLOW_SPEED_MPS).then_some(along_mps)
 }
 
 /// Behind the trailing bumper, in the travel direction.

@@ -36,6 +36,9 @@ pub const CLOCK_JUMP: Duration = Duration::from_secs(1);
 /// merged centroid would drag it towards the other and can swap identities.
 const MERGED_RADIUS_RATIO: f64 = 1.5;
 
+/// No track is born this close (m) beyond the edges of an existing one.
+const BIRTH_EXCLUSION_M: f64 = 0.2;
+
 /// Tracking parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TrackingConfig {
@@ -260,12 +263,27 @@ impl ObstacleTracker {
             }
         }
         status.deaths += self.remove(&failed);
+        let known = self.entries.len();
 
         for (m, meas) in measurements.iter().enumerate() {
             if gated[m] {
                 continue;
             }
             let cluster = &clusters[meas.cluster];
+            // A piece of an object already tracked (half a person whose
+            // other half an occluding leg cut off, or the person again after
+            // a few missed scans) lands outside the track's tight gate, yet
+            // is no new object: a second track on it would be born with no
+            // velocity and predict a standing obstacle where a walking one
+            // is. Clusters of the same scan are distinct objects, so only
+            // tracks from before this scan exclude.
+            let part_of_known = self.entries[..known].iter().any(|e| {
+                e.track.position.distance_to(&cluster.centroid)
+                    <= e.track.radius_m + cluster.radius_m + BIRTH_EXCLUSION_M
+            });
+            if part_of_known {
+                continue;
+            }
             let Ok(kf) = CvKalman::new(cluster.centroid, &meas.r, config.initial_velocity_sigma_mps) else {
                 continue;
             };
@@ -555,6 +573,31 @@ mod tests {
         tracker.update(at_ms(120), Ned::default(), &[merged], &config);
         let misses: Vec<u32> = tracker.tracks().iter().map(|t| t.misses).collect();
         assert_eq!(misses, vec![2, 0]);
+    }
+
+    #[test]
+    fn a_second_piece_of_a_tracked_person_gives_no_birth() {
+        let config = TrackingConfig::default();
+        let mut tracker = ObstacleTracker::new();
+        let c = Ned::new(5.0, 0.0);
+        for k in 0..10u64 {
+            tracker.update(at_ms(20 * k), Ned::default(), &[person(c)], &config);
+        }
+        // The person, and beside it a sliver of the same person (off the
+        // track's tight gate): no second track.
+        let mut sliver = person(Ned::new(5.0, 0.35));
+        sliver.radius_m = 0.06;
+        let s = tracker.update(at_ms(200), Ned::default(), &[person(c), sliver], &config);
+        assert_eq!(s.births, 0, "{:?}", tracker.tracks());
+        // Two people side by side seen together for the first time: two tracks.
+        let mut fresh = ObstacleTracker::new();
+        let s = fresh.update(
+            at_ms(0),
+            Ned::default(),
+            &[person(Ned::new(5.0, -0.3)), person(Ned::new(5.0, 0.3))],
+            &config,
+        );
+        assert_eq!(s.births, 2);
     }
 
     #[test]
