@@ -10,7 +10,12 @@
 //! Everything here is pure and deterministic: time is passed in as a
 //! [`std::time::Duration`] since start, randomness comes from a caller's seed.
 
+pub mod device;
 pub mod gnss;
 pub mod magnetic;
+pub mod magnetic_serial;
+pub mod ntrip;
+pub mod pwm;
+pub mod rtcm;
 pub mod scanner;
 pub mod sim;

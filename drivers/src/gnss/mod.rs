@@ -5,6 +5,7 @@
 //! state of its own: each sentence stands alone, so an RTK fix from GGA is never
 //! overwritten by a later RMC (the trap in the `nmea` crate's stateful parser).
 
+pub mod port;
 mod reader;
 mod sentences;
 #[cfg(test)]
