@@ -1,13 +1,12 @@
-//! From normalised steering/throttle to what the drive train takes, and to
-//! servo pulse widths.
+//! From normalised steering/throttle to what the drive train takes.
 //!
-//! Ackermann: steering on servo 1, throttle on servo 3 (ArduPilot Rover's
-//! default functions 26 and 70), and seed 002's kinematics for vehicles
-//! that steer and drive each wheel: left and right front wheel angles on
-//! servos 5 and 6, left and right rear wheel throttles (the electronic
-//! differential) on servos 7 and 8. Differential (skid steering): left on
-//! servo 1, right on servo 3 (functions 73 and 74). Servos 9–16 are free for
-//! DO_SET_SERVO.
+//! Ackermann: centre steering and throttle, and seed 002's kinematics for
+//! vehicles that steer and drive each wheel: left and right front wheel
+//! angles and left and right rear wheel throttles (the electronic
+//! differential). Differential (skid steering): left and right. Which output
+//! channel carries which, and with what pulse range, is `SERVOn_*`
+//! ([`super::servo`]); the fixed-range helpers here are the RC input scale
+//! and the defaults' old 1000–2000 µs layout.
 
 use drivers::sim::ActuatorDemand;
 
@@ -100,8 +99,9 @@ impl WheelOutputs {
     }
 }
 
-/// Servo outputs for a demand (channels 1 and 3, and 5–8 with wheel
-/// outputs; the rest unused = 0).
+/// The fixed 1000–2000 µs layout before `SERVOn_*`: steering/left on
+/// channel 1, throttle/right on 3, wheels on 5–8, the rest 0. The core's
+/// outputs come from [`super::servo::ServoConfig::pulses_us`].
 pub fn servo_pwm(demand: &ActuatorDemand, wheels: Option<&WheelOutputs>) -> [u16; 16] {
     let mut pwm = [0u16; 16];
     let (ch1, ch3) = match *demand {

@@ -4,4 +4,5 @@
 pub mod ackermann;
 pub mod mixer;
 pub mod pid;
+pub mod servo;
 pub mod speed;

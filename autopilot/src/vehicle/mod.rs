@@ -29,7 +29,7 @@ use drivers::magnetic::MagneticSample;
 use drivers::sim::BatterySample;
 use mavlink::dialects::ardupilotmega::{MavMessage, MavSeverity};
 
-use crate::control::mixer::{self, DriveTrain};
+use crate::control::mixer::DriveTrain;
 use crate::control::speed::SpeedController;
 use crate::estimation::Estimator;
 use crate::geo::{GeoPoint, LocalFrame};
@@ -96,6 +96,8 @@ pub struct Core {
     neutral_since: Option<Duration>,
     last_gcs_heartbeat_wall: Option<Duration>,
     statustext_id: u16,
+    /// The pulses of the last tick (SERVO_OUTPUT_RAW reports them).
+    servo_pwm_us: [u16; 16],
     param_service: ParamService<LinkId>,
     /// Said to every link when it opens (a reset parameter file, say): there
     /// is nobody to tell when the process starts.
@@ -141,6 +143,7 @@ impl Core {
             neutral_since: None,
             last_gcs_heartbeat_wall: None,
             statustext_id: 0,
+            servo_pwm_us: [0; 16],
             param_service: ParamService::new(),
             startup_notices: Vec::new(),
             last_boot: None,
@@ -382,8 +385,23 @@ impl Core {
         if !self.armed {
             self.drive = DriveState::neutral(self.drive_train);
         }
+        let servos = self.p.servos.config(&self.params);
+        // A DO_SET_SERVO on a channel a function owns is dropped, and said so
+        // once (ArduPilot refuses it the same way).
+        for (channel, function) in servos.refuse_direct_pulses(&mut self.missions.servo_us) {
+            self.send_text(
+                MavSeverity::MAV_SEVERITY_WARNING,
+                &format!("DO_SET_SERVO refused: servo {channel} is {function}"),
+            );
+        }
         out.actuators = self.drive.actuators;
-        out.servo_pwm_us = mixer::servo_pwm(&self.drive.actuators, self.drive.wheels.as_ref());
+        self.servo_pwm_us = servos.pulses_us(&crate::control::servo::OutputDemand {
+            actuators: self.drive.actuators,
+            wheels: self.drive.wheels,
+            direct_us: self.missions.servo_us,
+            relays_on: self.missions.relays_on,
+        });
+        out.servo_pwm_us = self.servo_pwm_us;
     }
 
     fn send(&mut self, dest: Destination, message: MavMessage) {

@@ -4,6 +4,7 @@
 
 use params::{Param, ParamDef, ParamFlags, ParamName, ParamTableBuilder, ParamType, declare_params};
 
+use crate::control::servo::ServoParams;
 use crate::estimation::{EkfParams, GnssQualityParams};
 use crate::geo::GeoParams;
 use crate::obstacles::params::ObstacleParams;
@@ -364,6 +365,7 @@ pub struct CoreParams {
     pub gnss_quality: GnssQualityParams,
     pub streams: StreamRateParams,
     pub obstacles: ObstacleParams,
+    pub servos: ServoParams,
 }
 
 impl CoreParams {
@@ -382,6 +384,7 @@ impl CoreParams {
             gnss_quality: GnssQualityParams::register(builder),
             streams: StreamRateParams::register(builder),
             obstacles: ObstacleParams::register(builder),
+            servos: ServoParams::register(builder),
         }
     }
 }

@@ -13,7 +13,6 @@ use mavlink::dialects::ardupilotmega::{
 };
 
 use super::{Core, Destination};
-use crate::control::mixer;
 use crate::geo::{wrap_2pi, wrap_pi};
 use crate::modes::Mode;
 use crate::telemetry::identity::{self, VehicleStatus};
@@ -439,13 +438,7 @@ impl Core {
     }
 
     fn servo_output_raw(&self) -> SERVO_OUTPUT_RAW_DATA {
-        let mut pwm = mixer::servo_pwm(&self.drive.actuators, self.drive.wheels.as_ref());
-        // Channels the drive train does not use carry what missions set.
-        for (slot, aux) in pwm.iter_mut().zip(self.missions.servo_us) {
-            if *slot == 0 && aux != 0 {
-                *slot = aux;
-            }
-        }
+        let pwm = self.servo_pwm_us;
         SERVO_OUTPUT_RAW_DATA {
             time_usec: self.now.boot.as_micros() as u32,
             servo1_raw: pwm[0],
