@@ -17,7 +17,9 @@
 //! - [`sitl`] (edge): the simulated world stepped with the core, and the
 //!   runner that paces both against the wall clock.
 //! - [`storage`] (edge): the data directory and parameter persistence.
-//! - [`offline`]: tools on a data directory (`furrow params …`).
+//! - [`run`] (edge): the real vehicle (`furrow run --config FILE`).
+//! - [`offline`]: tools on a data directory (`furrow params …`) and
+//!   `furrow config check`.
 
 pub mod bench;
 pub mod control;
@@ -29,6 +31,7 @@ pub mod link;
 pub mod modes;
 pub mod obstacles;
 pub mod offline;
+pub mod run;
 pub mod sched;
 pub mod sitl;
 pub mod storage;

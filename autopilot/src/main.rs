@@ -28,6 +28,19 @@ enum Command {
     Params(autopilot::offline::params::ParamsArgs),
     /// Import, export and list the stored mission, fence and rally plans offline (.waypoints, .plan).
     Mission(autopilot::offline::mission::MissionArgs),
+    /// Drive a real vehicle: devices, outputs and MAVLink endpoints from a configuration file.
+    Run {
+        /// The vehicle configuration (TOML; see autopilot/examples/).
+        #[arg(long)]
+        config: PathBuf,
+    },
+    /// Show the device table of a running furrow (rates, ages, errors) over MAVLink.
+    Status(autopilot::run::status::StatusArgs),
+    /// Check a vehicle configuration file (the one `furrow run --config` reads).
+    Config {
+        #[command(subcommand)]
+        action: autopilot::offline::config::ConfigAction,
+    },
     /// Measure Furrow (prints figures; not a test).
     Bench {
         #[command(subcommand)]
@@ -193,6 +206,9 @@ fn main() -> ExitCode {
         }
         Command::Params(args) => autopilot::offline::params::run(&args),
         Command::Mission(args) => autopilot::offline::mission::run(&args),
+        Command::Config { action } => autopilot::offline::config::run(&action),
+        Command::Run { config } => autopilot::run::runner::run(&config),
+        Command::Status(args) => autopilot::run::status::run(&args),
         Command::Bench {
             which: BenchCommand::Sitl(args),
         } => autopilot::bench::sitl::run(&args),

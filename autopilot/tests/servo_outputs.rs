@@ -252,3 +252,41 @@ fn do_set_servo_sets_a_free_channel_and_is_refused_on_steering() {
     let pwm = steps(&mut h, 2);
     assert_eq!((pwm[0], pwm[2], pwm[8], pwm[9]), (1500, 1500, 1234, 1900));
 }
+
+#[test]
+fn gcs_set_servo_and_relay_commands_obey_the_channel_functions() {
+    use mavlink::dialects::ardupilotmega::MavResult;
+    let mut h = armed_in_manual(ModelKind::Ackermann);
+    // Servo 9 is free: the GCS may set it.
+    h.command(MavCmd::MAV_CMD_DO_SET_SERVO, [9.0, 1700.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    let pwm = steps(&mut h, 2);
+    assert_eq!(
+        h.acks(MavCmd::MAV_CMD_DO_SET_SERVO),
+        vec![MavResult::MAV_RESULT_ACCEPTED]
+    );
+    assert_eq!(pwm[8], 1700);
+    // Servo 1 steers: denied, and its pulse is the steering's.
+    h.command(MavCmd::MAV_CMD_DO_SET_SERVO, [1.0, 2000.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    let pwm = steps(&mut h, 2);
+    assert_eq!(
+        h.acks(MavCmd::MAV_CMD_DO_SET_SERVO),
+        vec![MavResult::MAV_RESULT_ACCEPTED, MavResult::MAV_RESULT_DENIED]
+    );
+    assert_ne!(pwm[0], 2000);
+    // A relay with no output: denied; once RELAY1_PIN names a GPIO servo, on
+    // and off move it between that servo's MAX and MIN.
+    h.command(MavCmd::MAV_CMD_DO_SET_RELAY, [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    steps(&mut h, 2);
+    assert_eq!(h.acks(MavCmd::MAV_CMD_DO_SET_RELAY), vec![MavResult::MAV_RESULT_DENIED]);
+    set(&mut h, "SERVO10_FUNCTION", -1.0);
+    set(&mut h, "RELAY1_PIN", 10.0);
+    h.command(MavCmd::MAV_CMD_DO_SET_RELAY, [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    let on = steps(&mut h, 2);
+    h.command(MavCmd::MAV_CMD_DO_SET_RELAY, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    let off = steps(&mut h, 2);
+    assert_eq!(
+        h.acks(MavCmd::MAV_CMD_DO_SET_RELAY)[1..],
+        [MavResult::MAV_RESULT_ACCEPTED, MavResult::MAV_RESULT_ACCEPTED]
+    );
+    assert_eq!((on[9], off[9]), (1900, 1100));
+}

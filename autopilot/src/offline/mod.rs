@@ -1,5 +1,6 @@
 //! Offline tools: commands that work on a data directory while no autopilot
 //! runs on it.
 
+pub mod config;
 pub mod mission;
 pub mod params;

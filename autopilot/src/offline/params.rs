@@ -9,7 +9,7 @@ use params::store::{self, Snapshot};
 use params::{ParamTable, SetError};
 
 use crate::sitl::simulation::SimulationParams;
-use crate::storage::data_dir::DataDir;
+use crate::storage::data_dir::{DataDir, Profile};
 
 #[derive(clap::Args, Debug)]
 pub struct ParamsArgs {
@@ -53,7 +53,10 @@ pub enum FormatArg {
 
 pub fn run(args: &ParamsArgs) -> Result<(), String> {
     let (dir, profile) = DataDir::open_offline(&args.data_dir)?;
-    let mut table = SimulationParams::new(profile.model()).table;
+    let mut table = match profile {
+        Profile::Sitl(model) => SimulationParams::new(model).table,
+        Profile::Vehicle(model) => crate::run::runner::vehicle_params(model).0,
+    };
     let report = store::load(dir.path(), &mut table).map_err(|e| format!("{}: {e}", dir.path().display()))?;
     if let Some((moved, why)) = report.corrupt {
         eprintln!(

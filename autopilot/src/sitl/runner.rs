@@ -16,7 +16,7 @@ use crate::storage::file_writer::FileWriter;
 use crate::storage::missions;
 use crate::storage::session::SessionParams;
 use crate::time::TaskTimer;
-use crate::vehicle::{Inputs, Outbound, Outputs};
+use crate::vehicle::{Core, Inputs, Outbound, Outputs};
 use mission::MissionType;
 
 /// `--speedup`.
@@ -137,7 +137,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         sim.core_mut().add_startup_notice(severity, text);
     }
     let writer = FileWriter::start();
-    let mut persistence = Persistence::new(data_dir.path(), &sim, &session, &writer);
+    let mut persistence = Persistence::new(data_dir.path(), sim.core(), &session, &writer);
 
     let offset = 10 * options.instance;
     let tcp_port = options.tcp_port.unwrap_or(5760 + offset);
@@ -183,7 +183,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         drain(&mut channels.inbound, sim.inputs_mut(), None);
         let outputs = sim.step(start.elapsed(), &mut timer);
         forward(outputs, &channels.outbound, &mut dropped_out);
-        persistence.sync(&sim, &session, &writer);
+        persistence.sync(sim.core(), &session, &writer);
         if let Some(watch) = &mut world_watch {
             watch.poll(start.elapsed(), &mut sim);
         }
@@ -197,11 +197,11 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
                 drain(&mut channels.inbound, sim.inputs_mut(), Some(first));
                 let outputs = sim.service_links(start.elapsed());
                 forward(outputs, &channels.outbound, &mut dropped_out);
-                persistence.sync(&sim, &session, &writer);
+                persistence.sync(sim.core(), &session, &writer);
             }
         }
     }
-    persistence.sync(&sim, &session, &writer);
+    persistence.sync(sim.core(), &session, &writer);
     let ticks = sim.core().scheduler().tick_stats();
     tracing::info!(
         "SITL stopped after {:.1} s simulated in {:.1} s: tick median {:.2} µs, p99 {:.2} µs, {} overruns, {} pacing restarts, {} messages dropped to links",
@@ -278,7 +278,7 @@ impl WorldWatch {
 
 /// Saves parameters and plans after they change: the core only counts
 /// changes, this edge turns them into files (written on the writer thread).
-struct Persistence {
+pub(crate) struct Persistence {
     dir: PathBuf,
     params_generation: u64,
     plans_generation: u64,
@@ -288,8 +288,7 @@ struct Persistence {
 impl Persistence {
     /// Saves the table as loaded (the boot count changed) and remembers the
     /// plans as they are on disk.
-    fn new(dir: &std::path::Path, sim: &Simulation, session: &SessionParams, writer: &FileWriter) -> Persistence {
-        let core = sim.core();
+    pub(crate) fn new(dir: &std::path::Path, core: &Core, session: &SessionParams, writer: &FileWriter) -> Persistence {
         writer.write(
             dir.join(params::store::STORE_FILE),
             session.snapshot(core.params()).render().into_bytes(),
@@ -302,8 +301,7 @@ impl Persistence {
         }
     }
 
-    fn sync(&mut self, sim: &Simulation, session: &SessionParams, writer: &FileWriter) {
-        let core = sim.core();
+    pub(crate) fn sync(&mut self, core: &Core, session: &SessionParams, writer: &FileWriter) {
         if core.params().generation() != self.params_generation {
             self.params_generation = core.params().generation();
             writer.write(
@@ -325,7 +323,7 @@ impl Persistence {
 }
 
 /// Moves what the links delivered into the next step's inputs.
-fn drain(inbound: &mut tokio::sync::mpsc::Receiver<ToCore>, inputs: &mut Inputs, first: Option<ToCore>) {
+pub(crate) fn drain(inbound: &mut tokio::sync::mpsc::Receiver<ToCore>, inputs: &mut Inputs, first: Option<ToCore>) {
     let mut take = |item: ToCore| match item {
         ToCore::Event(e) => inputs.link_events.push(e),
         ToCore::Message(m) => inputs.messages.push(m),
@@ -341,7 +339,7 @@ fn drain(inbound: &mut tokio::sync::mpsc::Receiver<ToCore>, inputs: &mut Inputs,
 
 /// Hands the core's messages to the links (never waiting: a full queue
 /// drops and counts).
-fn forward(outputs: &mut Outputs, outbound: &tokio::sync::mpsc::Sender<Outbound>, dropped: &mut u64) {
+pub(crate) fn forward(outputs: &mut Outputs, outbound: &tokio::sync::mpsc::Sender<Outbound>, dropped: &mut u64) {
     for out in outputs.mavlink.drain(..) {
         if let MavMessage::STATUSTEXT(t) = &out.message {
             tracing::info!("STATUSTEXT: {}", t.text.to_str().unwrap_or("?"));
@@ -353,7 +351,7 @@ fn forward(outputs: &mut Outputs, outbound: &tokio::sync::mpsc::Sender<Outbound>
 }
 
 /// A flag set by SIGINT or SIGTERM, watched from a small thread of its own.
-fn shutdown_on_signal() -> Arc<AtomicBool> {
+pub(crate) fn shutdown_on_signal() -> Arc<AtomicBool> {
     let flag = Arc::new(AtomicBool::new(false));
     let set = flag.clone();
     std::thread::Builder::new()

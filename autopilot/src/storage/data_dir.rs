@@ -15,6 +15,8 @@ const PROFILE_FILE: &str = "profile";
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Profile {
     Sitl(ModelKind),
+    /// A real vehicle (`furrow run`).
+    Vehicle(ModelKind),
 }
 
 impl Profile {
@@ -22,6 +24,8 @@ impl Profile {
         match self {
             Profile::Sitl(ModelKind::Ackermann) => "sitl-ackermann",
             Profile::Sitl(ModelKind::Differential) => "sitl-differential",
+            Profile::Vehicle(ModelKind::Ackermann) => "vehicle-ackermann",
+            Profile::Vehicle(ModelKind::Differential) => "vehicle-differential",
         }
     }
 
@@ -29,13 +33,15 @@ impl Profile {
         match text.trim() {
             "sitl-ackermann" => Some(Profile::Sitl(ModelKind::Ackermann)),
             "sitl-differential" => Some(Profile::Sitl(ModelKind::Differential)),
+            "vehicle-ackermann" => Some(Profile::Vehicle(ModelKind::Ackermann)),
+            "vehicle-differential" => Some(Profile::Vehicle(ModelKind::Differential)),
             _ => None,
         }
     }
 
     pub fn model(self) -> ModelKind {
         match self {
-            Profile::Sitl(m) => m,
+            Profile::Sitl(m) | Profile::Vehicle(m) => m,
         }
     }
 }

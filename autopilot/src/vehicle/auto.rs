@@ -106,13 +106,24 @@ impl Core {
                     self.navigator.set_speed(self.missions.speed_mps);
                 }
                 Action::SetServo { channel, pwm_us } => {
+                    let owned = self
+                        .p
+                        .servos
+                        .config(&self.params)
+                        .channels
+                        .get(usize::from(channel).wrapping_sub(1))
+                        .is_some_and(|ch| !ch.function.accepts_direct_pulse());
                     if let Some(slot) = self.missions.servo_us.get_mut(usize::from(channel) - 1) {
                         *slot = pwm_us;
                     }
-                    self.send_text(
-                        MavSeverity::MAV_SEVERITY_INFO,
-                        &format!("Servo {channel} set to {pwm_us}"),
-                    );
+                    // A channel a function owns is refused (and said so) when
+                    // the outputs are set.
+                    if !owned {
+                        self.send_text(
+                            MavSeverity::MAV_SEVERITY_INFO,
+                            &format!("Servo {channel} set to {pwm_us}"),
+                        );
+                    }
                 }
                 Action::SetRelay { relay, state } => {
                     let bit = 1u16 << relay.min(15);

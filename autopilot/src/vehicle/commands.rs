@@ -177,6 +177,37 @@ impl Core {
             MavCmd::MAV_CMD_DO_REPOSITION => self.do_reposition(c),
             MavCmd::MAV_CMD_DO_SET_HOME => self.do_set_home(c),
             MavCmd::MAV_CMD_DO_CHANGE_SPEED => self.do_change_speed(p1, p2),
+            // As ArduPilot: only a channel no function owns (SERVOn_FUNCTION
+            // 0 or 1) takes a pulse from the GCS.
+            MavCmd::MAV_CMD_DO_SET_SERVO => {
+                let channel = p1 as usize;
+                let servos = self.p.servos.config(&self.params);
+                match servos.channels.get(channel.wrapping_sub(1)) {
+                    Some(ch)
+                        if p1.fract() == 0.0 && ch.function.accepts_direct_pulse() && (0.0..=3000.0).contains(&p2) =>
+                    {
+                        self.missions.servo_us[channel - 1] = p2 as u16;
+                        MavResult::MAV_RESULT_ACCEPTED
+                    }
+                    _ => MavResult::MAV_RESULT_DENIED,
+                }
+            }
+            MavCmd::MAV_CMD_DO_SET_RELAY => {
+                let relay = p1 as usize;
+                let servos = self.p.servos.config(&self.params);
+                let fitted = servos.relay_channels.get(relay).is_some_and(Option::is_some);
+                if !(fitted && p1.fract() == 0.0 && (p2 == 0.0 || p2 == 1.0)) {
+                    return MavResult::MAV_RESULT_DENIED;
+                }
+                let bit = 1u16 << relay;
+                self.missions.relays_used |= bit;
+                if p2 == 1.0 {
+                    self.missions.relays_on |= bit;
+                } else {
+                    self.missions.relays_on &= !bit;
+                }
+                MavResult::MAV_RESULT_ACCEPTED
+            }
             // Continue releases an obstacle stop held for the GCS
             // (OA_RESUME 0) once the way is clear; pausing is not supported.
             MavCmd::MAV_CMD_DO_PAUSE_CONTINUE if p1 == 1.0 => {

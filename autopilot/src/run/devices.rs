@@ -1,0 +1,471 @@
+//! The real vehicle's sensors, started from the configuration file: each
+//! driver runs on its own thread (or the scanners' small runtime) and the
+//! core's loop only polls them, so a device that blocks, vanishes or sends
+//! garbage never delays a tick.
+
+use std::sync::mpsc as std_mpsc;
+use std::time::{Duration, Instant};
+
+use drivers::device::DeviceStatus;
+use drivers::gnss::port::{GnssPort, GnssPortConfig, GnssSource};
+use drivers::gnss::{FixQuality, GnssFix, GnssSample};
+use drivers::magnetic_serial::MagneticSerial;
+use drivers::ntrip::{NtripClient, NtripConfig, gga_sentence};
+use drivers::rtcm::RtcmReassembler;
+use drivers::scanner::Scan;
+use drivers::scanner::client::{ScannerClient, ScannerClientConfig};
+use tokio::sync::{mpsc, watch};
+
+use super::config::{GnssLink, HeadingSource, NtripVersion, SerialLine, VehicleConfig};
+use crate::vehicle::{Inputs, ScanInput};
+
+/// How long a magnetic sensor may stay silent before it counts as lost.
+const MAGNETIC_STALE: Duration = Duration::from_millis(200);
+/// A scanner silent this long is reported lost (the core's own
+/// `OA_SCAN_TMO` stops the vehicle much sooner).
+const SCANNER_STALE: Duration = Duration::from_millis(500);
+/// Scans queued per scanner between two ticks (50 Hz scans, 50 Hz ticks).
+const SCAN_QUEUE: usize = 8;
+
+/// One device's health as the status view and the announcements show it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeviceReport {
+    pub name: String,
+    /// Where it is: a port or an address.
+    pub place: String,
+    pub connected: bool,
+    /// No good data within its stale time.
+    pub stale: bool,
+    /// Good messages per second over the last report interval.
+    pub rate_hz: f64,
+    /// Seconds since the last good message (`None`: never).
+    pub age_s: Option<f64>,
+    pub errors: u64,
+    pub connects: u64,
+    pub last_error: Option<String>,
+}
+
+impl DeviceReport {
+    /// The one line `furrow status` prints and STATUSTEXT carries.
+    pub fn line(&self) -> String {
+        let state = match (self.connected, self.stale) {
+            (false, _) => "DOWN",
+            (true, true) => "STALE",
+            (true, false) => "OK",
+        };
+        let age = self.age_s.map_or("never".to_string(), |a| format!("{a:.2}s"));
+        format!(
+            "{} {state} {:.1}Hz age {age} err {} conn {}",
+            self.name, self.rate_hz, self.errors, self.connects
+        )
+    }
+
+    fn healthy(&self) -> bool {
+        self.connected && !self.stale
+    }
+}
+
+/// A rate from two readings of a message counter.
+#[derive(Clone, Copy, Debug, Default)]
+struct RateMeter {
+    last: Option<(Duration, u64)>,
+    rate_hz: f64,
+}
+
+impl RateMeter {
+    fn update(&mut self, now: Duration, count: u64) -> f64 {
+        match self.last {
+            Some((t, c)) if now > t + Duration::from_millis(500) => {
+                self.rate_hz = count.saturating_sub(c) as f64 / (now - t).as_secs_f64();
+                self.last = Some((now, count));
+            }
+            None => self.last = Some((now, count)),
+            _ => {}
+        }
+        self.rate_hz
+    }
+}
+
+/// The scanners live on a small runtime of their own (the CoLa-A client is
+/// async); scans come back through bounded channels the loop polls.
+struct ScannerSet {
+    receivers: Vec<mpsc::Receiver<Scan>>,
+    stats: Vec<std::sync::Arc<drivers::scanner::client::ScannerStats>>,
+    addresses: Vec<String>,
+    last_scan: Vec<Option<Duration>>,
+    shutdown: watch::Sender<bool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl ScannerSet {
+    fn start(addresses: Vec<String>, origin: Instant) -> Result<ScannerSet, String> {
+        let (shutdown, mut shutdown_rx) = watch::channel(false);
+        let (ready_tx, ready_rx) = std_mpsc::channel();
+        let configs: Vec<ScannerClientConfig> = addresses
+            .iter()
+            .map(|address| ScannerClientConfig {
+                address: address.clone(),
+                ..ScannerClientConfig::default()
+            })
+            .collect();
+        let thread = std::thread::Builder::new()
+            .name("scanners".into())
+            .spawn(move || {
+                let Ok(runtime) = tokio::runtime::Builder::new_current_thread().enable_all().build() else {
+                    return;
+                };
+                runtime.block_on(async move {
+                    let mut clients = Vec::new();
+                    let mut receivers = Vec::new();
+                    for config in configs {
+                        let (client, rx) = ScannerClient::spawn(config, move || origin.elapsed(), SCAN_QUEUE);
+                        receivers.push((rx, std::sync::Arc::clone(client.stats())));
+                        clients.push(client);
+                    }
+                    if ready_tx.send(receivers).is_err() {
+                        return;
+                    }
+                    let _ = shutdown_rx.wait_for(|stop| *stop).await;
+                    for client in clients {
+                        client.stop().await;
+                    }
+                });
+            })
+            .map_err(|e| format!("scanner thread: {e}"))?;
+        let pairs = ready_rx
+            .recv_timeout(Duration::from_secs(5))
+            .map_err(|_| "scanner runtime did not start".to_string())?;
+        let n = pairs.len();
+        let (receivers, stats) = pairs.into_iter().unzip();
+        Ok(ScannerSet {
+            receivers,
+            stats,
+            addresses,
+            last_scan: vec![None; n],
+            shutdown,
+            thread: Some(thread),
+        })
+    }
+}
+
+impl Drop for ScannerSet {
+    fn drop(&mut self) {
+        let _ = self.shutdown.send(true);
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+/// Every sensor of the vehicle, and the corrections on their way to the
+/// receiver.
+pub struct Devices {
+    gnss: GnssPort,
+    gnss_place: String,
+    gnss_stale_after: Duration,
+    compass: Option<(GnssPort, String)>,
+    ntrip: Option<(NtripClient, String, Duration)>,
+    magnetic: Option<MagneticSerial>,
+    scanners: Option<ScannerSet>,
+    rtcm: RtcmReassembler,
+    accept_mavlink_rtcm: bool,
+    rtcm_dropped: u64,
+    last_fix: Option<GnssFix>,
+    next_gga: Duration,
+    rates: Vec<RateMeter>,
+    /// Health at the last check, per device name, for announcements.
+    announced: Vec<(String, bool)>,
+}
+
+impl Devices {
+    /// Starts every configured device. Opening never fails on a missing
+    /// device (it is retried in the background); only a thread that cannot
+    /// be started is an error.
+    pub fn start(config: &VehicleConfig, origin: Instant) -> Result<Devices, String> {
+        let (source, gnss_place) = match &config.gnss.link {
+            GnssLink::Serial(line) => (serial_source(line), format!("{}@{}", line.path.display(), line.baud)),
+            GnssLink::Tcp(hp) => {
+                let address = format!("{}:{}", hp.host, hp.port);
+                (
+                    GnssSource::Tcp {
+                        address: address.clone(),
+                    },
+                    format!("tcp {address}"),
+                )
+            }
+        };
+        let gnss = GnssPort::spawn(
+            GnssPortConfig {
+                stale_after: config.gnss.stale_after(),
+                ..GnssPortConfig::new(source)
+            },
+            origin,
+        );
+        let compass = match &config.heading {
+            HeadingSource::Compass(line) => Some((
+                GnssPort::spawn(GnssPortConfig::new(serial_source(line)), origin),
+                format!("{}@{}", line.path.display(), line.baud),
+            )),
+            HeadingSource::Gnss | HeadingSource::None => None,
+        };
+        let ntrip = config.corrections.ntrip.as_ref().map(|n| {
+            let client = NtripClient::spawn(
+                NtripConfig {
+                    host: n.host.clone(),
+                    port: n.port,
+                    mountpoint: n.mountpoint.clone(),
+                    user: n.user.clone(),
+                    password: n.password.clone(),
+                    version: match n.version {
+                        NtripVersion::V1 => drivers::ntrip::NtripVersion::V1,
+                        NtripVersion::V2 => drivers::ntrip::NtripVersion::V2,
+                    },
+                    gga_interval: n.gga_interval(),
+                    ..NtripConfig::default()
+                },
+                origin,
+            );
+            (
+                client,
+                format!("{}:{}/{}", n.host, n.port, n.mountpoint),
+                n.gga_interval(),
+            )
+        });
+        let magnetic = config.magnetic.as_ref().map(|line| {
+            MagneticSerial::spawn(
+                line.path.to_string_lossy().into_owned(),
+                line.baud,
+                MAGNETIC_STALE,
+                origin,
+            )
+        });
+        let scanners = if config.scanners.is_empty() {
+            None
+        } else {
+            let addresses = config
+                .scanners
+                .iter()
+                .map(|s| format!("{}:{}", s.host, s.port))
+                .collect();
+            Some(ScannerSet::start(addresses, origin)?)
+        };
+        Ok(Devices {
+            gnss,
+            gnss_place,
+            gnss_stale_after: config.gnss.stale_after(),
+            compass,
+            ntrip,
+            magnetic,
+            scanners,
+            rtcm: RtcmReassembler::new(),
+            accept_mavlink_rtcm: config.corrections.mavlink,
+            rtcm_dropped: 0,
+            last_fix: None,
+            next_gga: Duration::ZERO,
+            rates: Vec::new(),
+            announced: Vec::new(),
+        })
+    }
+
+    /// Everything the devices delivered since the last tick, into `inputs`.
+    pub fn poll(&mut self, now: Duration, inputs: &mut Inputs) {
+        let first = inputs.gnss.len();
+        self.gnss.drain_samples(&mut inputs.gnss);
+        for sample in &inputs.gnss[first..] {
+            if let GnssSample::Fix(fix) = sample
+                && fix.quality != FixQuality::NoFix
+            {
+                self.last_fix = Some(*fix);
+            }
+        }
+        if let Some((compass, _)) = &self.compass {
+            compass.drain_samples(&mut inputs.gnss);
+        }
+        if let Some(magnetic) = &self.magnetic {
+            inputs.magnetic = magnetic.latest();
+        }
+        if let Some(set) = &mut self.scanners {
+            for (index, rx) in set.receivers.iter_mut().enumerate() {
+                while let Ok(scan) = rx.try_recv() {
+                    set.last_scan[index] = Some(scan.t);
+                    inputs.scans.push(ScanInput { scanner: index, scan });
+                }
+            }
+        }
+        self.pump_ntrip(now);
+    }
+
+    /// Corrections from the caster go to the receiver; the caster gets our
+    /// position every GGA interval (a VRS caster needs it to pick a base).
+    fn pump_ntrip(&mut self, now: Duration) {
+        let Some((client, _, gga_interval)) = &self.ntrip else {
+            return;
+        };
+        let mut chunks = Vec::new();
+        client.drain_corrections(&mut chunks);
+        for chunk in chunks {
+            if !self.gnss.send_to_receiver(chunk) {
+                self.rtcm_dropped += 1;
+            }
+        }
+        if !gga_interval.is_zero()
+            && now >= self.next_gga
+            && let Some(fix) = self.last_fix
+        {
+            self.next_gga = now + *gga_interval;
+            let utc = Duration::from_secs_f64(fix.utc_time_of_day_s.unwrap_or(0.0).max(0.0));
+            client.set_gga(gga_sentence(
+                fix.lat_deg,
+                fix.lon_deg,
+                fix.alt_msl_m,
+                fix.quality.gga_digit(),
+                fix.satellites,
+                f64::from(fix.hdop),
+                utc,
+            ));
+        }
+    }
+
+    /// One GPS_RTCM_DATA from a ground station: reassembled, then written
+    /// to the receiver whole. Returns false when corrections over MAVLink
+    /// are off in the configuration.
+    pub fn mavlink_rtcm(&mut self, flags: u8, data: &[u8]) -> bool {
+        if !self.accept_mavlink_rtcm {
+            return false;
+        }
+        let mut complete = Vec::new();
+        self.rtcm.push(flags, data, &mut complete);
+        for message in complete {
+            if !self.gnss.send_to_receiver(message) {
+                self.rtcm_dropped += 1;
+            }
+        }
+        true
+    }
+
+    /// Every device's health now.
+    pub fn reports(&mut self, now: Duration) -> Vec<DeviceReport> {
+        let mut reports = Vec::new();
+        let gnss_status = self.gnss.status();
+        reports.push(report(
+            "GNSS",
+            &self.gnss_place,
+            &gnss_status,
+            self.gnss.is_stale(now),
+            now,
+        ));
+        if let Some((compass, place)) = &self.compass {
+            reports.push(report("Compass", place, &compass.status(), compass.is_stale(now), now));
+        }
+        if let Some((client, place, _)) = &self.ntrip {
+            let status = client.status();
+            let stale = drivers::gnss::port::is_stale(status.last_message, now, Duration::from_secs(10));
+            reports.push(report("NTRIP", place, &status, stale, now));
+        }
+        if let Some(magnetic) = &self.magnetic {
+            reports.push(report(
+                "Magnetic",
+                magnetic.path(),
+                &magnetic.status(),
+                magnetic.is_stale(now),
+                now,
+            ));
+        }
+        if let Some(set) = &self.scanners {
+            for (i, ((stats, address), last)) in set.stats.iter().zip(&set.addresses).zip(&set.last_scan).enumerate() {
+                let s = stats.snapshot();
+                let status = DeviceStatus {
+                    connected: s.connects > s.disconnects,
+                    connects: s.connects,
+                    bytes_in: 0,
+                    bytes_out: 0,
+                    messages: s.scans,
+                    errors: s.malformed + s.scanner_errors,
+                    last_message: *last,
+                    last_error: s.last_error,
+                };
+                let stale = drivers::gnss::port::is_stale(*last, now, SCANNER_STALE);
+                reports.push(report(&format!("Scanner{}", i + 1), address, &status, stale, now));
+            }
+        }
+        if self.rates.len() < reports.len() {
+            self.rates.resize(reports.len(), RateMeter::default());
+        }
+        let counts: Vec<u64> = self.message_counts();
+        for ((r, meter), count) in reports.iter_mut().zip(&mut self.rates).zip(counts) {
+            r.rate_hz = meter.update(now, count);
+        }
+        reports
+    }
+
+    fn message_counts(&self) -> Vec<u64> {
+        let mut counts = vec![self.gnss.status().messages];
+        if let Some((c, _)) = &self.compass {
+            counts.push(c.status().messages);
+        }
+        if let Some((c, _, _)) = &self.ntrip {
+            counts.push(c.status().messages);
+        }
+        if let Some(m) = &self.magnetic {
+            counts.push(m.status().messages);
+        }
+        if let Some(set) = &self.scanners {
+            counts.extend(set.stats.iter().map(|s| s.snapshot().scans));
+        }
+        counts
+    }
+
+    /// The devices whose health changed since the last call: (report,
+    /// healthy now). The first call reports only devices that are not
+    /// healthy after `grace` (a receiver takes a moment to start talking).
+    pub fn changes(&mut self, now: Duration, grace: Duration) -> Vec<(DeviceReport, bool)> {
+        let mut changed = Vec::new();
+        for r in self.reports(now) {
+            let healthy = r.healthy();
+            match self.announced.iter_mut().find(|(name, _)| *name == r.name) {
+                Some((_, was)) if *was != healthy => {
+                    *was = healthy;
+                    changed.push((r, healthy));
+                }
+                Some(_) => {}
+                None if healthy => self.announced.push((r.name.clone(), true)),
+                None if now >= grace => {
+                    self.announced.push((r.name.clone(), false));
+                    changed.push((r, false));
+                }
+                None => {}
+            }
+        }
+        changed
+    }
+
+    /// Corrections that could not be queued to the receiver.
+    pub fn rtcm_dropped(&self) -> u64 {
+        self.rtcm_dropped
+    }
+
+    pub fn gnss_stale_after(&self) -> Duration {
+        self.gnss_stale_after
+    }
+}
+
+fn serial_source(line: &SerialLine) -> GnssSource {
+    GnssSource::Serial {
+        path: line.path.to_string_lossy().into_owned(),
+        baud: line.baud,
+    }
+}
+
+fn report(name: &str, place: &str, status: &DeviceStatus, stale: bool, now: Duration) -> DeviceReport {
+    DeviceReport {
+        name: name.to_string(),
+        place: place.to_string(),
+        connected: status.connected,
+        stale,
+        rate_hz: 0.0,
+        age_s: status.last_message.map(|t| now.saturating_sub(t).as_secs_f64()),
+        errors: status.errors,
+        connects: status.connects,
+        last_error: status.last_error.clone(),
+    }
+}
