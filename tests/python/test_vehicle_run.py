@@ -361,6 +361,12 @@ def test_vehicle_with_pty_gnss_ntrip_rtcm_and_sysfs_pwm(tmp_path):
         assert p is not None
         err = distance(p.lat * 1e-7, p.lon * 1e-7, log_lat, log_lon)
         assert err < 0.05, f"GLOBAL_POSITION_INT {err:.3f} m from the log"
+        # The dual-antenna heading (HDT 45°) and its quality.
+        raw = recv(m, "GPS_RAW_INT", 5, lambda r: r.fix_type == mavlink.GPS_FIX_TYPE_RTK_FIXED)
+        assert raw is not None, "no RTK fixed GPS_RAW_INT"
+        assert raw.yaw == 4500 and 0 < raw.hdg_acc < 500000, (raw.yaw, raw.hdg_acc)
+        hud = recv(m, "VFR_HUD", 5)
+        assert hud is not None and hud.heading == 45, hud
 
         # Corrections from the caster reach the receiver byte-exact, and the
         # caster gets our position back as GGA.

@@ -281,7 +281,16 @@ impl Core {
             h_acc: (h_acc_mm * 1000.0).round().clamp(0.0, f64::from(u32::MAX)) as u32,
             v_acc: g.sigma_up_m.map_or(0, |s| (s * 1000.0).round() as u32),
             vel_acc: 0,
-            hdg_acc: 0,
+            // The heading's quality: the filter's yaw σ (degE5) once a
+            // heading sensor (HDT/THS or a compass) feeds it.
+            hdg_acc: match (g.heading_deg, self.estimator.ekf_status()) {
+                (Some(_), Some(status)) if status.heading_sigma_rad.is_finite() => {
+                    (status.heading_sigma_rad.to_degrees() * 1e5)
+                        .round()
+                        .clamp(1.0, f64::from(u32::MAX)) as u32
+                }
+                _ => 0,
+            },
             // 0 = this GPS gives no yaw; 36000 = north.
             yaw: g.heading_deg.map_or(0, |h| match cdeg_0_36000(h.to_radians()) {
                 0 => 36000,
