@@ -413,6 +413,7 @@ def test_vehicle_with_pty_gnss_ntrip_rtcm_and_sysfs_pwm(tmp_path):
         rate = float(re.search(r"GNSS OK ([0-9.]+)Hz", gnss_line[0]).group(1))
         assert 20.0 <= rate <= 50.0, gnss_line
         assert any(line.startswith("NTRIP OK") for line in out.stdout.splitlines()), out.stdout
+        assert any(line.startswith("PWM OK") for line in out.stdout.splitlines()), out.stdout
         mag = [line for line in out.stdout.splitlines() if line.startswith("Magnetic ")]
         assert mag and mag[0].startswith("Magnetic OK"), out.stdout
         assert 25.0 <= float(re.search(r"OK ([0-9.]+)Hz", mag[0]).group(1)) <= 60.0, mag

@@ -456,7 +456,8 @@ fn serial_source(line: &SerialLine) -> GnssSource {
     }
 }
 
-fn report(name: &str, place: &str, status: &DeviceStatus, stale: bool, now: Duration) -> DeviceReport {
+/// A report from a driver's status (rate filled in by the caller).
+pub fn report(name: &str, place: &str, status: &DeviceStatus, stale: bool, now: Duration) -> DeviceReport {
     DeviceReport {
         name: name.to_string(),
         place: place.to_string(),

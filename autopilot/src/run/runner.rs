@@ -128,6 +128,7 @@ pub fn run(config_path: &Path) -> Result<(), String> {
             &mut channels.inbound,
             &mut inputs,
             &mut devices,
+            &actuators,
             &channels.outbound,
             boot,
             None,
@@ -159,6 +160,7 @@ pub fn run(config_path: &Path) -> Result<(), String> {
                 &mut channels.inbound,
                 &mut inputs,
                 &mut devices,
+                &actuators,
                 &channels.outbound,
                 boot,
                 Some(first),
@@ -245,6 +247,7 @@ fn take_link_traffic(
     inbound: &mut tokio::sync::mpsc::Receiver<ToCore>,
     inputs: &mut Inputs,
     devices: &mut Devices,
+    actuators: &PwmActuators,
     outbound: &tokio::sync::mpsc::Sender<Outbound>,
     now: Duration,
     first: Option<ToCore>,
@@ -252,7 +255,7 @@ fn take_link_traffic(
     let mut take = |item: ToCore| match item {
         ToCore::Event(e) => inputs.link_events.push(e),
         ToCore::Message(m) => {
-            if !answer_at_edge(&m, devices, outbound, now) {
+            if !answer_at_edge(&m, devices, actuators, outbound, now) {
                 inputs.messages.push(m);
             }
         }
@@ -270,6 +273,7 @@ fn take_link_traffic(
 fn answer_at_edge(
     m: &Inbound,
     devices: &mut Devices,
+    actuators: &PwmActuators,
     outbound: &tokio::sync::mpsc::Sender<Outbound>,
     now: Duration,
 ) -> bool {
@@ -294,8 +298,11 @@ fn answer_at_edge(
                 ..COMMAND_ACK_DATA::default()
             }));
             let mut id = 0u16;
-            let mut lines: Vec<String> = devices
-                .reports(now)
+            let mut reports = devices.reports(now);
+            if let Some(pwm) = actuators.status() {
+                reports.push(super::devices::report("PWM", "sysfs", &pwm, false, now));
+            }
+            let mut lines: Vec<String> = reports
                 .iter()
                 .map(|r| format!("{DEVICE_LINE_PREFIX}{}", r.line()))
                 .collect();
