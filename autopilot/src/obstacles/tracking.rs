@@ -187,11 +187,12 @@ impl ObstacleTracker {
             })
             .collect();
 
-        // A partly hidden cluster's centroid can be off by up to the
+        // A partial view's centroid — a partly hidden cluster, or one piece
+        // of an object the scan shows in several — can be off by up to the
         // object's radius: it may keep a track alive and roughly in place,
         // but must not steer its velocity.
-        let r_for = |entry: &Entry, meas: &Measurement| -> Matrix2<f64> {
-            if clusters[meas.cluster].occluded {
+        let r_for = |entry: &Entry, meas: &Measurement, partial: bool| -> Matrix2<f64> {
+            if partial || clusters[meas.cluster].occluded {
                 meas.r + Matrix2::identity() * entry.track.radius_m * entry.track.radius_m
             } else {
                 meas.r
@@ -205,7 +206,7 @@ impl ObstacleTracker {
             for (m, meas) in measurements.iter().enumerate() {
                 let d2 = entry
                     .kf
-                    .mahalanobis_sq(clusters[meas.cluster].centroid, &r_for(entry, meas));
+                    .mahalanobis_sq(clusters[meas.cluster].centroid, &r_for(entry, meas, false));
                 if d2 <= gate {
                     pairs.push((d2, i, m));
                 }
@@ -237,13 +238,33 @@ impl ObstacleTracker {
             }
         }
 
+        // An object cut in pieces (a run of beams without echo across a
+        // person: two dropouts in a row already split a cluster): the track
+        // takes the piece nearest its prediction, and another piece no track
+        // took lies where this object is. The taken piece's centroid is then
+        // that of a part — one leg's worth of returns off the centre — and an
+        // ordinary update with it turns a few centimetres of offset into a
+        // velocity error of a good fraction of a walking speed, predicting a
+        // collision the object is not on course for.
+        let pieces: Vec<bool> = assigned
+            .iter()
+            .zip(&self.entries)
+            .map(|(slot, entry)| {
+                slot.is_some_and(|m| {
+                    measurements.iter().enumerate().any(|(other, meas)| {
+                        other != m && !taken[other] && part_of(&entry.track, &clusters[meas.cluster])
+                    })
+                })
+            })
+            .collect();
+
         let mut failed = vec![false; self.entries.len()];
         for (i, entry) in self.entries.iter_mut().enumerate() {
             let hit = assigned[i].filter(|&m| !merged[m]);
             match hit {
                 Some(m) => {
                     let cluster = &clusters[measurements[m].cluster];
-                    let r = r_for(entry, &measurements[m]);
+                    let r = r_for(entry, &measurements[m], pieces[i]);
                     if entry.kf.update(cluster.centroid, &r).is_err() {
                         failed[i] = true;
                         continue;
@@ -253,7 +274,7 @@ impl ObstacleTracker {
                         entry.track.hits = entry.track.hits.saturating_add(1);
                     }
                     entry.track.misses = 0;
-                    if !cluster.occluded {
+                    if !(cluster.occluded || pieces[i]) {
                         entry.track.radius_m = cluster.radius_m;
                     }
                     entry.seen_t = now;
@@ -277,10 +298,7 @@ impl ObstacleTracker {
             // velocity and predict a standing obstacle where a walking one
             // is. Clusters of the same scan are distinct objects, so only
             // tracks from before this scan exclude.
-            let part_of_known = self.entries[..known].iter().any(|e| {
-                e.track.position.distance_to(&cluster.centroid)
-                    <= e.track.radius_m + cluster.radius_m + BIRTH_EXCLUSION_M
-            });
+            let part_of_known = self.entries[..known].iter().any(|e| part_of(&e.track, cluster));
             if part_of_known {
                 continue;
             }
@@ -396,6 +414,13 @@ impl ObstacleTracker {
         self.next_id = self.next_id.checked_add(1).unwrap_or(1);
         id
     }
+}
+
+/// Whether `cluster` lies where `track`'s object is: within
+/// [`BIRTH_EXCLUSION_M`] beyond both their edges, so that it can be a piece
+/// of that object.
+fn part_of(track: &Track, cluster: &Cluster) -> bool {
+    track.position.distance_to(&cluster.centroid) <= track.radius_m + cluster.radius_m + BIRTH_EXCLUSION_M
 }
 
 /// `R` of a cluster centroid: the scanner's range/bearing σ through the
@@ -623,6 +648,41 @@ mod tests {
         let moved = track.position.distance_to(&c);
         assert_eq!(plain.tracks().len(), 1);
         assert!(moved < 0.1 * plain_moved, "{moved} vs {plain_moved}");
+    }
+
+    #[test]
+    fn a_person_cut_in_two_pieces_keeps_its_velocity() {
+        let config = TrackingConfig::default();
+        let mut tracker = ObstacleTracker::new();
+        // Walking south-east at 0.5 m/s, seen whole at 50 Hz.
+        let (vn, ve) = (-0.35, 0.35);
+        let at = |k: u64| Ned::new(5.0 + vn * 0.02 * k as f64, -1.0 + ve * 0.02 * k as f64);
+        for k in 0..100u64 {
+            tracker.update(at_ms(20 * k), Ned::default(), &[person(at(k))], &config);
+        }
+        let before = tracker.tracks()[0];
+        assert!((before.vel_north_mps - vn).abs() < 0.05 && (before.vel_east_mps - ve).abs() < 0.05);
+        // Two beams in a row without echo cut the person in two: the larger
+        // piece's centroid is a few centimetres off the centre (inside the
+        // track's gate), the smaller one lies beside it.
+        let c = at(100);
+        let mut big = person(Ned::new(c.north_m + 0.03, c.east_m - 0.08));
+        big.radius_m = 0.155;
+        let mut small = person(Ned::new(c.north_m - 0.19, c.east_m + 0.01));
+        small.radius_m = 0.10;
+        let mut plain = tracker.clone();
+        plain.update(at_ms(2000), Ned::default(), &[big], &config);
+        let s = tracker.update(at_ms(2000), Ned::default(), &[big, small], &config);
+        assert_eq!((s.births, s.deaths), (0, 0));
+        assert_eq!(tracker.tracks().len(), 1);
+        let change = |t: &Track| (t.vel_north_mps - before.vel_north_mps).hypot(t.vel_east_mps - before.vel_east_mps);
+        let (plain_change, pieces_change) = (change(&plain.tracks()[0]), change(&tracker.tracks()[0]));
+        // What an ordinary update with the piece does to the velocity.
+        assert!(plain_change > 0.2, "{plain_change}");
+        assert!(pieces_change < 0.05, "{pieces_change} vs {plain_change}");
+        let track = tracker.tracks()[0];
+        assert_eq!(track.misses, 0);
+        assert_eq!(track.radius_m, before.radius_m);
     }
 
     #[test]
