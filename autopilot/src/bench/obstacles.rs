@@ -608,14 +608,20 @@ fn run_one(spec: &RunSpec<'_>, setup: Option<&Setup>) -> Result<(RunResult, Time
                         track.position.east_m - offset.east_m,
                     ];
                     let nearest = (0..w.movers.len())
-                        .filter_map(|i| w.mover_state(i, t))
-                        .map(|(p, v)| ((p[0] - at[0]).hypot(p[1] - at[1]), v))
-                        .min_by(|a, b| a.0.total_cmp(&b.0));
-                    kf_recorded.push(track.id);
-                    if let Some((d, v)) = nearest
-                        && d < 1.0
-                        && v[0].hypot(v[1]) > 0.1
-                    {
+                        .filter_map(|i| w.mover_state(i, t).map(|(p, v)| (i, p, v)))
+                        .map(|(i, p, v)| (i, (p[0] - at[0]).hypot(p[1] - at[1]), v))
+                        .min_by(|a, b| a.1.total_cmp(&b.1));
+                    let Some((mover, _, v)) = nearest.filter(|n| n.1 < 1.0) else {
+                        // Not a mover's track (structure, a ghost): never measured.
+                        kf_recorded.push(track.id);
+                        continue;
+                    };
+                    // Measured once the person has walked for 1 s and the
+                    // track is 1 s old: a track born while the person stood
+                    // waiting is measured 1 s into the walk.
+                    let walking = |at_s: f64| w.mover_state(mover, at_s).is_some_and(|(_, v)| v[0].hypot(v[1]) > 0.1);
+                    if walking(t) && walking(t - 1.0) {
+                        kf_recorded.push(track.id);
                         result
                             .kf_velocity_error_mps
                             .push((track.vel_north_mps - v[0]).hypot(track.vel_east_mps - v[1]));
