@@ -153,12 +153,13 @@ impl PwmActuators {
     pub fn apply(&self, pulses_us: &[u16; 16]) {
         let mut shared = lock(&self.shared);
         shared.ensure_open(Instant::now());
-        let servos = shared.servos.clone();
-        if let Some(pwm) = &mut shared.pwm {
-            let trims: Vec<u16> = pwm.outputs().map(|o| o.trim_us).collect();
-            for ((output, servo), trim) in servos.into_iter().enumerate().zip(trims) {
+        let Shared {
+            pwm, servos, outputs, ..
+        } = &mut *shared;
+        if let Some(pwm) = pwm {
+            for (output, (&servo, spec)) in servos.iter().zip(outputs.iter()).enumerate() {
                 let pulse = match pulses_us[servo] {
-                    0 => trim,
+                    0 => spec.trim_us,
                     p => p,
                 };
                 if let Err(e) = pwm.set_pulse_us(output, pulse) {

@@ -42,6 +42,8 @@ pub struct DeviceReport {
     pub age_s: Option<f64>,
     pub errors: u64,
     pub connects: u64,
+    /// Good messages since start (the rate is measured from it).
+    pub messages: u64,
     pub last_error: Option<String>,
 }
 
@@ -162,9 +164,10 @@ impl Drop for ScannerSet {
 pub struct Devices {
     gnss: GnssPort,
     gnss_place: String,
-    gnss_stale_after: Duration,
     compass: Option<(GnssPort, String)>,
-    ntrip: Option<(NtripClient, String, Duration)>,
+    /// The client, its caster for the status view, the GGA interval and
+    /// how long the caster may stay silent.
+    ntrip: Option<(NtripClient, String, Duration, Duration)>,
     magnetic: Option<MagneticSerial>,
     scanners: Option<ScannerSet>,
     rtcm: RtcmReassembler,
@@ -209,26 +212,26 @@ impl Devices {
             HeadingSource::Gnss | HeadingSource::None => None,
         };
         let ntrip = config.corrections.ntrip.as_ref().map(|n| {
-            let client = NtripClient::spawn(
-                NtripConfig {
-                    host: n.host.clone(),
-                    port: n.port,
-                    mountpoint: n.mountpoint.clone(),
-                    user: n.user.clone(),
-                    password: n.password.clone(),
-                    version: match n.version {
-                        NtripVersion::V1 => drivers::ntrip::NtripVersion::V1,
-                        NtripVersion::V2 => drivers::ntrip::NtripVersion::V2,
-                    },
-                    gga_interval: n.gga_interval(),
-                    ..NtripConfig::default()
+            let ntrip_config = NtripConfig {
+                host: n.host.clone(),
+                port: n.port,
+                mountpoint: n.mountpoint.clone(),
+                user: n.user.clone(),
+                password: n.password.clone(),
+                version: match n.version {
+                    NtripVersion::V1 => drivers::ntrip::NtripVersion::V1,
+                    NtripVersion::V2 => drivers::ntrip::NtripVersion::V2,
                 },
-                origin,
-            );
+                gga_interval: n.gga_interval(),
+                ..NtripConfig::default()
+            };
+            let stale_after = ntrip_config.stale_after;
+            let client = NtripClient::spawn(ntrip_config, origin);
             (
                 client,
                 format!("{}:{}/{}", n.host, n.port, n.mountpoint),
                 n.gga_interval(),
+                stale_after,
             )
         });
         let magnetic = config.magnetic.as_ref().map(|line| {
@@ -252,7 +255,6 @@ impl Devices {
         Ok(Devices {
             gnss,
             gnss_place,
-            gnss_stale_after: config.gnss.stale_after(),
             compass,
             ntrip,
             magnetic,
@@ -298,7 +300,7 @@ impl Devices {
     /// Corrections from the caster go to the receiver; the caster gets our
     /// position every GGA interval (a VRS caster needs it to pick a base).
     fn pump_ntrip(&mut self, now: Duration) {
-        let Some((client, _, gga_interval)) = &self.ntrip else {
+        let Some((client, _, gga_interval, _)) = &self.ntrip else {
             return;
         };
         let mut chunks = Vec::new();
@@ -357,9 +359,9 @@ impl Devices {
         if let Some((compass, place)) = &self.compass {
             reports.push(report("Compass", place, &compass.status(), compass.is_stale(now), now));
         }
-        if let Some((client, place, _)) = &self.ntrip {
+        if let Some((client, place, _, stale_after)) = &self.ntrip {
             let status = client.status();
-            let stale = drivers::gnss::port::is_stale(status.last_message, now, Duration::from_secs(10));
+            let stale = drivers::gnss::port::is_stale(status.last_message, now, *stale_after);
             reports.push(report("NTRIP", place, &status, stale, now));
         }
         if let Some(magnetic) = &self.magnetic {
@@ -391,28 +393,10 @@ impl Devices {
         if self.rates.len() < reports.len() {
             self.rates.resize(reports.len(), RateMeter::default());
         }
-        let counts: Vec<u64> = self.message_counts();
-        for ((r, meter), count) in reports.iter_mut().zip(&mut self.rates).zip(counts) {
-            r.rate_hz = meter.update(now, count);
+        for (r, meter) in reports.iter_mut().zip(&mut self.rates) {
+            r.rate_hz = meter.update(now, r.messages);
         }
         reports
-    }
-
-    fn message_counts(&self) -> Vec<u64> {
-        let mut counts = vec![self.gnss.status().messages];
-        if let Some((c, _)) = &self.compass {
-            counts.push(c.status().messages);
-        }
-        if let Some((c, _, _)) = &self.ntrip {
-            counts.push(c.status().messages);
-        }
-        if let Some(m) = &self.magnetic {
-            counts.push(m.status().messages);
-        }
-        if let Some(set) = &self.scanners {
-            counts.extend(set.stats.iter().map(|s| s.snapshot().scans));
-        }
-        counts
     }
 
     /// The devices whose health changed since the last call: (report,
@@ -443,10 +427,6 @@ impl Devices {
     pub fn rtcm_dropped(&self) -> u64 {
         self.rtcm_dropped
     }
-
-    pub fn gnss_stale_after(&self) -> Duration {
-        self.gnss_stale_after
-    }
 }
 
 fn serial_source(line: &SerialLine) -> GnssSource {
@@ -467,6 +447,7 @@ pub fn report(name: &str, place: &str, status: &DeviceStatus, stale: bool, now: 
         age_s: status.last_message.map(|t| now.saturating_sub(t).as_secs_f64()),
         errors: status.errors,
         connects: status.connects,
+        messages: status.messages,
         last_error: status.last_error.clone(),
     }
 }

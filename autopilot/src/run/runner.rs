@@ -19,7 +19,7 @@ use super::config::{self, VehicleConfig};
 use super::devices::{DeviceReport, Devices};
 use crate::link::endpoint::Endpoint;
 use crate::link::hub::{self, LinkConfig, ToCore};
-use crate::sitl::runner::{InstantTimer, Persistence, forward, shutdown_on_signal};
+use crate::sitl::runner::{InstantTimer, Persistence, drain, forward, shutdown_on_signal};
 use crate::sitl::simulation::ModelKind;
 use crate::storage::data_dir::{DataDir, Profile};
 use crate::storage::file_writer::FileWriter;
@@ -252,21 +252,13 @@ fn take_link_traffic(
     now: Duration,
     first: Option<ToCore>,
 ) {
-    let mut take = |item: ToCore| match item {
-        ToCore::Event(e) => inputs.link_events.push(e),
-        ToCore::Message(m) => {
-            if !answer_at_edge(&m, devices, actuators, outbound, now) {
-                inputs.messages.push(m);
-            }
-        }
-        ToCore::UndecodableItem(i) => inputs.undecodable_items.push(i),
-    };
-    if let Some(item) = first {
-        take(item);
-    }
-    while let Ok(item) = inbound.try_recv() {
-        take(item);
-    }
+    let before = inputs.messages.len();
+    drain(inbound, inputs, first);
+    let mut k = 0;
+    inputs.messages.retain(|m| {
+        k += 1;
+        k <= before || !answer_at_edge(m, devices, actuators, outbound, now)
+    });
 }
 
 /// True when the message was for the edge and has been handled.
