@@ -56,6 +56,8 @@ enum BenchCommand {
     Tracking(autopilot::bench::tracking::TrackingBenchArgs),
     /// Obstacle scenarios (crossing people, head-on, parked car, box, reversing, corridor) at 1 and 2 m/s.
     Obstacles(autopilot::bench::obstacles::ObstacleBenchArgs),
+    /// Safety: injected faults and the failsafe that answers, SIGKILL during saves, a MAVLink flood while driving.
+    Safety(autopilot::bench::safety::SafetyBenchArgs),
 }
 
 #[derive(clap::Args)]
@@ -218,6 +220,9 @@ fn main() -> ExitCode {
         Command::Bench {
             which: BenchCommand::Obstacles(args),
         } => autopilot::bench::obstacles::run(&args),
+        Command::Bench {
+            which: BenchCommand::Safety(args),
+        } => autopilot::bench::safety::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

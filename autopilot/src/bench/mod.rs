@@ -3,5 +3,6 @@
 pub mod magnetic;
 pub mod obstacles;
 pub mod plot;
+pub mod safety;
 pub mod sitl;
 pub mod tracking;

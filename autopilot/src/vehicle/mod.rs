@@ -237,6 +237,12 @@ impl Core {
         self.sysid
     }
 
+    /// `SIGN_REQUIRE`: stream slots whose links act only on signed packets
+    /// once a key is set (the link layer enforces it).
+    pub fn sign_require_mask(&self) -> u8 {
+        self.p.signing.require.get(&self.params).clamp(0, 15) as u8
+    }
+
     pub fn mode(&self) -> Mode {
         self.mode
     }

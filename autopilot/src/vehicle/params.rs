@@ -35,7 +35,7 @@ declare_params! {
         },
         arming_check: i32 = "ARMING_CHECK" => {
             default: 1, range: 0, 65535, unit: "",
-            desc: "Arming checks bitmask: 0 none, 1 all",
+            desc: "Arming checks (ArduPilot bits): 0 none, 1 all, 4 heading, 8 position fix, 16 EKF, 32 parameters, 256 battery, 8192 fence, 16384 mission, 32768 scanners",
         },
         boot_count: i32 = "STAT_BOOTCNT" => {
             default: 0, range: 0, 16000000, unit: "", flags: [read_only],
@@ -312,6 +312,96 @@ declare_params! {
     }
 }
 
+declare_params! {
+    /// Arming requirements and failsafes (ArduPilot's names where Rover has
+    /// one). Actions: 0 report only, 1 RTL (HOLD if impossible), 2 HOLD,
+    /// 5 disarm (outputs to trim at once).
+    pub struct FailsafeParams {
+        rtk_required: i8 = "ARMING_RTK_REQ" => {
+            default: 2, range: 0, 2, unit: "",
+            desc: "Fix needed to arm in a mode that drives itself: 0 any fix, 1 RTK float or better, 2 RTK fixed",
+        },
+        action: i8 = "FS_ACTION" => {
+            default: 2, range: 0, 5, unit: "",
+            desc: "Action of the GCS failsafe: 0 none, 1 RTL, 2 HOLD, 5 disarm",
+        },
+        gcs_enable: i8 = "FS_GCS_ENABLE" => {
+            default: 0, range: 0, 2, unit: "",
+            desc: "GCS heartbeat failsafe: 0 off, 1 on, 2 on but AUTO carries on with its mission",
+        },
+        gcs_timeout_s: f32 = "FS_GCS_TIMEOUT" => {
+            default: 5.0, range: 1.0, 120.0, unit: "s",
+            desc: "GCS failsafe after this long without a heartbeat from the ground station (SYSID_MYGCS)",
+        },
+        gnss_lost_s: f32 = "FS_GNSS_TIMEOUT" => {
+            default: 1.0, range: 0.2, 30.0, unit: "s",
+            desc: "GNSS lost after this long without a fix",
+        },
+        gnss_action: i8 = "FS_GNSS_ACT" => {
+            default: 2, range: 0, 5, unit: "",
+            desc: "Action when the GNSS is lost (degraded fixes: GPS_FLOAT_ACT, GPS_SINGLE_ACT)",
+        },
+        heading_lost_s: f32 = "FS_HDG_TIMEOUT" => {
+            default: 1.0, range: 0.2, 30.0, unit: "s",
+            desc: "Heading lost after this long without a heading measurement (or a frozen one)",
+        },
+        heading_action: i8 = "FS_HDG_ACT" => {
+            default: 2, range: 0, 5, unit: "",
+            desc: "Action when the heading is lost while driving on a heading sensor",
+        },
+        ekf_action: i8 = "FS_EKF_ACTION" => {
+            default: 1, range: 0, 2, unit: "",
+            desc: "EKF failsafe (ArduPilot's values): 0 disabled, 1 HOLD, 2 report only",
+        },
+        scanner_action: i8 = "FS_SCAN_ACT" => {
+            default: 2, range: 0, 5, unit: "",
+            desc: "Action when an enabled scanner goes stale while obstacle stopping is on",
+        },
+        loop_overrun_ms: i16 = "FS_LOOP_MS" => {
+            default: 200, range: 20, 5000, unit: "ms",
+            desc: "Core deadline failsafe: a gap this long between core ticks",
+        },
+        loop_action: i8 = "FS_LOOP_ACT" => {
+            default: 2, range: 0, 5, unit: "",
+            desc: "Action after a core deadline overrun",
+        },
+        resume: bool = "FS_RESUME" => {
+            default: false, range: 0, 1, unit: "",
+            desc: "1: after a GNSS, heading, EKF or scanner failsafe clears, go back to the mode it stopped (0: stay stopped until the operator acts)",
+        },
+        batt_low_volt: f32 = "BATT_LOW_VOLT" => {
+            default: 0.0, range: 0.0, 100.0, unit: "V",
+            desc: "Battery low below this voltage (0: off)",
+        },
+        batt_crit_volt: f32 = "BATT_CRT_VOLT" => {
+            default: 0.0, range: 0.0, 100.0, unit: "V",
+            desc: "Battery critical below this voltage (0: off)",
+        },
+        batt_low_timer_s: f32 = "BATT_LOW_TIMER" => {
+            default: 10.0, range: 0.0, 120.0, unit: "s",
+            desc: "Voltage must stay below the threshold this long",
+        },
+        batt_low_action: i8 = "BATT_FS_LOW_ACT" => {
+            default: 0, range: 0, 5, unit: "",
+            desc: "Action on low battery",
+        },
+        batt_crit_action: i8 = "BATT_FS_CRT_ACT" => {
+            default: 2, range: 0, 5, unit: "",
+            desc: "Action on critical battery",
+        },
+    }
+}
+
+declare_params! {
+    /// MAVLink 2 message signing (the key itself lives in the data directory).
+    pub struct SigningParams {
+        require: i8 = "SIGN_REQUIRE" => {
+            default: 15, range: 0, 15, unit: "",
+            desc: "Once a signing key is set, links of these stream slots act only on signed packets (bit n: slot n; secure links never require)",
+        },
+    }
+}
+
 /// `SRn_*`: default telemetry rates per link slot (Hz), one group per
 /// ArduPilot stream (`SRn_POSITION`, `SRn_EXTRA1`, …).
 #[derive(Clone, Copy, Debug)]
@@ -366,6 +456,8 @@ pub struct CoreParams {
     pub streams: StreamRateParams,
     pub obstacles: ObstacleParams,
     pub servos: ServoParams,
+    pub failsafe: FailsafeParams,
+    pub signing: SigningParams,
 }
 
 impl CoreParams {
@@ -385,6 +477,8 @@ impl CoreParams {
             streams: StreamRateParams::register(builder),
             obstacles: ObstacleParams::register(builder),
             servos: ServoParams::register(builder),
+            failsafe: FailsafeParams::register(builder),
+            signing: SigningParams::register(builder),
         }
     }
 }
