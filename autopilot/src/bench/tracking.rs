@@ -79,10 +79,10 @@ pub(crate) fn parse_param(text: &str) -> Result<(String, f64), String> {
 }
 
 /// One course with its mission.
-struct Course {
-    name: String,
-    items: Vec<mission::MissionItem>,
-    home: SimGeoPoint,
+pub(crate) struct Course {
+    pub(crate) name: String,
+    pub(crate) items: Vec<mission::MissionItem>,
+    pub(crate) home: SimGeoPoint,
 }
 
 /// Where the vehicle stopped, from the truth, when the autopilot reported
@@ -182,7 +182,7 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
     Ok(())
 }
 
-fn load_courses(paths: &[PathBuf]) -> Result<Vec<Course>, String> {
+pub(crate) fn load_courses(paths: &[PathBuf]) -> Result<Vec<Course>, String> {
     let texts: Vec<(String, String)> = if paths.is_empty() {
         BUILT_IN.iter().map(|(n, t)| (n.to_string(), t.to_string())).collect()
     } else {

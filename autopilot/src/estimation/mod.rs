@@ -121,6 +121,9 @@ pub struct Estimator {
     estimate: Estimate,
     events: Vec<EstimatorEvent>,
     last_heading_sensor: Option<Duration>,
+    /// The heading sensor's last value and when it first read that: a value
+    /// that never changes while the vehicle drives is a frozen sensor.
+    heading_reading: Option<(f64, Duration)>,
     accuracy_t: Option<Duration>,
     fix_quality: Option<FixQuality>,
     position_rejecting: bool,
@@ -144,6 +147,22 @@ impl Estimator {
 
     pub fn estimate(&self) -> &Estimate {
         &self.estimate
+    }
+
+    /// When the heading sensor (dual antenna, compass) last reported.
+    pub fn heading_sensor_last(&self) -> Option<Duration> {
+        self.last_heading_sensor
+    }
+
+    /// Since when the heading sensor has reported exactly the same value.
+    pub fn heading_unchanged_since(&self) -> Option<Duration> {
+        self.heading_reading.map(|(_, since)| since)
+    }
+
+    /// Whether the filter's variances are within bounds (its position is
+    /// usable).
+    pub fn healthy(&self) -> bool {
+        self.healthy
     }
 
     /// The filter's own report (innovations, σ, counters), once it runs.
@@ -270,6 +289,10 @@ impl Estimator {
                 let at = GeoPoint::new(self.gnss.lat_deg, self.gnss.lon_deg, self.gnss.alt_msl_m);
                 let yaw = to_frame_heading(self.frame.as_ref(), &at, true_heading);
                 self.last_heading_sensor = Some(h.t);
+                self.heading_reading = match self.heading_reading {
+                    Some((value, since)) if value == h.heading_deg => Some((value, since)),
+                    _ => Some((h.heading_deg, h.t)),
+                };
                 Self::advance(ekf, h.t);
                 let fusion = ekf.update_heading(yaw, config.heading_sigma_rad);
                 self.heading_fusion(fusion);

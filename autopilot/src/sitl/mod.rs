@@ -2,12 +2,14 @@
 //! world whose devices emit the real bytes, and wall time replaced by
 //! simulated time.
 //!
-//! - [`params`]: the `SIM_*` parameters (settable at run time).
+//! - [`params`]: the `SIM_*` parameters (settable at run time);
+//!   [`faults`]: the faults some of them inject.
 //! - [`simulation`]: world + NMEA driver + core stepped together, no I/O;
 //!   used by the runner, the benchmarks and the in-process tests.
 //! - [`runner`]: `furrow sitl`: the simulation on its own thread, paced
 //!   against the wall clock by `SIM_SPEEDUP`, wired to the link layer.
 
+pub mod faults;
 pub mod gcs;
 pub mod params;
 pub mod runner;

@@ -50,6 +50,34 @@ declare_params! {
             default: 0.0, range: -10.0, 10.0, unit: "m",
             desc: "Simulated antenna position right of the rear axle centre",
         },
+        gps_glitch_north_m: f32 = "SIM_GPS_GLITCH_N" => {
+            default: 0.0, range: -1000.0, 1000.0, unit: "m",
+            desc: "Fault: added to the simulated GNSS position northward (a position jump)",
+        },
+        gps_glitch_east_m: f32 = "SIM_GPS_GLITCH_E" => {
+            default: 0.0, range: -1000.0, 1000.0, unit: "m",
+            desc: "Fault: added to the simulated GNSS position eastward (a position jump)",
+        },
+        heading_freeze: bool = "SIM_HDG_FREEZE" => {
+            default: false, range: 0, 1, unit: "",
+            desc: "Fault: 1 freezes the simulated dual-antenna heading at its value when set",
+        },
+        actuator_stuck: i8 = "SIM_ACT_STUCK" => {
+            default: 0, range: 0, 3, unit: "",
+            desc: "Fault: actuators stuck at their demand when set (1 steering, 2 throttle, 3 both)",
+        },
+        link_drop_s: f32 = "SIM_LINK_DROP" => {
+            default: 0.0, range: 0.0, 600.0, unit: "s",
+            desc: "Fault: every MAVLink message in and out is lost for this long from when it is set (then back to 0)",
+        },
+        cpu_stall_ms: i16 = "SIM_CPU_STALL" => {
+            default: 0, range: 0, 10000, unit: "ms",
+            desc: "Fault: the core is not stepped for this long from when it is set, the world goes on (then back to 0)",
+        },
+        battery_volt: f32 = "SIM_BATT_VOLT" => {
+            default: 0.0, range: 0.0, 100.0, unit: "V",
+            desc: "Fault: the battery monitor reads this voltage (0: the simulated pack's own)",
+        },
         scan_disable: i8 = "SIM_SCAN_DISABLE" => {
             default: 0, range: 0, 3, unit: "",
             desc: "Bitmask of simulated scanners that stop sending (1 front, 2 rear): a scanner stall",
@@ -141,6 +169,10 @@ impl SimParams {
             heading_enabled: self.heading_enable.get(table),
             heading_sigma_deg: f64::from(self.heading_noise_deg.get(table)),
             quality,
+            glitch_ned_m: (
+                f64::from(self.gps_glitch_north_m.get(table)),
+                f64::from(self.gps_glitch_east_m.get(table)),
+            ),
             ..GnssSimConfig::default()
         }
     }

@@ -12,6 +12,7 @@ use drivers::scanner::cola::{ColaFramer, encode_lmd_scandata, parse_lmd_scandata
 use drivers::sim::{AckermannConfig, ActuatorDemand, DifferentialConfig, GeoPoint, VehicleModel, World, WorldConfig};
 use params::{ParamTable, ParamTableBuilder};
 
+use super::faults::Faults;
 use super::params::SimParams;
 use crate::time::{Now, TaskTimer};
 use crate::vehicle::{Core, CoreParams, Inputs, Outputs, ScanInput};
@@ -111,6 +112,9 @@ pub struct Simulation {
     scans: Vec<(usize, Scan)>,
     scanner_links: Vec<ScannerLink>,
     param_generation: u64,
+    faults: Faults,
+    /// What the actuators did on this step (a stuck one keeps it).
+    applied: ActuatorDemand,
 }
 
 /// One simulated scanner's wire: the scan is sent as the LMS1xx's CoLa-A
@@ -176,6 +180,8 @@ impl Simulation {
             scans: Vec::new(),
             scanner_links: Vec::new(),
             param_generation: generation,
+            faults: Faults::default(),
+            applied: ActuatorDemand::STOP,
         };
         sim.configure_scanners();
         sim
@@ -191,7 +197,9 @@ impl Simulation {
     /// (their MAVLink messages accumulate until the caller drains them).
     pub fn step(&mut self, wall: Duration, timer: &mut dyn TaskTimer) -> &mut Outputs {
         let period = self.core.loop_period();
-        self.world.step(period, &self.outputs.actuators);
+        let actuators = self.faults.actuate(self.outputs.actuators, self.core.is_armed());
+        self.world.step(period, &actuators);
+        self.applied = actuators;
         let now = Now {
             boot: self.world.time(),
             wall,
@@ -200,7 +208,12 @@ impl Simulation {
         self.gnss_bytes.clear();
         self.world.take_gnss_bytes(&mut self.gnss_bytes);
         self.nmea.push(now.boot, &self.gnss_bytes, &mut self.inputs.gnss);
-        self.inputs.battery = Some(self.world.battery());
+        let mut battery = self.world.battery();
+        let forced_v = f64::from(self.sim.battery_volt.get(self.core.params()));
+        if forced_v > 0.0 {
+            battery.voltage_v = forced_v;
+        }
+        self.inputs.battery = Some(battery);
         self.inputs.magnetic = self
             .world
             .magnetic_sensors()
@@ -225,21 +238,68 @@ impl Simulation {
             }
         }
 
+        // A stalled core reads nothing: its inputs wait in the queues (as
+        // bytes in a serial buffer would) while the world drives on.
+        if self.faults.core_stalled(now.boot) {
+            return &mut self.outputs;
+        }
+        if self.faults.link_lost(now.boot) {
+            self.lose_link_traffic();
+        }
+        let sent_before = self.outputs.mavlink.len();
         self.core.step(now, &self.inputs, &mut self.outputs, timer);
         self.inputs.clear();
+        if self.faults.link_lost(now.boot) {
+            self.outputs.mavlink.truncate(sent_before);
+        }
 
         if self.core.params().generation() != self.param_generation {
-            self.param_generation = self.core.params().generation();
-            self.world.set_gnss_config(self.sim.gnss_config(self.core.params()));
-            self.configure_scanners();
+            self.params_changed(now.boot);
         }
         &mut self.outputs
+    }
+
+    fn params_changed(&mut self, now: Duration) {
+        let yaw_deg = self.world.truth().yaw_rad.to_degrees();
+        let resets = self
+            .faults
+            .on_params(&self.sim, self.core.params(), now, yaw_deg, self.applied);
+        let table = self.core.params_mut();
+        if resets.link_drop {
+            let _ = table.set_by_name("SIM_LINK_DROP", 0.0);
+        }
+        if resets.cpu_stall {
+            let _ = table.set_by_name("SIM_CPU_STALL", 0.0);
+        }
+        self.param_generation = self.core.params().generation();
+        let mut gnss = self.sim.gnss_config(self.core.params());
+        gnss.heading_hold_deg = self.faults.heading_hold_deg;
+        self.world.set_gnss_config(gnss);
+        self.configure_scanners();
+    }
+
+    /// Messages from the links are lost; link events (a client connecting)
+    /// still come, as the sockets themselves are fine.
+    fn lose_link_traffic(&mut self) {
+        self.inputs.messages.clear();
+        self.inputs.undecodable_items.clear();
     }
 
     /// Between steps: the core answers the link traffic queued in the inputs
     /// at once (link events and messages); sensors wait for the next step.
     pub fn service_links(&mut self, wall: Duration) -> &mut Outputs {
+        let now = self.world.time();
+        if self.faults.core_stalled(now) {
+            return &mut self.outputs;
+        }
+        if self.faults.link_lost(now) {
+            self.lose_link_traffic();
+        }
+        let sent_before = self.outputs.mavlink.len();
         self.core.service_links(wall, &self.inputs, &mut self.outputs);
+        if self.faults.link_lost(now) {
+            self.outputs.mavlink.truncate(sent_before);
+        }
         self.inputs.link_events.clear();
         self.inputs.messages.clear();
         self.inputs.undecodable_items.clear();

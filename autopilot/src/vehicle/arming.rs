@@ -1,63 +1,148 @@
 //! Arming and disarming. Each failed check is reported in its own
 //! STATUSTEXT ("PreArm: …") the way ArduPilot does, so the operator sees
-//! every reason, not just the first.
+//! every reason, not just the first. `ARMING_CHECK` selects the checks with
+//! ArduPilot's bits where the check has an ArduPilot counterpart.
 
 use std::time::Duration;
 
+use drivers::gnss::FixQuality;
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
 use super::Core;
+use super::estimation::{fix_name, rank};
 use crate::modes::Mode;
 
 /// A fix older than this does not count for arming.
 const FIX_MAX_AGE: Duration = Duration::from_secs(2);
 
+/// `ARMING_CHECK` bits.
+pub mod check {
+    pub const ALL: i32 = 1;
+    pub const HEADING: i32 = 4;
+    pub const POSITION_FIX: i32 = 8;
+    pub const EKF: i32 = 16;
+    pub const PARAMETERS: i32 = 32;
+    pub const BATTERY: i32 = 256;
+    pub const FENCE: i32 = 8192;
+    pub const MISSION: i32 = 16384;
+    pub const SCANNERS: i32 = 32768;
+}
+
 impl Core {
     /// Reasons the vehicle cannot arm now (empty: it can).
-    pub fn arming_failures(&self) -> Vec<&'static str> {
+    pub fn arming_failures(&self) -> Vec<String> {
         let mut failures = Vec::new();
         if self.mode == Mode::Initialising {
-            failures.push("Mode not armable");
+            failures.push("Mode not armable".to_string());
         }
-        if self.p.system.arming_check.get(&self.params) == 0 {
-            return failures;
-        }
+        let mask = self.p.system.arming_check.get(&self.params);
+        let enabled = |bit: i32| mask & check::ALL != 0 || mask & bit != 0;
         let estimate = self.estimator.estimate();
         // Driven by hand or along a tape, the vehicle needs no fix (as
         // ArduPilot's manual modes); HOLD is where it waits to drive itself.
-        let needs_fix = !matches!(self.mode, Mode::Manual | Mode::Magnetic);
-        let has_fix = self.estimator.gnss().has_fix(self.now.boot, FIX_MAX_AGE) && estimate.position_valid;
-        if needs_fix && !has_fix {
-            failures.push("No position fix");
+        let drives_itself = !matches!(self.mode, Mode::Manual | Mode::Magnetic);
+        let gnss = self.estimator.gnss();
+        let has_fix = gnss.has_fix(self.now.boot, FIX_MAX_AGE);
+        if enabled(check::POSITION_FIX) && drives_itself {
+            if !has_fix {
+                failures.push("No position fix".to_string());
+            } else if let Some(quality) = gnss.quality
+                && let Some(needed) = self.required_fix()
+                && rank(quality) < rank(needed)
+            {
+                // STATUSTEXT carries 50 characters: "PreArm: " + this fits.
+                failures.push(format!("GPS fix {}, need {}", fix_name(quality), fix_name(needed)));
+            }
         }
-        if !estimate.heading_valid && self.mode.requires_position() {
-            failures.push("No heading");
+        if enabled(check::EKF) && drives_itself && has_fix && !estimate.position_valid {
+            failures.push("EKF unhealthy".to_string());
         }
-        if f64::from(self.p.nav.wp_speed_mps.get(&self.params)) <= 0.0 {
-            failures.push("WP_SPEED is 0");
+        if enabled(check::HEADING) && drives_itself && estimate.position_valid && !estimate.heading_valid {
+            failures.push("No heading".to_string());
         }
-        if let Some(fence) = self.fence_arming_failure() {
-            failures.push(fence);
+        if enabled(check::SCANNERS) && self.mode != Mode::Manual {
+            for scanner in self.stale_scanners() {
+                failures.push(format!("Scanner {} not sending", scanner + 1));
+            }
+        }
+        if enabled(check::MISSION) && self.mode == Mode::Auto && !self.missions.executor.has_nav_items() {
+            failures.push("No mission for AUTO".to_string());
+        }
+        if enabled(check::FENCE)
+            && let Some(fence) = self.fence_arming_failure()
+        {
+            failures.push(fence.to_string());
+        }
+        if enabled(check::BATTERY) {
+            failures.extend(self.battery_arming_failure());
+        }
+        if enabled(check::PARAMETERS) {
+            failures.extend(self.parameter_inconsistencies());
         }
         failures
     }
 
-    /// Arms if the checks pass (or `force`). Home follows the vehicle until
-    /// arming, as in ArduPilot, unless a ground station set it.
+    /// `ARMING_RTK_REQ`: the fix needed to arm a vehicle that drives itself.
+    fn required_fix(&self) -> Option<FixQuality> {
+        match self.p.failsafe.rtk_required.get(&self.params) {
+            1 => Some(FixQuality::RtkFloat),
+            2 => Some(FixQuality::RtkFixed),
+            _ => None,
+        }
+    }
+
+    pub(super) fn battery_arming_failure(&self) -> Option<String> {
+        let voltage = self.battery?.voltage_v;
+        let fs = &self.p.failsafe;
+        let critical = f64::from(fs.batt_crit_volt.get(&self.params));
+        let low = f64::from(fs.batt_low_volt.get(&self.params));
+        if critical > 0.0 && voltage < critical {
+            Some(format!("Battery {voltage:.1} V below BATT_CRT_VOLT"))
+        } else if low > 0.0 && voltage < low {
+            Some(format!("Battery {voltage:.1} V below BATT_LOW_VOLT"))
+        } else {
+            None
+        }
+    }
+
+    /// Settings that are each in range but contradict one another.
+    fn parameter_inconsistencies(&self) -> Vec<String> {
+        let t = &self.params;
+        let mut found = Vec::new();
+        if f64::from(self.p.nav.wp_speed_mps.get(t)) <= 0.0 {
+            found.push("WP_SPEED is 0".to_string());
+        }
+        let fs = &self.p.failsafe;
+        let (low, critical) = (fs.batt_low_volt.get(t), fs.batt_crit_volt.get(t));
+        if low > 0.0 && critical > 0.0 && critical >= low {
+            found.push("BATT_CRT_VOLT not below BATT_LOW_VOLT".to_string());
+        }
+        let scanners = &self.p.obstacles.scanners;
+        if self.p.obstacles.avoidance.enable.get(t) && !scanners.scan1_enable.get(t) && !scanners.scan2_enable.get(t) {
+            found.push("OA_ENABLE 1 but no scanner enabled".to_string());
+        }
+        found
+    }
+
+    /// Arms if the checks pass (or `force`: the checks are still run and
+    /// what they found is said, as a warning). Home follows the vehicle
+    /// until arming, as in ArduPilot, unless a ground station set it.
     pub(super) fn arm(&mut self, force: bool) -> bool {
         if self.armed {
             return true;
         }
+        let failures = self.arming_failures();
         if force {
+            tracing::warn!("arming forced (magic value): checks skipped: {failures:?}");
             self.send_text(MavSeverity::MAV_SEVERITY_WARNING, "Arming checks skipped (forced)");
-        } else {
-            let failures = self.arming_failures();
-            if !failures.is_empty() {
-                for f in failures {
-                    self.send_text(MavSeverity::MAV_SEVERITY_CRITICAL, &format!("PreArm: {f}"));
-                }
-                return false;
+            for f in &failures {
+                self.send_text(MavSeverity::MAV_SEVERITY_WARNING, &format!("Skipped: {f}"));
             }
+        } else if !failures.is_empty() {
+            for f in failures {
+                self.send_text(MavSeverity::MAV_SEVERITY_CRITICAL, &format!("PreArm: {f}"));
+            }
+            return false;
         }
         if !self.home_set_by_gcs {
             self.set_home_to_current(false);

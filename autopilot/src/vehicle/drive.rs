@@ -146,6 +146,7 @@ impl Core {
 
     /// The mode's work for this tick.
     pub(super) fn update_mode(&mut self, dt_s: f64) {
+        self.update_failsafes();
         if self.mode.requires_position() && !self.estimator.estimate().position_valid {
             // ArduPilot Rover's EKF failsafe: a mode that needs a position
             // cannot drive without one.

@@ -12,7 +12,7 @@ use crate::estimation::{DegradedFixAction, EstimatorConfig, EstimatorEvent};
 use crate::modes::Mode;
 
 /// Rank of a fix: higher is better.
-fn rank(q: FixQuality) -> u8 {
+pub(super) fn rank(q: FixQuality) -> u8 {
     match q {
         FixQuality::RtkFixed => 5,
         FixQuality::RtkFloat => 4,
@@ -22,7 +22,7 @@ fn rank(q: FixQuality) -> u8 {
     }
 }
 
-fn fix_name(q: FixQuality) -> &'static str {
+pub(super) fn fix_name(q: FixQuality) -> &'static str {
     match q {
         FixQuality::RtkFixed => "RTK fixed",
         FixQuality::RtkFloat => "RTK float",

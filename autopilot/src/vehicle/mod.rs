@@ -8,6 +8,7 @@ mod auto;
 mod commands;
 mod drive;
 mod estimation;
+mod failsafe;
 mod geofence;
 mod io;
 mod magnetic;
@@ -41,6 +42,7 @@ use crate::telemetry::streams::LinkStreams;
 use crate::time::{Now, TaskTimer};
 
 pub use drive::DriveState;
+pub use failsafe::{Failsafe, FailsafeAction};
 pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, ScanInput, UndecodableItem};
 pub use obstacles::ObstacleStatus;
 pub use params::CoreParams;
@@ -92,6 +94,7 @@ pub struct Core {
     magnetic_sample: Option<MagneticSample>,
     magnetic: magnetic::MagneticState,
     obstacles: obstacles::ObstacleState,
+    failsafes: failsafe::FailsafeState,
     /// Since when the drive demand has been neutral.
     neutral_since: Option<Duration>,
     last_gcs_heartbeat_wall: Option<Duration>,
@@ -140,6 +143,7 @@ impl Core {
             magnetic_sample: None,
             magnetic: magnetic::MagneticState::default(),
             obstacles: obstacles::ObstacleState::default(),
+            failsafes: failsafe::FailsafeState::default(),
             neutral_since: None,
             last_gcs_heartbeat_wall: None,
             statustext_id: 0,
@@ -165,6 +169,12 @@ impl Core {
             .unwrap_or(0.0);
         self.last_boot = Some(now.boot);
         self.now = now;
+        // A gap this long means the core did not run on time (a stalled
+        // thread, a stopped process): the vehicle drove on unattended.
+        let stall_after = Duration::from_millis(self.p.failsafe.loop_overrun_ms.get(&self.params).max(1) as u64);
+        if dt_s > stall_after.as_secs_f64() {
+            self.failsafes.stall = Some(Duration::from_secs_f64(dt_s));
+        }
         for (i, spec) in TASKS.iter().enumerate() {
             if !self.sched.is_due(i, now.boot, now.wall) {
                 continue;

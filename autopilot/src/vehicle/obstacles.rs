@@ -179,6 +179,22 @@ impl Core {
         }
     }
 
+    /// Fitted scanners (0 = SCAN1) with no scan within the view timeout,
+    /// when obstacle stopping is on.
+    pub(super) fn stale_scanners(&self) -> Vec<usize> {
+        if !self.obstacles_enabled() {
+            return Vec::new();
+        }
+        (0..SCANNERS)
+            .filter(|&i| self.scanner_mount(i).is_some())
+            .filter(|&i| {
+                self.obstacles.views[i]
+                    .t
+                    .is_none_or(|t| self.now.boot.saturating_sub(t) > VIEW_TIMEOUT)
+            })
+            .collect()
+    }
+
     fn obstacles_enabled(&self) -> bool {
         self.p.obstacles.avoidance.enable.get(&self.params)
     }

@@ -365,9 +365,17 @@ declare_params! {
             default: 2, range: 0, 5, unit: "",
             desc: "Action after a core deadline overrun",
         },
+        xtrack_max_m: f32 = "FS_XTRACK_M" => {
+            default: 0.0, range: 0.0, 100.0, unit: "m",
+            desc: "Control failsafe: off the leg by more than this for a second (a stuck steering, say; 0: off). A mission that turns round on the spot (Ackermann) leaves its leg by a turning circle",
+        },
+        control_action: i8 = "FS_CTRL_ACT" => {
+            default: 2, range: 0, 5, unit: "",
+            desc: "Action of the control failsafe (a vehicle still moving 3 s into HOLD is always disarmed)",
+        },
         resume: bool = "FS_RESUME" => {
             default: false, range: 0, 1, unit: "",
-            desc: "1: after a GNSS, heading, EKF or scanner failsafe clears, go back to the mode it stopped (0: stay stopped until the operator acts)",
+            desc: "1: after a GNSS, heading, EKF or scanner failsafe clears, AUTO or RTL goes on where it stopped (0: stays stopped until the operator acts; GUIDED always stays)",
         },
         batt_low_volt: f32 = "BATT_LOW_VOLT" => {
             default: 0.0, range: 0.0, 100.0, unit: "V",

@@ -12,6 +12,7 @@ use mavlink::dialects::ardupilotmega::{
     PositionTargetTypemask, RELAY_STATUS_DATA, SERVO_OUTPUT_RAW_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA,
 };
 
+use super::failsafe::Failsafe;
 use super::{Core, Destination};
 use crate::geo::{wrap_2pi, wrap_pi};
 use crate::modes::Mode;
@@ -35,7 +36,7 @@ impl Core {
         let hb = identity::heartbeat(&VehicleStatus {
             mode: self.mode,
             armed: self.armed,
-            failsafe: false,
+            failsafe: self.failsafe_active(),
         });
         self.send(Destination::AllLinks, MavMessage::HEARTBEAT(hb));
     }
@@ -74,7 +75,7 @@ impl Core {
             HEARTBEAT_ID => Some(MavMessage::HEARTBEAT(identity::heartbeat(&VehicleStatus {
                 mode: self.mode,
                 armed: self.armed,
-                failsafe: false,
+                failsafe: self.failsafe_active(),
             }))),
             AUTOPILOT_VERSION_ID => Some(MavMessage::AUTOPILOT_VERSION(identity::autopilot_version(self.sysid))),
             PROTOCOL_VERSION_ID => Some(MavMessage::PROTOCOL_VERSION(identity::protocol_version())),
@@ -178,6 +179,12 @@ impl Core {
         }
         if !gps_ok {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS);
+        }
+        if self.battery_arming_failure().is_some()
+            || self.failsafe_is_active(Failsafe::BatteryLow)
+            || self.failsafe_is_active(Failsafe::BatteryCritical)
+        {
+            health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY);
         }
         if !(estimate.position_valid && estimate.heading_valid) {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_AHRS);

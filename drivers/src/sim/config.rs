@@ -123,6 +123,11 @@ pub struct GnssSimConfig {
     pub hdop: f32,
     /// Two-character talker id; anything else falls back to "GN".
     pub talker: String,
+    /// Added to every reported position (north, east): a position jump.
+    pub glitch_ned_m: (f64, f64),
+    /// Reported instead of the true heading, without noise: a receiver
+    /// whose heading output froze.
+    pub heading_hold_deg: Option<f64>,
 }
 
 impl Default for GnssSimConfig {
@@ -141,6 +146,8 @@ impl Default for GnssSimConfig {
             satellites: 20,
             hdop: 0.6,
             talker: "GN".to_owned(),
+            glitch_ned_m: (0.0, 0.0),
+            heading_hold_deg: None,
         }
     }
 }

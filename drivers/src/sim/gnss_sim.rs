@@ -95,8 +95,9 @@ impl GnssSim {
 
         let (ax, ay) = cfg.antenna_body_m;
         let (sin_yaw, cos_yaw) = truth.yaw_rad.sin_cos();
-        let antenna_n = truth.north_m + ax * cos_yaw - ay * sin_yaw + cfg.pos_sigma_m * white.0 + walk_n;
-        let antenna_e = truth.east_m + ax * sin_yaw + ay * cos_yaw + cfg.pos_sigma_m * white.1 + walk_e;
+        let (glitch_n, glitch_e) = cfg.glitch_ned_m;
+        let antenna_n = truth.north_m + ax * cos_yaw - ay * sin_yaw + cfg.pos_sigma_m * white.0 + walk_n + glitch_n;
+        let antenna_e = truth.east_m + ax * sin_yaw + ay * cos_yaw + cfg.pos_sigma_m * white.1 + walk_e + glitch_e;
         let mut position = frame.to_geodetic(antenna_n, antenna_e, 0.0);
         position.alt_m += cfg.alt_sigma_m * alt_noise;
 
@@ -105,9 +106,10 @@ impl GnssSim {
         let (vx, vy) = (truth.speed_mps - w * ay, w * ax);
         let speed_mps = vx.hypot(vy);
         let course_deg = (speed_mps >= COURSE_MIN_SPEED_MPS).then(|| (truth.yaw_rad + vy.atan2(vx)).to_degrees());
-        let heading_deg = cfg
-            .heading_enabled
-            .then(|| truth.yaw_rad.to_degrees() + cfg.heading_sigma_deg * heading_noise);
+        let heading_deg = cfg.heading_enabled.then(|| {
+            cfg.heading_hold_deg
+                .unwrap_or(truth.yaw_rad.to_degrees() + cfg.heading_sigma_deg * heading_noise)
+        });
 
         let t_us = i64::try_from(epoch_t.as_micros()).unwrap_or(i64::MAX);
         let report = EpochReport {

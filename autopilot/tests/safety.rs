@@ -1,0 +1,356 @@
+//! Arming checks and failsafes through the whole vehicle, in simulated
+//! time, with faults injected by their `SIM_*` parameters.
+
+mod common;
+
+use autopilot::modes::Mode;
+use autopilot::sitl::simulation::ModelKind;
+use autopilot::vehicle::Failsafe;
+use common::Harness;
+use mavlink::dialects::ardupilotmega::{
+    HEARTBEAT_DATA, MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavResult, MavState, MavSysStatusSensor, MavType,
+};
+
+const FORCE_ARM_MAGIC: f32 = 21196.0;
+
+fn set(h: &mut Harness, name: &str, value: f64) {
+    h.sim.core_mut().params_mut().set_by_name(name, value).expect(name);
+}
+
+fn gcs_heartbeat() -> MavMessage {
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: MavType::MAV_TYPE_GCS,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        base_mode: MavModeFlag::empty(),
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    })
+}
+
+fn new_texts(h: &Harness, from: usize) -> Vec<String> {
+    h.texts()[from..].to_vec()
+}
+
+fn last_sys_status(h: &Harness) -> mavlink::dialects::ardupilotmega::SYS_STATUS_DATA {
+    h.received
+        .iter()
+        .rev()
+        .find_map(|o| match &o.message {
+            MavMessage::SYS_STATUS(s) => Some(s.clone()),
+            _ => None,
+        })
+        .expect("SYS_STATUS is streamed")
+}
+
+/// AUTO, armed, driving a mission to a point 200 m north.
+fn mission_driving(seed: u64) -> Harness {
+    use mission::command::{cmd, frame};
+    use mission::{MissionItem, MissionType, Plan};
+    let item = |seq: u16, north_m: f64| MissionItem {
+        seq,
+        frame: frame::LOCAL_NED,
+        command: cmd::NAV_WAYPOINT,
+        current: false,
+        autocontinue: true,
+        params: [0.0; 4],
+        x: (north_m * 1e4).round() as i32,
+        y: 0,
+        z: 0.0,
+    };
+    let mut h = Harness::new(seed, ModelKind::Ackermann);
+    let plan = Plan::new(MissionType::Mission, vec![item(0, 0.0), item(1, 200.0)]);
+    h.sim.core_mut().load_plan(MissionType::Mission, plan);
+    h.run_for(3.0);
+    h.set_mode(10);
+    h.arm();
+    h.step();
+    assert!(h.sim.core().is_armed(), "{:?}", h.texts());
+    h.run_for(10.0);
+    assert!(h.sim.world().truth().speed_mps > 1.0);
+    h
+}
+
+/// GUIDED, armed, driving to a point 200 m north.
+fn driving(seed: u64) -> Harness {
+    let mut h = Harness::new(seed, ModelKind::Ackermann);
+    h.run_for(3.0);
+    h.set_mode(15);
+    h.arm();
+    h.step();
+    assert!(h.sim.core().is_armed(), "{:?}", h.texts());
+    h.goto_local(200.0, 0.0);
+    h.run_for(10.0);
+    assert!(h.sim.world().truth().speed_mps > 1.0);
+    h
+}
+
+#[test]
+fn each_failing_check_is_said_and_only_the_selected_checks_apply() {
+    let mut h = Harness::new(11, ModelKind::Ackermann);
+    set(&mut h, "SIM_GPS_QUALITY", 5.0);
+    set(&mut h, "SIM_SCAN_DISABLE", 1.0);
+    set(&mut h, "BATT_LOW_VOLT", 40.0);
+    set(&mut h, "BATT_CRT_VOLT", 45.0);
+    h.run_for(4.0);
+    h.set_mode(15);
+    let from = h.texts().len();
+    h.arm();
+    h.step();
+    assert!(!h.sim.core().is_armed());
+    let texts = new_texts(&h, from);
+    for expected in [
+        "PreArm: GPS fix RTK float, need RTK fixed",
+        "PreArm: Scanner 1 not sending",
+        "PreArm: BATT_CRT_VOLT not below BATT_LOW_VOLT",
+    ] {
+        assert!(texts.iter().any(|t| t == expected), "{expected:?} in {texts:?}");
+    }
+    assert_eq!(
+        h.acks(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM).last(),
+        Some(&MavResult::MAV_RESULT_FAILED)
+    );
+    h.run_for(2.0);
+    let status = last_sys_status(&h);
+    assert!(
+        status
+            .onboard_control_sensors_present
+            .contains(MavSysStatusSensor::MAV_SYS_STATUS_PREARM_CHECK)
+    );
+    assert!(
+        !status
+            .onboard_control_sensors_health
+            .contains(MavSysStatusSensor::MAV_SYS_STATUS_PREARM_CHECK)
+    );
+    assert!(
+        !status
+            .onboard_control_sensors_health
+            .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_PROXIMITY)
+    );
+
+    // ARMING_CHECK 8 (position fix only): the scanner and the parameters
+    // are no longer looked at, the fix still is.
+    set(&mut h, "ARMING_CHECK", 8.0);
+    let from = h.texts().len();
+    h.arm();
+    h.step();
+    let texts = new_texts(&h, from);
+    assert!(!h.sim.core().is_armed());
+    assert_eq!(
+        texts.iter().filter(|t| t.starts_with("PreArm:")).collect::<Vec<_>>(),
+        ["PreArm: GPS fix RTK float, need RTK fixed"]
+    );
+    // ARMING_RTK_REQ 1: float is enough.
+    set(&mut h, "ARMING_RTK_REQ", 1.0);
+    h.arm();
+    h.step();
+    assert!(h.sim.core().is_armed(), "{:?}", h.texts());
+}
+
+#[test]
+fn force_arming_with_the_magic_value_arms_and_warns_with_what_it_skipped() {
+    let mut h = Harness::new(12, ModelKind::Ackermann);
+    set(&mut h, "SIM_SCAN_DISABLE", 1.0);
+    h.run_for(4.0);
+    h.set_mode(15);
+    let from = h.texts().len();
+    h.command(
+        MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        [1.0, FORCE_ARM_MAGIC, 0.0, 0.0, 0.0, 0.0, 0.0],
+    );
+    h.step();
+    assert!(h.sim.core().is_armed());
+    let texts = new_texts(&h, from);
+    assert!(texts.iter().any(|t| t == "Arming checks skipped (forced)"), "{texts:?}");
+    assert!(texts.iter().any(|t| t == "Skipped: Scanner 1 not sending"), "{texts:?}");
+    // A wrong magic value is an ordinary arm request: refused.
+    let mut h = Harness::new(12, ModelKind::Ackermann);
+    set(&mut h, "SIM_SCAN_DISABLE", 1.0);
+    h.run_for(4.0);
+    h.command(
+        MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        [1.0, 21195.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    );
+    h.step();
+    assert!(!h.sim.core().is_armed());
+}
+
+#[test]
+fn auto_with_its_mission_cleared_cannot_arm() {
+    let mut h = Harness::new(13, ModelKind::Ackermann);
+    h.run_for(4.0);
+    h.send(MavMessage::MISSION_COUNT(
+        mavlink::dialects::ardupilotmega::MISSION_COUNT_DATA {
+            count: 0,
+            target_system: 1,
+            target_component: 1,
+            mission_type: mavlink::dialects::ardupilotmega::MavMissionType::MAV_MISSION_TYPE_MISSION,
+            opaque_id: 0,
+        },
+    ));
+    h.step();
+    h.set_mode(10);
+    h.step();
+    assert_ne!(h.sim.core().mode(), Mode::Auto, "AUTO needs a mission to enter");
+}
+
+#[test]
+fn gcs_heartbeat_loss_holds_and_never_resumes_by_itself() {
+    let mut h = driving(21);
+    set(&mut h, "FS_GCS_ENABLE", 1.0);
+    set(&mut h, "FS_RESUME", 1.0);
+    for _ in 0..3 {
+        h.send(gcs_heartbeat());
+        h.run_for(1.0);
+    }
+    let from = h.texts().len();
+    let silent_at = h.sim.time().as_secs_f64() - 1.0;
+    assert!(h.run_until(10.0, |s| s.core().mode() == Mode::Hold));
+    let after = h.sim.time().as_secs_f64() - silent_at;
+    assert!((5.0..=5.3).contains(&after), "FS_GCS_TIMEOUT 5 s: {after:.2}");
+    assert!(
+        new_texts(&h, from)
+            .iter()
+            .any(|t| t == "Failsafe: GCS heartbeat lost: HOLD")
+    );
+    assert!(h.sim.core().failsafe_is_active(Failsafe::Gcs));
+    // The ground station comes back: the failsafe clears, the vehicle stays.
+    for _ in 0..5 {
+        h.send(gcs_heartbeat());
+        h.run_for(1.0);
+    }
+    assert!(!h.sim.core().failsafe_is_active(Failsafe::Gcs));
+    assert!(h.texts().iter().any(|t| t == "Failsafe cleared: GCS heartbeat lost"));
+    assert_eq!(h.sim.core().mode(), Mode::Hold);
+    assert!(h.sim.world().truth().speed_mps.abs() < 0.05);
+}
+
+#[test]
+fn a_scanner_stall_stops_and_fs_resume_decides_whether_it_drives_on() {
+    for resume in [false, true] {
+        let mut h = mission_driving(31);
+        set(&mut h, "FS_RESUME", if resume { 1.0 } else { 0.0 });
+        set(&mut h, "SIM_SCAN_DISABLE", 1.0);
+        assert!(h.run_until(2.0, |s| s.core().mode() == Mode::Hold), "{:?}", h.texts());
+        assert!(h.texts().iter().any(|t| t == "Failsafe: scanner stale: HOLD"));
+        h.run_for(5.0);
+        assert!(h.sim.world().truth().speed_mps.abs() < 0.05);
+        set(&mut h, "SIM_SCAN_DISABLE", 0.0);
+        h.run_for(3.0);
+        assert!(
+            h.texts().iter().any(|t| t == "Failsafe cleared: scanner stale"),
+            "{:?}",
+            h.texts()
+        );
+        if resume {
+            assert_eq!(h.sim.core().mode(), Mode::Auto, "{:?}", h.texts());
+            assert!(
+                h.texts()
+                    .iter()
+                    .any(|t| t == "Failsafe over: resuming AUTO (FS_RESUME)")
+            );
+            h.run_for(5.0);
+            assert!(h.sim.world().truth().speed_mps > 1.0);
+        } else {
+            assert_eq!(h.sim.core().mode(), Mode::Hold);
+            assert!(h.sim.world().truth().speed_mps.abs() < 0.05);
+        }
+    }
+}
+
+#[test]
+fn a_core_stall_holds_and_the_heartbeat_says_critical() {
+    let mut h = driving(41);
+    let from = h.texts().len();
+    set(&mut h, "SIM_CPU_STALL", 300.0);
+    assert!(h.run_until(1.0, |s| s.core().mode() == Mode::Hold));
+    assert!(
+        new_texts(&h, from)
+            .iter()
+            .any(|t| t == "Failsafe: core stalled 300 ms: HOLD"),
+        "{:?}",
+        new_texts(&h, from)
+    );
+    assert_eq!(h.sim.core().params().value_of("SIM_CPU_STALL"), Some(0.0), "one-shot");
+    h.run_for(1.5);
+    let critical = h.received.iter().rev().find_map(|o| match &o.message {
+        MavMessage::HEARTBEAT(hb) => Some(hb.system_status),
+        _ => None,
+    });
+    assert_eq!(critical, Some(MavState::MAV_STATE_CRITICAL));
+    // A 100 ms stall is within FS_LOOP_MS (200): nothing happens.
+    let mut h = driving(42);
+    set(&mut h, "SIM_CPU_STALL", 100.0);
+    h.run_for(2.0);
+    assert_eq!(h.sim.core().mode(), Mode::Guided, "{:?}", h.texts());
+}
+
+#[test]
+fn a_frozen_heading_is_caught_while_driving_but_a_noisy_one_never_is() {
+    // 60 s of driving with a live sensor: no false alarm.
+    let mut h = driving(51);
+    h.run_for(60.0);
+    assert!(!h.texts().iter().any(|t| t.starts_with("Failsafe")), "{:?}", h.texts());
+    set(&mut h, "SIM_HDG_FREEZE", 1.0);
+    assert!(h.run_until(2.0, |s| s.core().mode() == Mode::Hold));
+    assert!(h.texts().iter().any(|t| t == "Failsafe: heading lost: HOLD"));
+}
+
+#[test]
+fn battery_low_then_critical_take_their_own_actions() {
+    let mut h = driving(61);
+    set(&mut h, "BATT_LOW_VOLT", 46.0);
+    set(&mut h, "BATT_CRT_VOLT", 44.0);
+    set(&mut h, "BATT_LOW_TIMER", 2.0);
+    set(&mut h, "BATT_FS_LOW_ACT", 0.0);
+    set(&mut h, "BATT_FS_CRT_ACT", 5.0);
+    set(&mut h, "SIM_BATT_VOLT", 45.0);
+    h.run_for(1.5);
+    assert!(!h.sim.core().failsafe_is_active(Failsafe::BatteryLow), "BATT_LOW_TIMER");
+    h.run_for(1.0);
+    assert!(h.sim.core().failsafe_is_active(Failsafe::BatteryLow));
+    assert!(h.texts().iter().any(|t| t == "Failsafe: battery low: report only"));
+    assert_eq!(h.sim.core().mode(), Mode::Guided);
+    h.run_for(1.0);
+    let status = last_sys_status(&h);
+    assert!(
+        !status
+            .onboard_control_sensors_health
+            .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY)
+    );
+    set(&mut h, "SIM_BATT_VOLT", 43.0);
+    assert!(h.run_until(3.0, |s| !s.core().is_armed()));
+    assert!(h.texts().iter().any(|t| t == "Failsafe: battery critical: disarm"));
+}
+
+#[test]
+fn a_stuck_steering_leaves_the_path_and_fs_xtrack_m_holds_it() {
+    let mut h = driving(71);
+    set(&mut h, "FS_XTRACK_M", 2.0);
+    // Stuck while turning towards a target to the east.
+    h.goto_local(h.sim.world().truth().north_m + 40.0, 40.0);
+    h.run_for(1.0);
+    set(&mut h, "SIM_ACT_STUCK", 1.0);
+    assert!(h.run_until(60.0, |s| s.core().mode() == Mode::Hold), "{:?}", h.texts());
+    assert!(h.texts().iter().any(|t| t == "Failsafe: off the path: HOLD"));
+    h.run_for(5.0);
+    assert!(h.sim.world().truth().speed_mps.abs() < 0.05);
+}
+
+#[test]
+fn a_stuck_throttle_that_does_not_stop_in_hold_is_disarmed() {
+    let mut h = driving(72);
+    set(&mut h, "SIM_ACT_STUCK", 2.0);
+    h.step();
+    h.set_mode(4);
+    h.run_for(2.5);
+    assert!(h.sim.core().is_armed(), "3 s grace to stop");
+    assert!(h.sim.world().truth().speed_mps > 0.5, "the throttle is stuck");
+    assert!(h.run_until(1.0, |s| !s.core().is_armed()));
+    assert!(h.texts().iter().any(|t| t == "Failsafe: vehicle does not stop: disarm"));
+    h.run_for(10.0);
+    assert!(
+        h.sim.world().truth().speed_mps.abs() < 0.05,
+        "power cut: it coasts to rest"
+    );
+}
