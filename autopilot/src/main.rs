@@ -83,6 +83,9 @@ struct SitlArgs {
     /// Extra MAVLink endpoint: udp:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT, serial:DEV:BAUD (repeatable).
     #[arg(long, value_parser = parse_endpoint)]
     mavlink: Vec<Endpoint>,
+    /// A secure MAVLink endpoint (same syntax; e.g. tcpin:127.0.0.1:0): accepts SETUP_SIGNING and unsigned packets (repeatable).
+    #[arg(long, value_parser = parse_endpoint)]
+    secure_mavlink: Vec<Endpoint>,
     /// Record all MAVLink traffic to this telemetry log (.tlog).
     #[arg(long)]
     tlog: Option<PathBuf>,
@@ -201,6 +204,7 @@ fn main() -> ExitCode {
                 tcp_port: args.tcp_port,
                 udp_port: args.udp_port,
                 mavlink: args.mavlink,
+                secure_mavlink: args.secure_mavlink,
                 tlog: args.tlog,
                 tape: args.tape.map(|path| (path, args.tape_radius)),
                 world: args.world,

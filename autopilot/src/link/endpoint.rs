@@ -12,6 +12,16 @@
 use std::fmt;
 use std::str::FromStr;
 
+/// An endpoint and whether it is a secure link: one only the operator can
+/// reach (a USB cable, a socket on the vehicle). A secure link accepts
+/// SETUP_SIGNING and unsigned packets whatever `SIGN_REQUIRE` says, so a
+/// lost key can be reset there; a radio or network link must not be one.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LinkEndpoint {
+    pub endpoint: Endpoint,
+    pub secure: bool,
+}
+
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Endpoint {
     UdpOut { host: String, port: u16 },

@@ -1,39 +1,62 @@
 //! The link runtime: a tokio runtime on its own thread running one task per
 //! link and the hub task that owns the registry and the router.
 //!
-//! Inbound: link task → frames → hub → routed to other links as raw bytes
-//! and, when addressed to us, decoded messages to the core's channel.
-//! Outbound: core → hub → each link's bounded queue (`try_send`: a full queue
-//! drops and counts, it never waits) → the link's writer, which stamps its
-//! own sequence numbers.
+//! Inbound: link task → frames → hub (signature checked, see
+//! [`super::sign_policy`]) → routed to other links as raw bytes and, when
+//! addressed to us, decoded messages to the core's channel.
+//! Outbound: core → hub, which encodes per link (its own sequence numbers,
+//! signed where the link needs it) → each link's bounded queue (`try_send`:
+//! a full queue drops and counts, it never waits) → the link's writer.
+//!
+//! SETUP_SIGNING is the hub's own: taken only from a secure link and only
+//! when addressed to us, never forwarded, never given to the core or the
+//! tlog. The key is kept in the data directory
+//! ([`crate::storage::signing_key`]).
 
 use std::collections::BTreeMap;
 use std::io;
 use std::net::{SocketAddr, ToSocketAddrs};
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU16, Ordering};
-use std::time::Duration;
+use std::sync::atomic::{AtomicU8, AtomicU16, Ordering};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use mavlink::dialects::ardupilotmega::{MavMessage, MavResult};
 use mavlink::{MavHeader, Message};
 use tokio::io::{AsyncWrite, AsyncWriteExt};
 use tokio::net::{TcpListener, UdpSocket};
-use tokio::sync::mpsc;
+use tokio::sync::{mpsc, oneshot};
 
 use super::encode::{encode_raw_command_ack, encode_v2};
-use super::endpoint::Endpoint;
+use super::endpoint::{Endpoint, LinkEndpoint};
 use super::frame::{FrameStats, ReceivedFrame};
 use super::router::Router;
+use super::sign_policy::{Admission, DropReason, LinkSecurity, admit};
+use super::signing::{KeyChange, SecretKey, SigningState, TimestampSaver, Verdict};
 use super::tlog::{self, TlogRecord};
+use crate::storage::signing_key::{self, KeyFileWriter, StoredSigning};
 use crate::vehicle::{COMPONENT_ID, Destination, Inbound, LinkEvent, LinkId, Outbound, UndecodableItem};
 
 /// Messages queued per link before new ones are dropped.
 pub(super) const LINK_QUEUE: usize = 512;
 const CORE_QUEUE: usize = 4096;
+const SETUP_SIGNING_ID: u32 = 256;
+/// How long dropping the runtime waits for the last timestamp save.
+const STOP_WAIT: Duration = Duration::from_secs(3);
 
-/// What a link's writer sends.
-pub(super) enum OutItem {
+/// A finished frame for a link's writer.
+pub(super) type LinkFrame = Vec<u8>;
+
+/// What a link is for: its stream slot (`SRn_*`, `SIGN_REQUIRE` bit) and
+/// whether it is secure (SETUP_SIGNING and unsigned packets accepted).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct LinkRole {
+    pub slot: u8,
+    pub secure: bool,
+}
+
+/// What the hub sends on a link, before encoding.
+enum OutItem {
     Message(Arc<MavMessage>),
     /// Forwarded from another link, unchanged.
     Frame(Arc<[u8]>),
@@ -46,13 +69,13 @@ pub(super) enum OutItem {
 }
 
 /// Serialises a link's outgoing items with its own sequence counter.
-pub(super) struct LinkEncoder {
+struct LinkEncoder {
     sysid: u8,
     sequence: u8,
 }
 
 impl LinkEncoder {
-    pub(super) fn new(sysid: u8) -> Self {
+    fn new(sysid: u8) -> Self {
         LinkEncoder { sysid, sequence: 0 }
     }
 
@@ -66,7 +89,7 @@ impl LinkEncoder {
         header
     }
 
-    pub(super) fn encode(&mut self, item: &OutItem) -> Vec<u8> {
+    fn encode(&mut self, item: &OutItem) -> Vec<u8> {
         match item {
             OutItem::Message(m) => encode_v2(self.header(), m),
             OutItem::Frame(bytes) => bytes.to_vec(),
@@ -89,10 +112,9 @@ impl LinkEncoder {
 }
 
 /// Writes a link's queue to its byte stream until the stream fails.
-pub(super) async fn write_loop<W: AsyncWrite + Unpin>(mut write: W, mut rx: mpsc::Receiver<OutItem>, sysid: u8) {
-    let mut encoder = LinkEncoder::new(sysid);
-    while let Some(item) = rx.recv().await {
-        if write.write_all(&encoder.encode(&item)).await.is_err() {
+pub(super) async fn write_loop<W: AsyncWrite + Unpin>(mut write: W, mut rx: mpsc::Receiver<LinkFrame>) {
+    while let Some(frame) = rx.recv().await {
+        if write.write_all(&frame).await.is_err() {
             return;
         }
     }
@@ -113,9 +135,9 @@ impl LinkIds {
 pub(super) enum HubEvent {
     Opened {
         link: LinkId,
-        slot: u8,
+        role: LinkRole,
         name: String,
-        tx: mpsc::Sender<OutItem>,
+        tx: mpsc::Sender<LinkFrame>,
     },
     Closed {
         link: LinkId,
@@ -147,9 +169,15 @@ pub struct LinkConfig {
     pub tcp_server: Option<String>,
     /// The UDP link (stream slot 1): where to send until someone answers.
     pub udp_out: Option<String>,
-    /// Extra endpoints (stream slots 2, 3, then 3 again).
-    pub extra: Vec<Endpoint>,
+    /// Extra endpoints (stream slots 2, 3, then 3 again), some secure.
+    pub extra: Vec<LinkEndpoint>,
     pub tlog: Option<PathBuf>,
+    /// Where the signing key is kept (the data directory). `None`: no key
+    /// is loaded and a new one lasts until exit.
+    pub signing_dir: Option<PathBuf>,
+    /// `SIGN_REQUIRE` at start; [`LinkRuntime::set_sign_require_mask`]
+    /// follows changes.
+    pub sign_require_mask: u8,
 }
 
 /// The core thread's end of the link layer.
@@ -163,12 +191,59 @@ pub struct CoreChannels {
 pub struct BoundAddresses {
     pub tcp: Option<SocketAddr>,
     pub udp_local: Option<SocketAddr>,
+    /// The secure endpoints, in endpoint syntax with the port a listener
+    /// actually bound (`tcpin:127.0.0.1:40123`).
+    pub secure: Vec<String>,
 }
 
-/// The running link layer; dropping it stops the runtime thread.
+/// The running link layer. Dropping it saves the signing timestamp and
+/// stops the hub.
 pub struct LinkRuntime {
     pub bound: BoundAddresses,
+    sign_require: Arc<AtomicU8>,
+    stop: Option<oneshot::Sender<()>>,
+    stopped: std::sync::mpsc::Receiver<()>,
     _thread: std::thread::JoinHandle<()>,
+}
+
+impl LinkRuntime {
+    /// `SIGN_REQUIRE` as the core has it now (the runners pass it every tick).
+    pub fn set_sign_require_mask(&self, mask: u8) {
+        self.sign_require.store(mask, Ordering::Relaxed);
+    }
+}
+
+impl Drop for LinkRuntime {
+    fn drop(&mut self) {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+            let _ = self.stopped.recv_timeout(STOP_WAIT);
+        }
+    }
+}
+
+/// The wall clock, read at the edge and handed to the signing state.
+fn wall_clock() -> Duration {
+    SystemTime::now().duration_since(UNIX_EPOCH).unwrap_or_default()
+}
+
+/// The signing state as stored in `dir`. A damaged or unreadable key file
+/// is reported and left alone: signing stays off until a new key is set.
+fn load_signing(dir: Option<&std::path::Path>, now: Duration) -> SigningState {
+    let Some(dir) = dir else {
+        return SigningState::start(None, 0, now);
+    };
+    match signing_key::load(dir) {
+        Ok(Some(stored)) => {
+            tracing::info!("MAVLink signing on (key from {})", signing_key::path(dir).display());
+            SigningState::start(Some(stored.key), stored.timestamp, now)
+        }
+        Ok(None) => SigningState::start(None, 0, now),
+        Err(e) => {
+            tracing::error!("signing key not loaded: {e}; signing is off until SETUP_SIGNING sets a key");
+            SigningState::start(None, 0, now)
+        }
+    }
 }
 
 fn resolve(spec: &str) -> io::Result<SocketAddr> {
@@ -187,6 +262,9 @@ pub fn start(config: LinkConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
     let ids = LinkIds::default();
     let sysid = config.sysid;
     let mut bound = BoundAddresses::default();
+    let signing = load_signing(config.signing_dir.as_deref(), wall_clock());
+    let key_writer = config.signing_dir.clone().map(KeyFileWriter::start).transpose()?;
+    let sign_require = Arc::new(AtomicU8::new(config.sign_require_mask));
 
     let setup = runtime.block_on(async {
         let mut tasks: Vec<std::pin::Pin<Box<dyn std::future::Future<Output = ()> + Send>>> = Vec::new();
@@ -195,10 +273,9 @@ pub fn start(config: LinkConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
             bound.tcp = Some(listener.local_addr()?);
             tasks.push(Box::pin(super::tcp::serve(
                 listener,
-                0,
+                LinkRole { slot: 0, secure: false },
                 ids.clone(),
                 hub_tx.clone(),
-                sysid,
             )));
         }
         if let Some(spec) = &config.udp_out {
@@ -210,14 +287,17 @@ pub fn start(config: LinkConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
                 socket,
                 Some(peer),
                 ids.next(),
-                1,
+                LinkRole { slot: 1, secure: false },
                 name,
                 hub_tx.clone(),
-                sysid,
             )));
         }
-        for (i, endpoint) in config.extra.iter().enumerate() {
-            let slot = (2 + i).min(3) as u8;
+        for (i, LinkEndpoint { endpoint, secure }) in config.extra.iter().enumerate() {
+            let role = LinkRole {
+                slot: (2 + i).min(3) as u8,
+                secure: *secure,
+            };
+            let mut shown = endpoint.to_string();
             match endpoint {
                 Endpoint::UdpOut { host, port } => {
                     let peer = resolve(&format!("{host}:{port}"))?;
@@ -226,46 +306,42 @@ pub fn start(config: LinkConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
                         socket,
                         Some(peer),
                         ids.next(),
-                        slot,
+                        role,
                         endpoint.to_string(),
                         hub_tx.clone(),
-                        sysid,
                     )));
                 }
                 Endpoint::UdpIn { host, port } => {
                     let socket = UdpSocket::bind(resolve(&format!("{host}:{port}"))?).await?;
+                    shown = format!("udpin:{}", socket.local_addr()?);
                     tasks.push(Box::pin(super::udp::run(
                         socket,
                         None,
                         ids.next(),
-                        slot,
+                        role,
                         endpoint.to_string(),
                         hub_tx.clone(),
-                        sysid,
                     )));
                 }
                 Endpoint::TcpServer { host, port } => {
                     let listener = TcpListener::bind(resolve(&format!("{host}:{port}"))?).await?;
-                    tasks.push(Box::pin(super::tcp::serve(
-                        listener,
-                        slot,
-                        ids.clone(),
-                        hub_tx.clone(),
-                        sysid,
-                    )));
+                    shown = format!("tcpin:{}", listener.local_addr()?);
+                    tasks.push(Box::pin(super::tcp::serve(listener, role, ids.clone(), hub_tx.clone())));
                 }
                 Endpoint::TcpClient { host, port } => {
                     tasks.push(Box::pin(super::tcp::connect_forever(
                         format!("{host}:{port}"),
-                        slot,
+                        role,
                         ids.clone(),
                         hub_tx.clone(),
-                        sysid,
                     )));
                 }
                 Endpoint::Serial { device, baud } => {
-                    super::serial::spawn(device.clone(), *baud, slot, ids.clone(), hub_tx.clone(), sysid);
+                    super::serial::spawn(device.clone(), *baud, role, ids.clone(), hub_tx.clone());
                 }
+            }
+            if *secure {
+                bound.secure.push(shown);
             }
         }
         let tlog = match &config.tlog {
@@ -282,16 +358,26 @@ pub fn start(config: LinkConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
     let (tasks, tlog) = setup?;
     drop(hub_tx);
 
+    let (stop_tx, stop_rx) = oneshot::channel();
+    let (stopped_tx, stopped_rx) = std::sync::mpsc::channel();
+    let hub = Hub::new(sysid, core_tx, tlog, signing, key_writer, sign_require.clone());
     let thread = std::thread::Builder::new().name("links".into()).spawn(move || {
         runtime.block_on(async move {
             for task in tasks {
                 tokio::spawn(task);
             }
-            Hub::new(sysid, core_tx, tlog).run(hub_rx, out_rx).await;
+            hub.run(hub_rx, out_rx, stop_rx).await;
         });
+        let _ = stopped_tx.send(());
     })?;
     Ok((
-        LinkRuntime { bound, _thread: thread },
+        LinkRuntime {
+            bound,
+            sign_require,
+            stop: Some(stop_tx),
+            stopped: stopped_rx,
+            _thread: thread,
+        },
         CoreChannels {
             inbound: core_rx,
             outbound: out_tx,
@@ -310,16 +396,59 @@ fn unspecified_like(peer: SocketAddr) -> SocketAddr {
     }
 }
 
+/// Frames a link dropped for their signature, by reason.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct SigningDrops {
+    unsigned: u64,
+    bad_signature: u64,
+    replayed: u64,
+    out_of_window: u64,
+}
+
+impl SigningDrops {
+    fn count(&mut self, reason: DropReason) {
+        let counter = match reason {
+            DropReason::Unsigned => &mut self.unsigned,
+            DropReason::BadSignature => &mut self.bad_signature,
+            DropReason::Replayed => &mut self.replayed,
+            DropReason::OutOfWindow => &mut self.out_of_window,
+        };
+        *counter += 1;
+    }
+}
+
 struct LinkEntry {
     name: String,
-    tx: mpsc::Sender<OutItem>,
+    role: LinkRole,
+    tx: mpsc::Sender<LinkFrame>,
+    encoder: LinkEncoder,
+    /// A correctly signed packet came in here: what we send is signed too,
+    /// even where signing is not required, as the peer checks signatures.
+    peer_signs: bool,
     rx_stats: FrameStats,
     dropped_out: u64,
+    signing_drops: SigningDrops,
     /// (unframed bytes, undecodable frames, tx dropped) at the last report.
     reported: (u64, u64, u64),
+    reported_signing_drops: SigningDrops,
+}
+
+impl LinkEntry {
+    fn security(&self, sign_require_mask: u8) -> LinkSecurity {
+        LinkSecurity {
+            secure: self.role.secure,
+            require_signed: !self.role.secure && sign_require_mask & (1 << self.role.slot.min(7)) != 0,
+        }
+    }
+}
+
+/// The link id carried in our signatures: the low byte of the hub's id.
+fn signature_link_id(link: LinkId) -> u8 {
+    link.0.to_le_bytes()[0]
 }
 
 struct Hub {
+    sysid: u8,
     links: BTreeMap<LinkId, LinkEntry>,
     router: Router,
     to_core: mpsc::Sender<ToCore>,
@@ -327,11 +456,26 @@ struct Hub {
     tlog_encoder: LinkEncoder,
     dropped_to_core: u64,
     reported_to_core: u64,
+    signing: SigningState,
+    key_writer: Option<KeyFileWriter>,
+    timestamp_saver: TimestampSaver,
+    sign_require: Arc<AtomicU8>,
 }
 
 impl Hub {
-    fn new(sysid: u8, to_core: mpsc::Sender<ToCore>, tlog: Option<mpsc::Sender<TlogRecord>>) -> Self {
+    fn new(
+        sysid: u8,
+        to_core: mpsc::Sender<ToCore>,
+        tlog: Option<mpsc::Sender<TlogRecord>>,
+        signing: SigningState,
+        key_writer: Option<KeyFileWriter>,
+        sign_require: Arc<AtomicU8>,
+    ) -> Self {
+        // The start timestamp (stored + margin) counts as saved only once
+        // written: a crash right after start must not reuse it.
+        let timestamp_saver = TimestampSaver::new(0, wall_clock());
         Hub {
+            sysid,
             links: BTreeMap::new(),
             router: Router::new(sysid, COMPONENT_ID),
             to_core,
@@ -339,38 +483,60 @@ impl Hub {
             tlog_encoder: LinkEncoder::new(sysid),
             dropped_to_core: 0,
             reported_to_core: 0,
+            signing,
+            key_writer,
+            timestamp_saver,
+            sign_require,
         }
     }
 
-    async fn run(mut self, mut events: mpsc::Receiver<HubEvent>, mut from_core: mpsc::Receiver<Outbound>) {
+    async fn run(
+        mut self,
+        mut events: mpsc::Receiver<HubEvent>,
+        mut from_core: mpsc::Receiver<Outbound>,
+        mut stop: oneshot::Receiver<()>,
+    ) {
         let mut report = tokio::time::interval(Duration::from_secs(2));
         loop {
             tokio::select! {
                 event = events.recv() => match event {
                     Some(event) => self.on_event(event).await,
-                    None => return,
+                    None => break,
                 },
                 out = from_core.recv() => match out {
                     Some(out) => self.on_outbound(out),
-                    None => return,
+                    None => break,
                 },
-                _ = report.tick() => self.report(),
+                _ = report.tick() => {
+                    self.report();
+                    self.save_timestamp_when_due();
+                }
+                _ = &mut stop => break,
             }
         }
+        self.save_timestamp();
+        // Dropping the writer finishes the save before the process goes.
+        self.key_writer.take();
     }
 
     async fn on_event(&mut self, event: HubEvent) {
         match event {
-            HubEvent::Opened { link, slot, name, tx } => {
-                tracing::info!("link {}: {name} (stream slot SR{slot})", link.0);
+            HubEvent::Opened { link, role, name, tx } => {
+                let secure = if role.secure { ", secure" } else { "" };
+                tracing::info!("link {}: {name} (stream slot SR{}{secure})", link.0, role.slot);
                 self.links.insert(
                     link,
                     LinkEntry {
                         name,
+                        role,
                         tx,
+                        encoder: LinkEncoder::new(self.sysid),
+                        peer_signs: false,
                         rx_stats: FrameStats::default(),
                         dropped_out: 0,
+                        signing_drops: SigningDrops::default(),
                         reported: Default::default(),
+                        reported_signing_drops: SigningDrops::default(),
                     },
                 );
                 // Link events must not be lost: wait for room.
@@ -378,7 +544,7 @@ impl Hub {
                     .to_core
                     .send(ToCore::Event(LinkEvent::Opened {
                         link,
-                        stream_slot: slot,
+                        stream_slot: role.slot,
                     }))
                     .await;
             }
@@ -397,6 +563,24 @@ impl Hub {
     }
 
     fn on_frame(&mut self, link: LinkId, frame: ReceivedFrame) {
+        let now = wall_clock();
+        if frame.message_id() == SETUP_SIGNING_ID {
+            self.on_setup_signing(link, &frame, now);
+            return;
+        }
+        let Some(entry) = self.links.get_mut(&link) else {
+            return;
+        };
+        let verdict = self.signing.verify(&frame.raw, now);
+        let security = entry.security(self.sign_require.load(Ordering::Relaxed));
+        let admission = admit(verdict, security, frame.message_id(), frame.header.component_id);
+        if let Admission::Drop(reason) = admission {
+            entry.signing_drops.count(reason);
+            return;
+        }
+        if verdict == Verdict::Signed {
+            entry.peer_signs = true;
+        }
         if let Some(tlog) = &self.tlog {
             let _ = tlog.try_send(TlogRecord::now(frame.bytes().to_vec()));
         }
@@ -418,7 +602,7 @@ impl Hub {
                 self.queue(to, OutItem::Frame(bytes.clone()));
             }
         }
-        if !decision.deliver_locally {
+        if !decision.deliver_locally || admission == Admission::RouteOnly {
             return;
         }
         match frame.message {
@@ -460,6 +644,68 @@ impl Hub {
         }
     }
 
+    /// SETUP_SIGNING: acted on only from a secure link and only when
+    /// addressed to us; never forwarded, never recorded (it holds the key).
+    fn on_setup_signing(&mut self, link: LinkId, frame: &ReceivedFrame, now: Duration) {
+        if !self.links.get(&link).is_some_and(|e| e.role.secure) {
+            tracing::warn!("SETUP_SIGNING refused on insecure link {}", link.0);
+            return;
+        }
+        let Ok(MavMessage::SETUP_SIGNING(setup)) = &frame.message else {
+            tracing::warn!("link {}: undecodable SETUP_SIGNING ignored", link.0);
+            return;
+        };
+        if setup.target_system != self.sysid || !matches!(setup.target_component, 0 | COMPONENT_ID) {
+            tracing::warn!(
+                "link {}: SETUP_SIGNING for {}/{} ignored: not for us, and never forwarded",
+                link.0,
+                setup.target_system,
+                setup.target_component
+            );
+            return;
+        }
+        let change = self
+            .signing
+            .set_key(SecretKey::new(setup.secret_key), setup.initial_timestamp, now);
+        // Peers that signed with the old key cannot check the new one.
+        for entry in self.links.values_mut() {
+            entry.peer_signs = false;
+        }
+        match change {
+            KeyChange::Set => {
+                tracing::info!("signing key set (SETUP_SIGNING on link {})", link.0);
+                if self.key_writer.is_none() {
+                    tracing::warn!("no data directory: the signing key lasts until exit");
+                }
+                self.save_timestamp();
+            }
+            KeyChange::Disabled => {
+                tracing::info!("signing disabled (SETUP_SIGNING on link {})", link.0);
+                if let Some(writer) = &self.key_writer {
+                    writer.remove();
+                }
+            }
+        }
+    }
+
+    /// Writes the key and our timestamp (nothing when signing is off).
+    fn save_timestamp(&mut self) {
+        let (Some(writer), Some(key)) = (&self.key_writer, self.signing.key()) else {
+            return;
+        };
+        writer.save(StoredSigning {
+            key: key.clone(),
+            timestamp: self.signing.timestamp(),
+        });
+        self.timestamp_saver = TimestampSaver::new(self.signing.timestamp(), wall_clock());
+    }
+
+    fn save_timestamp_when_due(&mut self) {
+        if self.signing.is_enabled() && self.timestamp_saver.due(self.signing.timestamp(), wall_clock()) {
+            self.save_timestamp();
+        }
+    }
+
     fn on_outbound(&mut self, out: Outbound) {
         if let Some(tlog) = &self.tlog {
             let bytes = self
@@ -479,10 +725,21 @@ impl Hub {
         }
     }
 
+    /// Encodes for one link (its sequence, its signature) and queues.
     fn queue(&mut self, link: LinkId, item: OutItem) {
-        if let Some(entry) = self.links.get_mut(&link)
-            && entry.tx.try_send(item).is_err()
+        let Some(entry) = self.links.get_mut(&link) else {
+            return;
+        };
+        let mut bytes = entry.encoder.encode(&item);
+        let ours = !matches!(item, OutItem::Frame(_));
+        if ours
+            && self.signing.is_enabled()
+            && (entry.peer_signs || entry.security(self.sign_require.load(Ordering::Relaxed)).require_signed)
+            && let Some(signed) = self.signing.sign(&bytes, signature_link_id(link), wall_clock())
         {
+            bytes = signed;
+        }
+        if entry.tx.try_send(bytes).is_err() {
             if entry.dropped_out == 0 {
                 tracing::warn!("link {} ({}): not keeping up, dropping messages", link.0, entry.name);
             }
@@ -491,25 +748,38 @@ impl Hub {
     }
 
     /// Logs links whose error counters changed since the last report: quiet
-    /// while all is well, prompt when a link delivers garbage or cannot keep up.
+    /// while all is well, prompt when a link delivers garbage, cannot keep
+    /// up or sends what signing rejects (no key material is ever logged).
     fn report(&mut self) {
         for (id, entry) in &mut self.links {
             let s = entry.rx_stats;
             let errors = (s.bytes_unframed, s.decode_errors, entry.dropped_out);
-            if errors == entry.reported {
-                continue;
+            if errors != entry.reported {
+                tracing::warn!(
+                    "link {} ({}): rx {} frames ({} MAVLink 1), {} bytes unframed, {} undecodable; {} tx dropped",
+                    id.0,
+                    entry.name,
+                    s.frames,
+                    s.frames_v1,
+                    s.bytes_unframed,
+                    s.decode_errors,
+                    entry.dropped_out
+                );
+                entry.reported = errors;
             }
-            tracing::warn!(
-                "link {} ({}): rx {} frames ({} MAVLink 1), {} bytes unframed, {} undecodable; {} tx dropped",
-                id.0,
-                entry.name,
-                s.frames,
-                s.frames_v1,
-                s.bytes_unframed,
-                s.decode_errors,
-                entry.dropped_out
-            );
-            entry.reported = errors;
+            let d = entry.signing_drops;
+            if d != entry.reported_signing_drops {
+                tracing::warn!(
+                    "link {} ({}): signing dropped {} unsigned, {} badly signed, {} replayed, {} out-of-window packets so far",
+                    id.0,
+                    entry.name,
+                    d.unsigned,
+                    d.bad_signature,
+                    d.replayed,
+                    d.out_of_window
+                );
+                entry.reported_signing_drops = d;
+            }
         }
         if self.dropped_to_core != self.reported_to_core {
             tracing::warn!(

@@ -5,6 +5,8 @@
 //! - [`encode`]: messages → bytes with a per-link sequence number.
 //! - [`router`]: ArduPilot's routing rules between links (no I/O).
 //! - [`endpoint`]: the `--mavlink` endpoint syntax.
+//! - [`signing`]: MAVLink 2 signing: key, timestamps, verify and sign (no I/O).
+//! - [`sign_policy`]: which frames a link acts on once a key is set (no I/O).
 //! - [`hub`]: the tokio runtime: one task per link, a hub that routes frames
 //!   and fans the core's messages out, and the tlog recorder. A slow or dead
 //!   link only ever fills its own bounded queue; the core never waits.
@@ -15,6 +17,8 @@ pub mod frame;
 pub mod hub;
 pub mod router;
 mod serial;
+pub mod sign_policy;
+pub mod signing;
 mod tcp;
 pub mod tlog;
 mod udp;

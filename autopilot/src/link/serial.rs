@@ -7,11 +7,11 @@ use std::time::Duration;
 use tokio::sync::mpsc;
 
 use super::frame::StreamFramer;
-use super::hub::{HubEvent, LinkEncoder, LinkIds, OutItem};
+use super::hub::{HubEvent, LinkFrame, LinkIds, LinkRole};
 
 /// Opens the port, retrying every second until it exists (a USB radio
 /// plugged in later), and serves it; reopens after an unplug.
-pub(super) fn spawn(device: String, baud: u32, slot: u8, ids: LinkIds, hub: mpsc::Sender<HubEvent>, sysid: u8) {
+pub(super) fn spawn(device: String, baud: u32, role: LinkRole, ids: LinkIds, hub: mpsc::Sender<HubEvent>) {
     std::thread::Builder::new()
         .name(format!("serial {device}"))
         .spawn(move || {
@@ -22,7 +22,7 @@ pub(super) fn spawn(device: String, baud: u32, slot: u8, ids: LinkIds, hub: mpsc
                 {
                     Ok(port) => {
                         tracing::info!("serial {device} at {baud} baud: open");
-                        serve(port, &device, slot, ids.next(), &hub, sysid);
+                        serve(port, &device, role, ids.next(), &hub);
                         tracing::warn!("serial {device}: closed; reopening");
                     }
                     Err(e) => tracing::debug!("serial {device}: {e}"),
@@ -39,16 +39,15 @@ pub(super) fn spawn(device: String, baud: u32, slot: u8, ids: LinkIds, hub: mpsc
 fn serve(
     mut port: Box<dyn serialport::SerialPort>,
     device: &str,
-    slot: u8,
+    role: LinkRole,
     link: crate::vehicle::LinkId,
     hub: &mpsc::Sender<HubEvent>,
-    sysid: u8,
 ) {
-    let (tx, mut rx) = mpsc::channel::<OutItem>(super::hub::LINK_QUEUE);
+    let (tx, mut rx) = mpsc::channel::<LinkFrame>(super::hub::LINK_QUEUE);
     if hub
         .blocking_send(HubEvent::Opened {
             link,
-            slot,
+            role,
             name: format!("serial {device}"),
             tx,
         })
@@ -61,9 +60,8 @@ fn serve(
         return;
     };
     let writer = std::thread::spawn(move || {
-        let mut encoder = LinkEncoder::new(sysid);
-        while let Some(item) = rx.blocking_recv() {
-            if writer_port.write_all(&encoder.encode(&item)).is_err() {
+        while let Some(frame) = rx.blocking_recv() {
+            if writer_port.write_all(&frame).is_err() {
                 return;
             }
         }

@@ -8,16 +8,16 @@ use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::mpsc;
 
 use super::frame::StreamFramer;
-use super::hub::{HubEvent, LinkIds, write_loop};
+use super::hub::{HubEvent, LinkIds, LinkRole, write_loop};
 
 /// Accepts clients until the runtime stops.
-pub(super) async fn serve(listener: TcpListener, slot: u8, ids: LinkIds, hub: mpsc::Sender<HubEvent>, sysid: u8) {
+pub(super) async fn serve(listener: TcpListener, role: LinkRole, ids: LinkIds, hub: mpsc::Sender<HubEvent>) {
     loop {
         match listener.accept().await {
             Ok((stream, peer)) => {
                 let _ = stream.set_nodelay(true);
                 let name = format!("tcp client {peer}");
-                tokio::spawn(run_stream(stream, ids.next(), slot, name, hub.clone(), sysid));
+                tokio::spawn(run_stream(stream, ids.next(), role, name, hub.clone()));
             }
             Err(e) => {
                 // Out of file descriptors and the like: back off, keep serving.
@@ -29,13 +29,13 @@ pub(super) async fn serve(listener: TcpListener, slot: u8, ids: LinkIds, hub: mp
 }
 
 /// Connects to `addr`, and again after every disconnect.
-pub(super) async fn connect_forever(addr: String, slot: u8, ids: LinkIds, hub: mpsc::Sender<HubEvent>, sysid: u8) {
+pub(super) async fn connect_forever(addr: String, role: LinkRole, ids: LinkIds, hub: mpsc::Sender<HubEvent>) {
     loop {
         match TcpStream::connect(&addr).await {
             Ok(stream) => {
                 let _ = stream.set_nodelay(true);
                 tracing::info!("tcp connected to {addr}");
-                run_stream(stream, ids.next(), slot, format!("tcp to {addr}"), hub.clone(), sysid).await;
+                run_stream(stream, ids.next(), role, format!("tcp to {addr}"), hub.clone()).await;
                 tracing::info!("tcp to {addr} closed; reconnecting");
             }
             Err(e) => tracing::debug!("tcp connect {addr}: {e}"),
@@ -53,16 +53,15 @@ const SEND_BUFFER_BYTES: usize = 32 * 1024;
 async fn run_stream(
     stream: TcpStream,
     link: crate::vehicle::LinkId,
-    slot: u8,
+    role: LinkRole,
     name: String,
     hub: mpsc::Sender<HubEvent>,
-    sysid: u8,
 ) {
     if let Err(e) = socket2::SockRef::from(&stream).set_send_buffer_size(SEND_BUFFER_BYTES) {
         tracing::debug!("{name}: SO_SNDBUF: {e}");
     }
     let (read, write) = stream.into_split();
-    run_link(read, write, link, slot, name, hub, sysid).await;
+    run_link(read, write, link, role, name, hub).await;
 }
 
 /// One byte-stream link: registers with the hub, writes what the hub queues
@@ -71,10 +70,9 @@ pub(super) async fn run_link<R, W>(
     mut read: R,
     write: W,
     link: crate::vehicle::LinkId,
-    slot: u8,
+    role: LinkRole,
     name: String,
     hub: mpsc::Sender<HubEvent>,
-    sysid: u8,
 ) where
     R: AsyncRead + Unpin,
     W: AsyncWrite + Unpin + Send + 'static,
@@ -83,7 +81,7 @@ pub(super) async fn run_link<R, W>(
     if hub
         .send(HubEvent::Opened {
             link,
-            slot,
+            role,
             name: name.clone(),
             tx,
         })
@@ -92,7 +90,7 @@ pub(super) async fn run_link<R, W>(
     {
         return;
     }
-    let mut writer = tokio::spawn(write_loop(write, rx, sysid));
+    let mut writer = tokio::spawn(write_loop(write, rx));
     let mut framer = StreamFramer::new();
     let mut buf = vec![0u8; 4096];
     loop {

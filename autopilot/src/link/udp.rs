@@ -8,23 +8,22 @@ use tokio::net::UdpSocket;
 use tokio::sync::mpsc;
 
 use super::frame::{FrameStats, frame_datagram};
-use super::hub::{HubEvent, LinkEncoder};
+use super::hub::{HubEvent, LinkRole};
 use crate::vehicle::LinkId;
 
 pub(super) async fn run(
     socket: UdpSocket,
     default_peer: Option<SocketAddr>,
     link: LinkId,
-    slot: u8,
+    role: LinkRole,
     name: String,
     hub: mpsc::Sender<HubEvent>,
-    sysid: u8,
 ) {
     let (tx, mut rx) = mpsc::channel(super::hub::LINK_QUEUE);
     if hub
         .send(HubEvent::Opened {
             link,
-            slot,
+            role,
             name: name.clone(),
             tx,
         })
@@ -34,7 +33,6 @@ pub(super) async fn run(
         return;
     }
     let mut peer = default_peer;
-    let mut encoder = LinkEncoder::new(sysid);
     let mut stats = FrameStats::default();
     let mut buf = vec![0u8; 65536];
     loop {
@@ -57,13 +55,12 @@ pub(super) async fn run(
                 // ICMP errors from a peer that went away: keep serving.
                 Err(e) => tracing::debug!("{name}: {e}"),
             },
-            item = rx.recv() => match item {
-                Some(item) => {
-                    if let Some(to) = peer {
-                        let bytes = encoder.encode(&item);
-                        if let Err(e) = socket.send_to(&bytes, to).await {
-                            tracing::debug!("{name}: send to {to}: {e}");
-                        }
+            frame = rx.recv() => match frame {
+                Some(bytes) => {
+                    if let Some(to) = peer
+                        && let Err(e) = socket.send_to(&bytes, to).await
+                    {
+                        tracing::debug!("{name}: send to {to}: {e}");
                     }
                 }
                 None => return,

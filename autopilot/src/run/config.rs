@@ -69,7 +69,11 @@ pub struct VehicleConfig {
     /// The magnetic guide sensor's frame reader.
     pub magnetic: Option<SerialLine>,
     pub pwm: PwmSettings,
+    /// MAVLink endpoints, in file order.
     pub mavlink: Vec<Endpoint>,
+    /// Endpoints marked `secure = true`, in file order: they accept
+    /// SETUP_SIGNING and unsigned packets (see `link::sign_policy`).
+    pub secure_mavlink: Vec<Endpoint>,
 }
 
 /// The drive train; it picks the parameter defaults profile the way
@@ -363,7 +367,12 @@ impl VehicleConfig {
         for endpoint in &self.mavlink {
             lines.push(format!("mavlink      {endpoint}"));
         }
-        if self.mavlink.is_empty() {
+        for endpoint in &self.secure_mavlink {
+            lines.push(format!(
+                "mavlink      {endpoint} (secure: SETUP_SIGNING and unsigned accepted)"
+            ));
+        }
+        if self.mavlink.is_empty() && self.secure_mavlink.is_empty() {
             lines.push("mavlink      none: no ground station can connect".to_string());
         }
         lines.join("\n")
@@ -474,6 +483,7 @@ struct RawPwmOutput {
 #[serde(deny_unknown_fields)]
 struct RawMavlink {
     endpoint: Spanned<String>,
+    secure: Option<bool>,
 }
 
 /// A device path already claimed, to report the first user on a clash.
@@ -534,12 +544,16 @@ impl Checker<'_> {
             .map(|m| self.serial_line("magnetic", &m.serial, Some(&m.baud), None, &mut claims))
             .transpose()?;
         let pwm = self.pwm(raw.pwm)?;
-        let mavlink = raw
-            .mavlink
-            .iter()
-            .enumerate()
-            .map(|(i, m)| self.endpoint(&format!("mavlink[{i}].endpoint"), &m.endpoint, &mut claims))
-            .collect::<Result<Vec<_>, _>>()?;
+        let mut mavlink = Vec::new();
+        let mut secure_mavlink = Vec::new();
+        for (i, m) in raw.mavlink.iter().enumerate() {
+            let endpoint = self.endpoint(&format!("mavlink[{i}].endpoint"), &m.endpoint, &mut claims)?;
+            if m.secure == Some(true) {
+                secure_mavlink.push(endpoint);
+            } else {
+                mavlink.push(endpoint);
+            }
+        }
         Ok(VehicleConfig {
             frame: raw.vehicle.frame,
             data_dir,
@@ -550,6 +564,7 @@ impl Checker<'_> {
             magnetic,
             pwm,
             mavlink,
+            secure_mavlink,
         })
     }
 
@@ -1116,6 +1131,26 @@ fn find_in_value(value: &DeValue<'_>, span: &Range<usize>, exact: bool, path: &m
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn secure_endpoints_are_kept_apart() {
+        let text = "[vehicle]\nframe = \"ackermann\"\n[gnss]\nserial = \"/dev/ttyUSB0\"\n\
+                    [[mavlink]]\nendpoint = \"tcpin:0.0.0.0:5760\"\n\
+                    [[mavlink]]\nendpoint = \"serial:/dev/ttyACM0:115200\"\nsecure = true\n\
+                    [[mavlink]]\nendpoint = \"udp:10.0.0.1:14550\"\nsecure = false\n";
+        let config = parse(text, Path::new("/")).expect("parses");
+        assert_eq!(config.mavlink.len(), 2);
+        assert_eq!(
+            config.secure_mavlink,
+            vec![Endpoint::Serial {
+                device: "/dev/ttyACM0".into(),
+                baud: 115_200
+            }]
+        );
+        assert!(config.summary().contains("serial:/dev/ttyACM0:115200 (secure"));
+        let typo = text.replace("secure = true", "secure = \"yes\"");
+        assert!(parse(&typo, Path::new("/")).is_err());
+    }
 
     #[test]
     fn host_port_forms() {

@@ -17,7 +17,7 @@ use params::ParamTableBuilder;
 use super::actuators::PwmActuators;
 use super::config::{self, VehicleConfig};
 use super::devices::{DeviceReport, Devices};
-use crate::link::endpoint::Endpoint;
+use crate::link::endpoint::{Endpoint, LinkEndpoint};
 use crate::link::hub::{self, LinkConfig, ToCore};
 use crate::sitl::runner::{InstantTimer, Persistence, drain, forward, shutdown_on_signal};
 use crate::sitl::simulation::ModelKind;
@@ -87,6 +87,8 @@ pub fn run(config_path: &Path) -> Result<(), String> {
         udp_out,
         extra,
         tlog: None,
+        signing_dir: Some(data_dir.path().to_path_buf()),
+        sign_require_mask: core.sign_require_mask(),
     })
     .map_err(|e| format!("MAVLink links: {e}"))?;
 
@@ -99,7 +101,8 @@ pub fn run(config_path: &Path) -> Result<(), String> {
     let tcp = links.bound.tcp.map_or("none".into(), |a| a.to_string());
     let udp = links.bound.udp_local.map_or("none".into(), |a| a.to_string());
     // One line on stdout that scripts and tests parse for the bound ports.
-    println!("furrow run ready: tcp {tcp}, udp {udp}, sysid {}", core.sysid());
+    let secure: String = links.bound.secure.iter().map(|s| format!(", secure {s}")).collect();
+    println!("furrow run ready: tcp {tcp}, udp {udp}, sysid {}{secure}", core.sysid());
     tracing::info!("vehicle from {}:\n{}", config_path.display(), config.summary());
 
     let mut timer = InstantTimer::default();
@@ -145,6 +148,7 @@ pub fn run(config_path: &Path) -> Result<(), String> {
         }
         forward(&mut outputs, &channels.outbound, &mut dropped_out);
         persistence.sync(&core, &session, &writer);
+        links.set_sign_require_mask(core.sign_require_mask());
 
         next_tick += period;
         // Until the next tick: answer link traffic as it comes.
@@ -171,6 +175,7 @@ pub fn run(config_path: &Path) -> Result<(), String> {
             inputs.undecodable_items.clear();
             forward(&mut outputs, &channels.outbound, &mut dropped_out);
             persistence.sync(&core, &session, &writer);
+            links.set_sign_require_mask(core.sign_require_mask());
         }
     }
     actuators.to_trim();
@@ -194,19 +199,24 @@ pub fn run(config_path: &Path) -> Result<(), String> {
 }
 
 /// The first `tcpin:` endpoint is the TCP server (stream slot 0), the first
-/// `udp:` the UDP link (slot 1); the rest are extra endpoints.
-fn split_endpoints(config: &VehicleConfig) -> (Option<String>, Option<String>, Vec<Endpoint>) {
+/// `udp:` the UDP link (slot 1); the rest are extra endpoints, the secure
+/// ones last (a secure link never takes slot 0 or 1).
+fn split_endpoints(config: &VehicleConfig) -> (Option<String>, Option<String>, Vec<LinkEndpoint>) {
     let mut tcp_server = None;
     let mut udp_out = None;
-    let mut extra = Vec::new();
+    let mut plain = Vec::new();
     for endpoint in &config.mavlink {
         match endpoint {
             Endpoint::TcpServer { host, port } if tcp_server.is_none() => tcp_server = Some(format!("{host}:{port}")),
             Endpoint::UdpOut { host, port } if udp_out.is_none() => udp_out = Some(format!("{host}:{port}")),
-            other => extra.push(other.clone()),
+            other => plain.push(other.clone()),
         }
     }
-    (tcp_server, udp_out, extra)
+    (
+        tcp_server,
+        udp_out,
+        crate::sitl::runner::extra_endpoints(&plain, &config.secure_mavlink),
+    )
 }
 
 /// SERVOn_TRIM for n = 1..16: where each output rests.

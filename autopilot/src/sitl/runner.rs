@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use mavlink::dialects::ardupilotmega::MavMessage;
 
 use super::simulation::{Simulation, SimulationConfig, SimulationParams};
-use crate::link::endpoint::Endpoint;
+use crate::link::endpoint::{Endpoint, LinkEndpoint};
 use crate::link::hub::{self, LinkConfig, ToCore};
 use crate::storage::data_dir::{DataDir, Profile};
 use crate::storage::file_writer::FileWriter;
@@ -38,6 +38,9 @@ pub struct SitlOptions {
     /// Where the UDP link sends (default 127.0.0.1:14550 + 10·instance).
     pub udp_port: Option<u16>,
     pub mavlink: Vec<Endpoint>,
+    /// Extra endpoints that are secure links (SETUP_SIGNING accepted,
+    /// unsigned packets always accepted); slots after `mavlink`'s.
+    pub secure_mavlink: Vec<Endpoint>,
     pub tlog: Option<PathBuf>,
     /// A magnetic tape through a waypoint file's points, corner radius.
     pub tape: Option<(PathBuf, f64)>,
@@ -146,17 +149,21 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         sysid: sim.core().sysid(),
         tcp_server: Some(format!("0.0.0.0:{tcp_port}")),
         udp_out: Some(format!("127.0.0.1:{udp_port}")),
-        extra: options.mavlink.clone(),
+        extra: extra_endpoints(&options.mavlink, &options.secure_mavlink),
         tlog: options.tlog.clone(),
+        signing_dir: Some(data_dir.path().to_path_buf()),
+        sign_require_mask: sim.core().sign_require_mask(),
     })
     .map_err(|e| format!("MAVLink links: {e}"))?;
 
     let shutdown = shutdown_on_signal();
     let tcp = links.bound.tcp.map_or("none".into(), |a| a.to_string());
     let udp = links.bound.udp_local.map_or("none".into(), |a| a.to_string());
-    // One line on stdout that scripts and tests parse for the bound ports.
+    let secure: String = links.bound.secure.iter().map(|s| format!(", secure {s}")).collect();
+    // One line on stdout that scripts and tests parse for the bound ports
+    // (new fields go at the end).
     println!(
-        "furrow sitl ready: tcp {tcp}, udp {udp} to 127.0.0.1:{udp_port}, sysid {}",
+        "furrow sitl ready: tcp {tcp}, udp {udp} to 127.0.0.1:{udp_port}, sysid {}{secure}",
         sim.core().sysid()
     );
     tracing::info!(
@@ -184,6 +191,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         let outputs = sim.step(start.elapsed(), &mut timer);
         forward(outputs, &channels.outbound, &mut dropped_out);
         persistence.sync(sim.core(), &session, &writer);
+        links.set_sign_require_mask(sim.core().sign_require_mask());
         if let Some(watch) = &mut world_watch {
             watch.poll(start.elapsed(), &mut sim);
         }
@@ -198,6 +206,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
                 let outputs = sim.service_links(start.elapsed());
                 forward(outputs, &channels.outbound, &mut dropped_out);
                 persistence.sync(sim.core(), &session, &writer);
+                links.set_sign_require_mask(sim.core().sign_require_mask());
             }
         }
     }
@@ -215,6 +224,21 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
     );
     drop(links);
     Ok(())
+}
+
+/// The extra links: plain ones first, then the secure ones.
+pub(crate) fn extra_endpoints(plain: &[Endpoint], secure: &[Endpoint]) -> Vec<LinkEndpoint> {
+    let link = |secure: bool| {
+        move |endpoint: &Endpoint| LinkEndpoint {
+            endpoint: endpoint.clone(),
+            secure,
+        }
+    };
+    plain
+        .iter()
+        .map(link(false))
+        .chain(secure.iter().map(link(true)))
+        .collect()
 }
 
 /// Puts a world file's obstacles (and tape, if it has one) into the

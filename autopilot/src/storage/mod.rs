@@ -13,3 +13,4 @@ pub mod data_dir;
 pub mod file_writer;
 pub mod missions;
 pub mod session;
+pub mod signing_key;

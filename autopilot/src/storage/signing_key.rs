@@ -1,0 +1,284 @@
+//! The MAVLink 2 signing key and our last signing timestamp, in
+//! `signing.key` in the data directory: readable by the owner only (0600),
+//! replaced atomically (temporary file, fsync, rename, fsync of the
+//! directory), so a crash leaves the old file or the new one. The key goes
+//! nowhere else: not to parameters, logs or tlogs.
+//!
+//! Writes happen on a thread of their own ([`KeyFileWriter`]) so the link
+//! hub never waits for a disk.
+
+use std::fs::{self, File, OpenOptions};
+use std::io::{self, Write};
+use std::os::unix::fs::{OpenOptionsExt, PermissionsExt};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+use std::thread::JoinHandle;
+
+use crate::link::signing::{KEY_LEN, SecretKey};
+
+pub const KEY_FILE: &str = "signing.key";
+const OWNER_ONLY: u32 = 0o600;
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct StoredSigning {
+    pub key: SecretKey,
+    /// 10 µs units since 2015-01-01 (the signing timestamp).
+    pub timestamp: u64,
+}
+
+pub fn path(dir: &Path) -> PathBuf {
+    dir.join(KEY_FILE)
+}
+
+pub fn render(stored: &StoredSigning) -> String {
+    let hex: String = stored.key.bytes().iter().map(|b| format!("{b:02x}")).collect();
+    format!(
+        "# Furrow MAVLink 2 signing key. Keep it private; set or clear it with SETUP_SIGNING on a secure link.\nkey {hex}\ntimestamp {}\n",
+        stored.timestamp
+    )
+}
+
+/// Errors never quote the file: it holds the key.
+pub fn parse(text: &str) -> Result<StoredSigning, String> {
+    let mut key = None;
+    let mut timestamp = None;
+    for (index, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let number = index + 1;
+        match line.split_once(' ') {
+            Some(("key", hex)) if key.is_none() => {
+                key =
+                    Some(parse_key(hex.trim()).ok_or_else(|| format!("line {number}: the key is not 64 hex digits"))?);
+            }
+            Some(("timestamp", value)) if timestamp.is_none() => {
+                timestamp = Some(
+                    value
+                        .trim()
+                        .parse::<u64>()
+                        .map_err(|_| format!("line {number}: the timestamp is not a number"))?,
+                );
+            }
+            _ => return Err(format!("line {number}: expected `key HEX` or `timestamp N`, once each")),
+        }
+    }
+    match (key, timestamp) {
+        (Some(key), Some(timestamp)) => Ok(StoredSigning { key, timestamp }),
+        (None, _) => Err("no key line".into()),
+        (_, None) => Err("no timestamp line".into()),
+    }
+}
+
+fn parse_key(hex: &str) -> Option<SecretKey> {
+    if hex.len() != 2 * KEY_LEN || !hex.is_ascii() {
+        return None;
+    }
+    let mut bytes = [0u8; KEY_LEN];
+    for (byte, pair) in bytes.iter_mut().zip(hex.as_bytes().chunks(2)) {
+        let text = std::str::from_utf8(pair).ok()?;
+        *byte = u8::from_str_radix(text, 16).ok()?;
+    }
+    Some(SecretKey::new(bytes))
+}
+
+/// The stored key: `Ok(None)` when there is none, `Err` (a reason without
+/// key material) when the file is unreadable or damaged.
+pub fn load(dir: &Path) -> Result<Option<StoredSigning>, String> {
+    let file = path(dir);
+    let bytes = match fs::read(&file) {
+        Ok(bytes) => bytes,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(format!("{}: {e}", file.display())),
+    };
+    let text = String::from_utf8(bytes).map_err(|_| format!("{}: not a text file", file.display()))?;
+    let stored = parse(&text).map_err(|e| format!("{}: {e}", file.display()))?;
+    if let Ok(meta) = fs::metadata(&file)
+        && meta.permissions().mode() & 0o077 != 0
+    {
+        tracing::warn!(
+            "{}: readable by others (mode {:o}); it is rewritten 0600 at the next save",
+            file.display(),
+            meta.permissions().mode() & 0o777
+        );
+    }
+    Ok(Some(stored))
+}
+
+/// Replaces the file atomically, owner-only.
+pub fn save(dir: &Path, stored: &StoredSigning) -> io::Result<()> {
+    let file = path(dir);
+    let tmp = dir.join(format!("{KEY_FILE}.tmp"));
+    {
+        let mut out = OpenOptions::new()
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .mode(OWNER_ONLY)
+            .open(&tmp)?;
+        // A leftover temporary file keeps its old mode; the key must not.
+        out.set_permissions(fs::Permissions::from_mode(OWNER_ONLY))?;
+        out.write_all(render(stored).as_bytes())?;
+        out.sync_all()?;
+    }
+    fs::rename(&tmp, &file)?;
+    File::open(dir)?.sync_all()
+}
+
+/// Deletes the key (signing disabled). No file is not an error.
+pub fn remove(dir: &Path) -> io::Result<()> {
+    match fs::remove_file(path(dir)) {
+        Ok(()) => File::open(dir)?.sync_all(),
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(e),
+    }
+}
+
+enum Request {
+    Save(StoredSigning),
+    Remove,
+}
+
+/// Saves and removals on a thread of their own, newest first: a burst of
+/// requests becomes one write of the last. Dropping it finishes what is
+/// pending.
+pub struct KeyFileWriter {
+    tx: Option<mpsc::Sender<Request>>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl KeyFileWriter {
+    pub fn start(dir: PathBuf) -> io::Result<KeyFileWriter> {
+        let (tx, rx) = mpsc::channel::<Request>();
+        let thread = std::thread::Builder::new()
+            .name("signing key writer".into())
+            .spawn(move || {
+                while let Ok(mut request) = rx.recv() {
+                    while let Ok(newer) = rx.try_recv() {
+                        request = newer;
+                    }
+                    let result = match &request {
+                        Request::Save(stored) => save(&dir, stored),
+                        Request::Remove => remove(&dir),
+                    };
+                    if let Err(e) = result {
+                        tracing::error!("signing key file {}: {e}", path(&dir).display());
+                    }
+                }
+            })?;
+        Ok(KeyFileWriter {
+            tx: Some(tx),
+            thread: Some(thread),
+        })
+    }
+
+    pub fn save(&self, stored: StoredSigning) {
+        if let Some(tx) = &self.tx {
+            let _ = tx.send(Request::Save(stored));
+        }
+    }
+
+    pub fn remove(&self) {
+        if let Some(tx) = &self.tx {
+            let _ = tx.send(Request::Remove);
+        }
+    }
+}
+
+impl Drop for KeyFileWriter {
+    fn drop(&mut self) {
+        self.tx.take();
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn temp_dir(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("furrow-signing-key-{name}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).expect("temp dir");
+        dir
+    }
+
+    fn sample() -> StoredSigning {
+        let mut bytes = [0u8; KEY_LEN];
+        for (i, b) in bytes.iter_mut().enumerate() {
+            *b = (i as u8).wrapping_mul(37).wrapping_add(1);
+        }
+        StoredSigning {
+            key: SecretKey::new(bytes),
+            timestamp: 345_678_901_234,
+        }
+    }
+
+    #[test]
+    fn round_trip_owner_only() {
+        let dir = temp_dir("round-trip");
+        assert_eq!(load(&dir), Ok(None));
+        save(&dir, &sample()).expect("save");
+        assert_eq!(load(&dir), Ok(Some(sample())));
+        let mode = fs::metadata(path(&dir)).expect("file").permissions().mode();
+        assert_eq!(mode & 0o777, 0o600);
+        assert!(!dir.join(format!("{KEY_FILE}.tmp")).exists());
+        remove(&dir).expect("remove");
+        assert_eq!(load(&dir), Ok(None));
+        remove(&dir).expect("removing nothing is fine");
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_leftover_world_readable_temp_file_does_not_leak_its_mode() {
+        let dir = temp_dir("leftover");
+        let tmp = dir.join(format!("{KEY_FILE}.tmp"));
+        fs::write(&tmp, "junk").expect("write");
+        fs::set_permissions(&tmp, fs::Permissions::from_mode(0o666)).expect("chmod");
+        save(&dir, &sample()).expect("save");
+        let mode = fs::metadata(path(&dir)).expect("file").permissions().mode();
+        assert_eq!(mode & 0o777, 0o600);
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn damaged_files_are_errors_that_do_not_quote_the_key() {
+        let good = render(&sample());
+        let hex_line = good.lines().find(|l| l.starts_with("key ")).expect("key line");
+        let damaged = [
+            good.replace("timestamp", "timestamq"),
+            good.replacen(&hex_line[4..8], "zzzz", 1),
+            good.replacen(hex_line, &hex_line[..hex_line.len() - 2], 1),
+            good.replace("timestamp 345678901234", "timestamp -1"),
+            format!("{good}key {}\n", &hex_line[4..]),
+            String::new(),
+        ];
+        for text in damaged {
+            let err = parse(&text).expect_err("damaged");
+            assert!(!err.contains(&hex_line[4..12]), "{err}");
+        }
+        let dir = temp_dir("damaged");
+        fs::write(path(&dir), [0xff, 0xfe, 0x00]).expect("write");
+        assert!(load(&dir).is_err());
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn the_writer_keeps_the_newest_and_finishes_on_drop() {
+        let dir = temp_dir("writer");
+        {
+            let writer = KeyFileWriter::start(dir.clone()).expect("start");
+            writer.save(sample());
+            writer.remove();
+            writer.save(StoredSigning {
+                timestamp: 7,
+                ..sample()
+            });
+        }
+        assert_eq!(load(&dir).expect("loads").map(|s| s.timestamp), Some(7));
+        let _ = fs::remove_dir_all(&dir);
+    }
+}
