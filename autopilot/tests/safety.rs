@@ -354,3 +354,19 @@ fn a_stuck_throttle_that_does_not_stop_in_hold_is_disarmed() {
         "power cut: it coasts to rest"
     );
 }
+
+#[test]
+fn without_obstacle_stopping_a_silent_scanner_is_no_failsafe() {
+    let mut h = Harness::new(81, ModelKind::Ackermann);
+    set(&mut h, "OA_ENABLE", 0.0);
+    set(&mut h, "SIM_SCAN_DISABLE", 3.0);
+    h.run_for(4.0);
+    h.set_mode(15);
+    h.arm();
+    h.step();
+    assert!(h.sim.core().is_armed(), "{:?}", h.texts());
+    h.goto_local(50.0, 0.0);
+    h.run_for(5.0);
+    assert!(!h.texts().iter().any(|t| t.starts_with("Failsafe")), "{:?}", h.texts());
+    assert!(h.sim.world().truth().speed_mps > 1.0);
+}

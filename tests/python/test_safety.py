@@ -9,13 +9,21 @@ from gcs import command, goto, mavlink, offset, param_set, position, recv, wait_
 FORCE_ARM_MAGIC = 21196
 
 
-def statustexts(m, seconds):
-    texts, deadline = [], time.time() + seconds
+def arm_collecting_texts(m, *params):
+    """ARM_DISARM and its ACK, with every STATUSTEXT seen until a second
+    after it (the PreArm reasons come before the ACK)."""
+    p = list(params) + [0] * (7 - len(params))
+    m.mav.command_long_send(m.target_system, m.target_component, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, *p)
+    ack, texts, deadline = None, [], time.time() + 5
     while time.time() < deadline:
-        t = recv(m, "STATUSTEXT", max(0.05, deadline - time.time()))
-        if t is not None:
-            texts.append(t.text)
-    return texts
+        msg = m.recv_match(type=["COMMAND_ACK", "STATUSTEXT"], blocking=True, timeout=0.2)
+        if msg is None:
+            continue
+        if msg.get_type() == "STATUSTEXT":
+            texts.append(msg.text)
+        elif msg.command == mavlink.MAV_CMD_COMPONENT_ARM_DISARM and ack is None:
+            ack, deadline = msg, time.time() + 1.0
+    return ack, texts
 
 
 def prearm_healthy(m):
@@ -34,16 +42,15 @@ def test_prearm_reasons_force_arm_and_the_prearm_bit(start_sitl):
     assert wait_mode(m, "GUIDED")
     time.sleep(0.5)
     assert not prearm_healthy(m)
-    ack = command(m, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+    ack, texts = arm_collecting_texts(m, 1)
     assert ack is not None and ack.result == mavlink.MAV_RESULT_FAILED
-    texts = statustexts(m, 1.0)
     assert "PreArm: Scanner 1 not sending" in texts, texts
     assert not m.motors_armed()
 
-    ack = command(m, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, FORCE_ARM_MAGIC)
+    ack, texts = arm_collecting_texts(m, 1, FORCE_ARM_MAGIC)
     assert ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED
-    texts = statustexts(m, 1.0)
     assert "Arming checks skipped (forced)" in texts, texts
+    assert "Skipped: Scanner 1 not sending" in texts, texts
     assert recv(m, "HEARTBEAT", 5, lambda h: h.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
     assert "arming forced" in sitl.log()
 
@@ -67,10 +74,10 @@ def test_gcs_heartbeat_loss_holds_and_says_so(start_sitl):
     goto(m, *offset(lat, lon, 300, 0))
     # Heartbeats for a while (the failsafe only watches a GCS it has seen).
     for _ in range(4):
-        m.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
         time.sleep(0.4)
-    assert recv(m, "HEARTBEAT", 2).system_status != mavlink.MAV_STATE_CRITICAL
+        m.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
     silent = time.time()
+    assert recv(m, "HEARTBEAT", 2).system_status != mavlink.MAV_STATE_CRITICAL
     text = recv(m, "STATUSTEXT", 5, lambda t: t.text.startswith("Failsafe:"))
     assert text is not None and text.text == "Failsafe: GCS heartbeat lost: HOLD", text
     assert 1.3 < time.time() - silent < 3.0

@@ -233,10 +233,7 @@ impl Core {
                 uses_position && (silent || frozen)
             }
             Failsafe::Ekf => fs.ekf_action.get(t) != 0 && uses_position && !self.estimator.healthy(),
-            Failsafe::Scanner => {
-                let status = self.obstacle_status();
-                self_driving && status.enabled && !status.scans_fresh
-            }
+            Failsafe::Scanner => self_driving && !self.stale_scanners().is_empty(),
             Failsafe::BatteryLow => self.battery_below_for(self.failsafes.battery_low_since),
             Failsafe::BatteryCritical => self.battery_below_for(self.failsafes.battery_critical_since),
             Failsafe::CoreStall => self.failsafes.stall.is_some(),
