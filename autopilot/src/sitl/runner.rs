@@ -71,13 +71,17 @@ impl TaskTimer for InstantTimer {
 pub struct Pacer {
     anchor: Option<(Duration, Duration, Option<f64>)>,
     pub late_restarts: u64,
+    /// Ticks that started a whole period (wall time) or more after their
+    /// paced time: deadlines missed.
+    pub late_ticks: u64,
 }
 
 impl Pacer {
     const MAX_LAG: Duration = Duration::from_millis(200);
 
-    /// How long to sleep before the step that ends at simulated time `sim`.
-    pub fn delay(&mut self, sim: Duration, wall: Duration, speedup: Option<f64>) -> Option<Duration> {
+    /// How long to sleep before the step that ends at simulated time `sim`
+    /// (`period`: the simulated loop period).
+    pub fn delay(&mut self, sim: Duration, wall: Duration, speedup: Option<f64>, period: Duration) -> Option<Duration> {
         let (wall0, sim0, s0) = *self.anchor.get_or_insert((wall, sim, speedup));
         if s0 != speedup {
             self.anchor = Some((wall, sim, speedup));
@@ -85,6 +89,9 @@ impl Pacer {
         }
         let speedup = speedup?;
         let target = wall0 + sim.saturating_sub(sim0).div_f64(speedup);
+        if wall >= target + period.div_f64(speedup) {
+            self.late_ticks += 1;
+        }
         if wall > target + Self::MAX_LAG {
             self.late_restarts += 1;
             self.anchor = Some((wall, sim, Some(speedup)));
@@ -197,7 +204,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         }
         // Until the next tick: answer link traffic as it comes.
         let next_sim = sim.time() + sim.core().loop_period();
-        if let Some(delay) = pacer.delay(next_sim, start.elapsed(), sim.speedup()) {
+        if let Some(delay) = pacer.delay(next_sim, start.elapsed(), sim.speedup(), sim.core().loop_period()) {
             let deadline = tokio::time::Instant::now() + delay;
             while let Ok(Some(first)) =
                 waiter.block_on(async { tokio::time::timeout_at(deadline, channels.inbound.recv()).await })
@@ -213,7 +220,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
     persistence.sync(sim.core(), &session, &writer);
     let ticks = sim.core().scheduler().tick_stats();
     tracing::info!(
-        "SITL stopped after {:.1} s simulated in {:.1} s: tick median {:.2} µs, p99 {:.2} µs, {} overruns, {} pacing restarts, {} messages dropped to links",
+        "SITL stopped after {:.1} s simulated in {:.1} s: tick median {:.2} µs, p99 {:.2} µs, {} overruns, {} pacing restarts, {} messages dropped to links, {} late ticks",
         sim.time().as_secs_f64(),
         start.elapsed().as_secs_f64(),
         ticks.histogram.quantile_ns(0.5) as f64 / 1000.0,
@@ -221,6 +228,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         sim.core().scheduler().total_overruns(),
         pacer.late_restarts,
         dropped_out,
+        pacer.late_ticks,
     );
     drop(links);
     Ok(())
@@ -410,27 +418,31 @@ mod tests {
     #[test]
     fn real_time_sleeps_until_the_step_is_due() {
         let mut p = Pacer::default();
-        assert_eq!(p.delay(ms(20), ms(0), Some(1.0)), None, "anchors on the first step");
-        assert_eq!(p.delay(ms(40), ms(5), Some(1.0)), Some(ms(15)));
+        assert_eq!(
+            p.delay(ms(20), ms(0), Some(1.0), ms(20)),
+            None,
+            "anchors on the first step"
+        );
+        assert_eq!(p.delay(ms(40), ms(5), Some(1.0), ms(20)), Some(ms(15)));
     }
 
     #[test]
     fn speedup_scales_and_max_never_sleeps() {
         let mut p = Pacer::default();
-        p.delay(ms(0), ms(0), Some(10.0));
-        assert_eq!(p.delay(ms(1000), ms(50), Some(10.0)), Some(ms(50)));
+        p.delay(ms(0), ms(0), Some(10.0), ms(20));
+        assert_eq!(p.delay(ms(1000), ms(50), Some(10.0), ms(20)), Some(ms(50)));
         let mut p = Pacer::default();
         for k in 0..100 {
-            assert_eq!(p.delay(ms(20 * k), ms(0), None), None);
+            assert_eq!(p.delay(ms(20 * k), ms(0), None, ms(20)), None);
         }
     }
 
     #[test]
     fn a_stall_re_anchors_instead_of_racing() {
         let mut p = Pacer::default();
-        p.delay(ms(0), ms(0), Some(1.0));
-        assert_eq!(p.delay(ms(20), ms(1000), Some(1.0)), None);
+        p.delay(ms(0), ms(0), Some(1.0), ms(20));
+        assert_eq!(p.delay(ms(20), ms(1000), Some(1.0), ms(20)), None);
         assert_eq!(p.late_restarts, 1);
-        assert_eq!(p.delay(ms(40), ms(1000), Some(1.0)), Some(ms(20)));
+        assert_eq!(p.delay(ms(40), ms(1000), Some(1.0), ms(20)), Some(ms(20)));
     }
 }

@@ -62,6 +62,7 @@ struct ExitReport {
     overruns: u64,
     pacing_restarts: u64,
     dropped_to_links: u64,
+    late_ticks: u64,
 }
 
 /// One run of the course segment.
@@ -420,7 +421,7 @@ fn flood_bytes(rng: &mut SeededRng, sysid: u8, sequence: &mut u8, counts: &mut F
 }
 
 /// The numbers in "SITL stopped after … tick median M µs, p99 P µs, O
-/// overruns, R pacing restarts, D messages dropped to links".
+/// overruns, R pacing restarts, D messages dropped to links, L late ticks".
 fn parse_exit_report(log: &str) -> Option<ExitReport> {
     let line = log.lines().rev().find(|l| l.contains("SITL stopped after"))?;
     let before = |marker: &str| -> Option<f64> {
@@ -432,6 +433,7 @@ fn parse_exit_report(log: &str) -> Option<ExitReport> {
         overruns: before(" overruns")? as u64,
         pacing_restarts: before(" pacing restarts")? as u64,
         dropped_to_links: before(" messages dropped to links")? as u64,
+        late_ticks: before(" late ticks")? as u64,
     })
 }
 
@@ -467,7 +469,6 @@ fn flood_link_counts(log: &str, names: &[String]) -> (u64, u64) {
 fn rows(rate: u32, quiet: &CourseRun, flooded: &CourseRun) -> Vec<Row> {
     let f = &flooded.flood;
     let offered = f.per_second(f.messages() + f.garbage_chunks);
-    let misses = |r: &CourseRun| r.exit.overruns + r.exit.pacing_restarts;
     let cm = |m: f64| format!("{:.2} cm", m * 100.0);
     let xtrack_diff = (flooded.xtrack_p99_m - quiet.xtrack_p99_m).abs();
     let xtrack_ok = xtrack_diff <= XTRACK_TOLERANCE_M.max(XTRACK_TOLERANCE_REL * quiet.xtrack_p99_m);
@@ -504,23 +505,26 @@ fn rows(rate: u32, quiet: &CourseRun, flooded: &CourseRun) -> Vec<Row> {
         },
         Row {
             part: "flood",
-            // An overrun is a task over its time budget measured on the wall
-            // clock, so a preempted thread counts one: on a shared machine the
-            // quiet run is the baseline. A pacing restart is a tick ≥ 200 ms late.
-            case: "deadline misses: task overruns (over budget) + pacing restarts (≥ 200 ms late)".into(),
-            expected: "no restarts; overruns ≤ the quiet run's".into(),
+            // A deadline is missed when a tick starts a whole loop period (or
+            // more) after its paced time. A task over its time budget (an
+            // overrun, wall clock, so a preempted thread counts one) is shown
+            // beside it but is not a missed deadline.
+            case: "deadline misses: ticks started ≥ 1 period late".into(),
+            expected: "0 with the flood".into(),
             measured: format!(
-                "quiet {} + {}, flood {} + {}; tick p99 {:.1} µs → {:.1} µs; load average {:.1}, {:.1}",
-                quiet.exit.overruns,
+                "quiet {}, flood {} (pacing restarts {} / {}; task budget overruns {} / {}); tick p99 {:.1} µs → {:.1} µs; load average {:.1}, {:.1}",
+                quiet.exit.late_ticks,
+                flooded.exit.late_ticks,
                 quiet.exit.pacing_restarts,
-                flooded.exit.overruns,
                 flooded.exit.pacing_restarts,
+                quiet.exit.overruns,
+                flooded.exit.overruns,
                 quiet.exit.tick_p99_us,
                 flooded.exit.tick_p99_us,
                 quiet.load_average,
                 flooded.load_average
             ),
-            ok: flooded.exit.pacing_restarts == 0 && misses(flooded) <= misses(quiet),
+            ok: flooded.exit.late_ticks == 0 && flooded.exit.pacing_restarts == 0,
         },
         Row {
             part: "flood",
@@ -576,14 +580,15 @@ mod tests {
     #[test]
     fn the_exit_report_is_parsed() {
         let log = "2026-01-01T00:00:00Z  INFO furrow::sitl: SITL stopped after 80.3 s simulated in 81.0 s: \
-                   tick median 41.20 µs, p99 97.51 µs, 3 overruns, 1 pacing restarts, 12 messages dropped to links\n";
+                   tick median 41.20 µs, p99 97.51 µs, 3 overruns, 1 pacing restarts, 12 messages dropped to links, 2 late ticks\n";
         assert_eq!(
             parse_exit_report(log),
             Some(ExitReport {
                 tick_p99_us: 97.51,
                 overruns: 3,
                 pacing_restarts: 1,
-                dropped_to_links: 12
+                dropped_to_links: 12,
+                late_ticks: 2
             })
         );
         assert_eq!(parse_exit_report("nothing"), None);
