@@ -55,7 +55,9 @@ impl std::error::Error for FileError {}
 
 fn parse_value(text: &str, line: usize) -> Result<f64, FileError> {
     match text.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() => Ok(v),
+        // `-0` is 0: an integer parameter kept the sign bit, so a file with
+        // `-0.000000` exported `0` and did not round-trip (found by fuzzing).
+        Ok(v) if v.is_finite() => Ok(v + 0.0),
         _ => Err(FileError {
             line,
             message: format!("value {text:?} is not a finite number"),
@@ -190,6 +192,18 @@ mod tests {
             ]
         );
         assert_eq!(e[3].line, 6);
+    }
+
+    #[test]
+    fn negative_zero_reads_as_zero() {
+        for format in [FileFormat::MissionPlanner, FileFormat::QGroundControl] {
+            let text = match format {
+                FileFormat::MissionPlanner => "SR0_POSITION        -0.000000\n",
+                FileFormat::QGroundControl => "1\t1\tSR0_POSITION\t-0\t4\n",
+            };
+            let e = parse(text, format).unwrap();
+            assert_eq!(e[0].value.to_bits(), 0.0f64.to_bits(), "{format:?}");
+        }
     }
 
     #[test]

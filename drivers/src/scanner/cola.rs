@@ -245,8 +245,9 @@ pub enum ColaError {
     },
     /// Neither the 16-bit nor the 8-bit channels contain `DIST1`.
     NoDistanceChannel,
-    /// The DIST1 scale factor is non-finite or not positive, or its offset is
-    /// non-finite: no distance could be trusted.
+    /// The DIST1 scale factor is non-finite or not positive, its offset is
+    /// non-finite, or together they put an echo below 0 m or beyond what an
+    /// `f32` holds: no distance could be trusted.
     InvalidScale { scale_factor: f32, scale_offset: f32 },
     /// More than one beam but an angular step of 0.
     ZeroAngularStep,
@@ -462,6 +463,21 @@ fn parse_channel<'a>(tokens: &mut Tokens<'a>, data_max: u32, keep: bool) -> Resu
     })
 }
 
+/// Whether every echo of the channel scales to a range
+/// [`ScanTelegram::to_scan`] can hold: finite in `f32` metres and not
+/// negative. A factor near `f32::MAX` made infinite ranges, a negative
+/// offset negative ones (found by fuzzing): neither is a calibration a
+/// scanner has, so the scan is refused rather than half believed.
+fn echoes_in_range(channel: &Channel<'_>) -> bool {
+    let (factor, offset) = (f64::from(channel.scale_factor), f64::from(channel.scale_offset));
+    let echoes = channel.data.iter().filter(|&&raw| raw != 0);
+    let (Some(min), Some(max)) = (echoes.clone().min(), echoes.max()) else {
+        return true;
+    };
+    let range_m = |raw: u16| (f64::from(raw) * factor + offset) / 1000.0;
+    range_m(*min) >= 0.0 && ((range_m(*max)) as f32).is_finite()
+}
+
 fn check_scan_header(tokens: &mut Tokens<'_>) -> Result<(), ColaError> {
     let command_type = tokens.raw("command type").map_err(|_| ColaError::Empty)?;
     let name = tokens.raw("command name").unwrap_or(b"");
@@ -524,7 +540,11 @@ fn parse_scan_fields(tokens: &mut Tokens<'_>) -> Result<ScanTelegram, ColaError>
         }
     }
     let dist = dist.ok_or(ColaError::NoDistanceChannel)?;
-    if !dist.scale_factor.is_finite() || dist.scale_factor <= 0.0 || !dist.scale_offset.is_finite() {
+    if !dist.scale_factor.is_finite()
+        || dist.scale_factor <= 0.0
+        || !dist.scale_offset.is_finite()
+        || !echoes_in_range(&dist)
+    {
         return Err(ColaError::InvalidScale {
             scale_factor: dist.scale_factor,
             scale_offset: dist.scale_offset,
@@ -1026,6 +1046,14 @@ mod tests {
                 matches!(e, ColaError::InvalidScale { .. })
             }),
             (replaced("00000000", "FF800000"), |e| {
+                matches!(e, ColaError::InvalidScale { .. })
+            }),
+            // Found by fuzzing: a factor of f32::MAX gave infinite ranges,
+            // an offset of -1000 mm negative ones.
+            (replaced("3F800000", "7F7FFFFF"), |e| {
+                matches!(e, ColaError::InvalidScale { .. })
+            }),
+            (replaced("00000000", "C47A0000"), |e| {
                 matches!(e, ColaError::InvalidScale { .. })
             }),
             (replaced(" FFFF 64", " 10000 64"), |e| {

@@ -63,10 +63,13 @@ impl FileKind {
         }
     }
 
-    /// From the content: `QGC WPL` or a JSON object.
+    /// From the content: `QGC WPL` or a JSON object. The words of the WPL
+    /// header may be separated by any whitespace, as [`wpl::parse`] reads it
+    /// (a tab-separated header was read but not recognised: found by fuzzing).
     pub fn sniff(text: &str) -> Option<FileKind> {
         let t = text.trim_start_matches('\u{feff}').trim_start();
-        if t.starts_with("QGC WPL") {
+        let mut words = t.split_whitespace();
+        if words.next() == Some("QGC") && words.next().is_some_and(|w| w.starts_with("WPL")) {
             Some(FileKind::Wpl)
         } else if t.starts_with('{') {
             Some(FileKind::PlanJson)
@@ -148,6 +151,18 @@ pub fn parse_f32(text: &str) -> Option<f32> {
 mod tests {
     use super::*;
     use crate::command::frame;
+
+    #[test]
+    fn sniffing_agrees_with_the_wpl_parser() {
+        // Fuzzing found a header with tabs between its words: parsed, not sniffed.
+        let text = "QGC\t\t WPL\t110\n0\t1\t0\t16\t0\t0\t0\t0\t29.1330000\t119.6400000\t40\t1\n";
+        assert!(wpl::parse(text).is_ok());
+        assert_eq!(FileKind::sniff(text), Some(FileKind::Wpl));
+        assert_eq!(FileKind::sniff("QGC WPL 110\n"), Some(FileKind::Wpl));
+        assert_eq!(FileKind::sniff("\u{feff}\n  QGC WPL 120\n"), Some(FileKind::Wpl));
+        assert_eq!(FileKind::sniff("QGCWPL 110\n"), None);
+        assert_eq!(FileKind::sniff(" {\"fileType\": \"Plan\"}"), Some(FileKind::PlanJson));
+    }
 
     #[test]
     fn coordinates_are_exact() {

@@ -287,7 +287,24 @@ struct CircleJson {
 #[derive(Deserialize)]
 struct CircleInnerJson {
     center: Coord,
+    #[serde(deserialize_with = "radius_f32")]
     radius: f64,
+}
+
+/// An `f64` from the file as the `f32` an item stores, if it fits. A number
+/// beyond `f32` became infinite, was written back as `null`, and the file
+/// then did not read again (found by fuzzing).
+fn to_f32(v: f64) -> Option<f32> {
+    let x = v as f32;
+    (x.is_finite() || !v.is_finite()).then_some(x)
+}
+
+fn radius_f32<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    match to_f32(v) {
+        Some(_) => Ok(v),
+        None => Err(de::Error::custom(format!("radius {v} is too large"))),
+    }
 }
 
 #[derive(Deserialize, Default)]
@@ -342,10 +359,14 @@ fn coord(v: &[Option<f64>]) -> Result<Coord, String> {
                 None => format!("{what} is null"),
             })
     };
+    let alt = match v.get(2).copied().flatten() {
+        None => f32::NAN,
+        Some(a) => to_f32(a).ok_or_else(|| format!("altitude {a} is too large"))?,
+    };
     Ok(Coord {
         lat_e7: angle(0, "latitude", 90.0)?,
         lon_e7: angle(1, "longitude", 180.0)?,
-        alt: v.get(2).copied().flatten().map_or(f32::NAN, |a| a as f32),
+        alt,
     })
 }
 
@@ -423,7 +444,15 @@ fn mission_items(m: MissionJson) -> Result<Vec<MissionItem>, FileError> {
         let ItemJson::Simple(s) = entry;
         let seq = u16::try_from(i + 1)
             .map_err(|_| FileError::new(0, format!("mission.items holds {} items: too many", i + 1)))?;
-        let param = |n: usize| s.params[n].map_or(f32::NAN, |v| v as f32);
+        let param = |n: usize| match s.params[n] {
+            None => Ok(f32::NAN),
+            Some(v) => to_f32(v).ok_or_else(|| {
+                FileError::new(
+                    0,
+                    format!("mission.items[{i}] (item {seq}): params[{n}] {v} is too large"),
+                )
+            }),
+        };
         let xy = |n: usize, what: &str| {
             xy_from_float(s.frame, s.params[n].unwrap_or(f64::NAN)).ok_or_else(|| {
                 FileError::new(
@@ -444,10 +473,10 @@ fn mission_items(m: MissionJson) -> Result<Vec<MissionItem>, FileError> {
             command: s.command,
             current: false,
             autocontinue: s.auto_continue,
-            params: [param(0), param(1), param(2), param(3)],
+            params: [param(0)?, param(1)?, param(2)?, param(3)?],
             x: xy(4, "latitude/x")?,
             y: xy(5, "longitude/y")?,
-            z: param(6),
+            z: param(6)?,
         });
     }
     // DO_JUMP names its target by doJumpId in the file.
@@ -591,6 +620,28 @@ mod tests {
     "rallyPoints": { "points": [[47.3, 8.5, 20]], "version": 2 },
     "version": 1
 }"#;
+
+    #[test]
+    fn numbers_beyond_f32_are_refused() {
+        // Found by fuzzing: a radius of 1.3e80 was stored as an infinite
+        // f32, written back as `null`, and the written file did not parse.
+        for (from, to) in [
+            ("\"radius\": 25.5", "\"radius\": 1.3e80"),
+            (
+                "[0, 0, 0, null, 47.3980, 8.5460, 50]",
+                "[0, 0, 0, null, 47.3980, 8.5460, -4e38]",
+            ),
+            ("[2, 3, 0, 0, 0, 0, 0]", "[2, 3e39, 0, 0, 0, 0, 0]"),
+            ("[47.3, 8.5, 20]", "[47.3, 8.5, 1e300]"),
+        ] {
+            assert!(QGC_PLAN.contains(from), "{from}");
+            let e = parse(&QGC_PLAN.replacen(from, to, 1)).unwrap_err();
+            assert!(e.message.contains("too large"), "{to}: {e}");
+        }
+        // The largest f32 itself still reads, and round-trips.
+        let max = QGC_PLAN.replacen("\"radius\": 25.5", "\"radius\": 3.4028235e38", 1);
+        assert_eq!(parse(&max).unwrap().fence[3].params[0], f32::MAX);
+    }
 
     #[test]
     fn reads_a_qgroundcontrol_plan() {
