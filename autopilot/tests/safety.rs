@@ -4,28 +4,16 @@
 mod common;
 
 use autopilot::modes::Mode;
+use autopilot::sitl::gcs::heartbeat as gcs_heartbeat;
 use autopilot::sitl::simulation::ModelKind;
 use autopilot::vehicle::Failsafe;
 use common::Harness;
-use mavlink::dialects::ardupilotmega::{
-    HEARTBEAT_DATA, MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavResult, MavState, MavSysStatusSensor, MavType,
-};
+use mavlink::dialects::ardupilotmega::{MavCmd, MavMessage, MavResult, MavState, MavSysStatusSensor};
 
 const FORCE_ARM_MAGIC: f32 = 21196.0;
 
 fn set(h: &mut Harness, name: &str, value: f64) {
     h.sim.core_mut().params_mut().set_by_name(name, value).expect(name);
-}
-
-fn gcs_heartbeat() -> MavMessage {
-    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-        custom_mode: 0,
-        mavtype: MavType::MAV_TYPE_GCS,
-        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
-        base_mode: MavModeFlag::empty(),
-        system_status: MavState::MAV_STATE_ACTIVE,
-        mavlink_version: 3,
-    })
 }
 
 fn new_texts(h: &Harness, from: usize) -> Vec<String> {

@@ -3,7 +3,8 @@
 //! benchmarks and the in-process scenario tests.
 
 use mavlink::dialects::ardupilotmega::{
-    COMMAND_LONG_DATA, MavCmd, MavFrame, MavMessage, PositionTargetTypemask, SET_POSITION_TARGET_GLOBAL_INT_DATA,
+    COMMAND_LONG_DATA, HEARTBEAT_DATA, MavAutopilot, MavCmd, MavFrame, MavMessage, MavModeFlag, MavState, MavType,
+    PositionTargetTypemask, SET_POSITION_TARGET_GLOBAL_INT_DATA,
 };
 use mavlink::{MavHeader, MavlinkVersion};
 
@@ -36,6 +37,18 @@ pub fn send(sim: &mut Simulation, message: MavMessage) {
         version: MavlinkVersion::V2,
         message,
     });
+}
+
+/// A ground station's HEARTBEAT (MAV_TYPE_GCS, as QGroundControl sends it).
+pub fn heartbeat() -> MavMessage {
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: MavType::MAV_TYPE_GCS,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        base_mode: MavModeFlag::empty(),
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    })
 }
 
 pub fn command_long(command: MavCmd, params: [f32; 7]) -> MavMessage {

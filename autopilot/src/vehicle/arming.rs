@@ -12,9 +12,6 @@ use super::Core;
 use super::estimation::{fix_name, rank};
 use crate::modes::Mode;
 
-/// A fix older than this does not count for arming.
-const FIX_MAX_AGE: Duration = Duration::from_secs(2);
-
 /// `ARMING_CHECK` bits.
 pub mod check {
     pub const ALL: i32 = 1;
@@ -42,7 +39,9 @@ impl Core {
         // ArduPilot's manual modes); HOLD is where it waits to drive itself.
         let drives_itself = !matches!(self.mode, Mode::Manual | Mode::Magnetic);
         let gnss = self.estimator.gnss();
-        let has_fix = gnss.has_fix(self.now.boot, FIX_MAX_AGE);
+        // A fix older than the GNSS failsafe's timeout is a lost GNSS.
+        let fix_max_age = Duration::from_secs_f64(f64::from(self.p.failsafe.gnss_lost_s.get(&self.params)));
+        let has_fix = gnss.has_fix(self.now.boot, fix_max_age);
         if enabled(check::POSITION_FIX) && drives_itself {
             if !has_fix {
                 failures.push("No position fix".to_string());

@@ -5,7 +5,7 @@
 //! the operator selecting AUTO again, as the failsafe demands) with the
 //! mission and parameters intact.
 
-use mavlink::dialects::ardupilotmega::{HEARTBEAT_DATA, MavAutopilot, MavMessage, MavModeFlag, MavState, MavType};
+use mavlink::dialects::ardupilotmega::MavMessage;
 use mission::{ExecState, MissionType, Plan};
 
 use super::Row;
@@ -216,7 +216,7 @@ impl Drive {
     /// One tick, a GCS heartbeat every second (as any ground station).
     fn step(&mut self) {
         if self.t() >= self.next_heartbeat_s {
-            gcs::send(&mut self.sim, gcs_heartbeat());
+            gcs::send(&mut self.sim, gcs::heartbeat());
             self.next_heartbeat_s = self.t() + 1.0;
         }
         let wall = self.sim.time();
@@ -244,17 +244,6 @@ impl Drive {
     fn crosstrack_m(&self) -> f64 {
         self.sim.core().navigator().status().crosstrack_m.abs()
     }
-}
-
-fn gcs_heartbeat() -> MavMessage {
-    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-        custom_mode: 0,
-        mavtype: MavType::MAV_TYPE_GCS,
-        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
-        base_mode: MavModeFlag::empty(),
-        system_status: MavState::MAV_STATE_ACTIVE,
-        mavlink_version: 3,
-    })
 }
 
 fn run_scenario(s: &Scenario, course: &crate::bench::tracking::Course, seed: u64) -> Result<Row, String> {

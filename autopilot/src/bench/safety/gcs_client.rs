@@ -12,9 +12,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use mavlink::dialects::ardupilotmega::{
-    COMMAND_LONG_DATA, HEARTBEAT_DATA, MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_REQUEST_INT_DATA,
-    MISSION_REQUEST_LIST_DATA, MavAutopilot, MavCmd, MavMessage, MavMissionResult, MavMissionType, MavModeFlag,
-    MavParamType, MavResult, MavState, MavType, PARAM_REQUEST_READ_DATA, PARAM_SET_DATA,
+    HEARTBEAT_DATA, MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_REQUEST_INT_DATA, MISSION_REQUEST_LIST_DATA, MavCmd,
+    MavMessage, MavMissionResult, MavMissionType, MavParamType, MavResult, PARAM_REQUEST_READ_DATA, PARAM_SET_DATA,
 };
 use mavlink::error::MessageReadError;
 use mavlink::{MavHeader, MavlinkReader, MavlinkVersion};
@@ -261,19 +260,8 @@ impl GcsClient {
 
     /// COMMAND_LONG and its COMMAND_ACK's result.
     pub fn command(&mut self, command: MavCmd, params: [f32; 7]) -> Result<MavResult, String> {
-        self.send(&MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
-            param1: params[0],
-            param2: params[1],
-            param3: params[2],
-            param4: params[3],
-            param5: params[4],
-            param6: params[5],
-            param7: params[6],
-            command,
-            target_system: VEHICLE.system_id,
-            target_component: VEHICLE.component_id,
-            confirmation: 0,
-        }))?;
+        // The vehicle is 1/1 (VEHICLE), as the in-process GCS addresses it.
+        self.send(&crate::sitl::gcs::command_long(command, params))?;
         self.expect(&format!("COMMAND_ACK for {command:?}"), |m| match m {
             MavMessage::COMMAND_ACK(a) if a.command == command => Some(a.result),
             _ => None,
@@ -399,17 +387,7 @@ impl GcsClient {
     }
 }
 
-/// A GCS heartbeat (MAV_TYPE_GCS, as QGroundControl sends it).
-pub fn gcs_heartbeat() -> MavMessage {
-    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-        custom_mode: 0,
-        mavtype: MavType::MAV_TYPE_GCS,
-        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
-        base_mode: MavModeFlag::empty(),
-        system_status: MavState::MAV_STATE_ACTIVE,
-        mavlink_version: 3,
-    })
-}
+pub use crate::sitl::gcs::heartbeat as gcs_heartbeat;
 
 pub fn param_set_message(name: &str, value: f32) -> MavMessage {
     MavMessage::PARAM_SET(PARAM_SET_DATA {
