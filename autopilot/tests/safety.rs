@@ -164,7 +164,7 @@ fn force_arming_with_the_magic_value_arms_and_warns_with_what_it_skipped() {
 }
 
 #[test]
-fn auto_with_its_mission_cleared_cannot_arm() {
+fn auto_cannot_be_entered_once_the_mission_is_cleared() {
     let mut h = Harness::new(13, ModelKind::Ackermann);
     h.run_for(4.0);
     h.send(MavMessage::MISSION_COUNT(

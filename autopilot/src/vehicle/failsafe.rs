@@ -233,7 +233,7 @@ impl Core {
                 uses_position && (silent || frozen)
             }
             Failsafe::Ekf => fs.ekf_action.get(t) != 0 && uses_position && !self.estimator.healthy(),
-            Failsafe::Scanner => self_driving && !self.stale_scanners().is_empty(),
+            Failsafe::Scanner => self_driving && self.stale_scanners().next().is_some(),
             Failsafe::BatteryLow => self.battery_below_for(self.failsafes.battery_low_since),
             Failsafe::BatteryCritical => self.battery_below_for(self.failsafes.battery_critical_since),
             Failsafe::CoreStall => self.failsafes.stall.is_some(),

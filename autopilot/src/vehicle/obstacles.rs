@@ -181,18 +181,16 @@ impl Core {
 
     /// Fitted scanners (0 = SCAN1) with no scan within the view timeout,
     /// when obstacle stopping is on.
-    pub(super) fn stale_scanners(&self) -> Vec<usize> {
-        if !self.obstacles_enabled() {
-            return Vec::new();
-        }
+    /// An iterator, not a Vec: the scanner failsafe asks every tick.
+    pub(super) fn stale_scanners(&self) -> impl Iterator<Item = usize> + '_ {
+        let enabled = self.obstacles_enabled();
         (0..SCANNERS)
-            .filter(|&i| self.scanner_mount(i).is_some())
+            .filter(move |&i| enabled && self.scanner_mount(i).is_some())
             .filter(|&i| {
                 self.obstacles.views[i]
                     .t
                     .is_none_or(|t| self.now.boot.saturating_sub(t) > VIEW_TIMEOUT)
             })
-            .collect()
     }
 
     fn obstacles_enabled(&self) -> bool {

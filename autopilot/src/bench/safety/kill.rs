@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use mission::command::{cmd, frame};
-use mission::{MissionItem, MissionType, Plan, validate_plan};
+use mission::{HomeItem, MissionItem, MissionType, Plan, validate_plan};
 use params::files::{FileFormat, parse as parse_params};
 use params::{ParamTable, ParamType};
 
@@ -502,17 +502,12 @@ fn random_mission(rng: &mut SeededRng, size: usize, salt: u32) -> Result<Plan, S
     for seq in 0..size {
         let seq16 = seq as u16;
         let item = if seq == 0 {
-            MissionItem {
-                seq: 0,
-                frame: frame::GLOBAL,
-                command: cmd::NAV_WAYPOINT,
-                current: false,
-                autocontinue: true,
-                params: [0.0; 4],
-                x: HOME_DEG_E7.0 + salt as i32,
-                y: HOME_DEG_E7.1,
-                z: 40.0,
+            HomeItem {
+                lat_e7: HOME_DEG_E7.0 + salt as i32,
+                lon_e7: HOME_DEG_E7.1,
+                alt_m: 40.0,
             }
+            .to_item()
         } else if seq % 10 == 0 {
             MissionItem {
                 seq: seq16,
