@@ -78,6 +78,11 @@ impl Core {
         if enabled(check::PARAMETERS) {
             failures.extend(self.parameter_inconsistencies());
         }
+        // Not an ARMING_CHECK bit: a failsafe that is on is no check to skip.
+        failures.extend(
+            self.failsafes_refusing_arming(self.mode)
+                .map(|f| format!("Failsafe on: {}", f.name())),
+        );
         failures
     }
 

@@ -12,6 +12,7 @@ use mavlink::dialects::ardupilotmega::{
     MavModeFlag, MavResult,
 };
 
+use super::modes::ModeRefusal;
 use super::{Core, Destination, Inbound};
 use crate::geo::GeoPoint;
 use crate::modes::Mode;
@@ -274,11 +275,7 @@ impl Core {
             self.warn_unknown_mode(number);
             return MavResult::MAV_RESULT_DENIED;
         };
-        match self.request_mode(mode) {
-            Ok(()) => MavResult::MAV_RESULT_ACCEPTED,
-            Err(super::modes::ModeRefusal::NotAvailable) => MavResult::MAV_RESULT_DENIED,
-            Err(_) => MavResult::MAV_RESULT_FAILED,
-        }
+        mode_result(self.request_mode(mode))
     }
 
     /// DO_REPOSITION (COMMAND_INT only, as positional commands must be):
@@ -296,8 +293,10 @@ impl Core {
             Ok(None) => return MavResult::MAV_RESULT_DENIED,
             Err(e) => return e,
         };
-        if self.mode != Mode::Guided && self.request_mode(Mode::Guided).is_err() {
-            return MavResult::MAV_RESULT_FAILED;
+        if self.mode != Mode::Guided
+            && let refused @ Err(_) = self.request_mode(Mode::Guided)
+        {
+            return mode_result(refused);
         }
         let speed = c.params[0];
         if speed > 0.0 && speed.is_finite() {
@@ -385,5 +384,17 @@ impl Core {
             Some(d) => d.as_micros().min(i32::MAX as u128) as i32,
             None => -1,
         }
+    }
+}
+
+/// COMMAND_ACK for a mode request: a failsafe's refusal lasts only as long
+/// as the failsafe, so it is temporary (as ArduPilot answers a command it
+/// cannot carry out now).
+fn mode_result(result: Result<(), ModeRefusal>) -> MavResult {
+    match result {
+        Ok(()) => MavResult::MAV_RESULT_ACCEPTED,
+        Err(ModeRefusal::NotAvailable) => MavResult::MAV_RESULT_DENIED,
+        Err(ModeRefusal::Failsafe(_)) => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+        Err(_) => MavResult::MAV_RESULT_FAILED,
     }
 }

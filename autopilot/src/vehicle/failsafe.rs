@@ -1,17 +1,26 @@
-//! Failsafes: a condition watched every tick, an action when it starts
+//! Failsafes: a cause watched every tick, an action when it starts
 //! (`FS_*`, `BATT_FS_*`; ArduPilot Rover's names and values where it has
 //! them) and a STATUSTEXT when it starts and when it clears.
 //!
+//! A failsafe's state is its cause's, not the mode's: the cause (a silent
+//! sensor, a stale fix, a low battery…) is judged the same in every mode and
+//! armed or not, so the HOLD a failsafe chooses, or any mode the operator
+//! picks, or a disarm, cannot end it. Where it *starts* does depend on the
+//! vehicle: armed and in a mode the failsafe acts in. While on, it refuses
+//! arming and the self-driving modes it would act in, with its name.
+//! Latching failsafes stay on while armed even once their cause is gone,
+//! then clear at the first moment disarmed without it.
+//!
 //! Recovery: a failsafe never drives the vehicle again by itself unless
 //! `FS_RESUME` is 1, and then only after a sensor failsafe (GNSS, heading,
-//! EKF, scanner) that stopped a self-driving mode, once every condition has
-//! cleared and nobody changed the mode meanwhile. The GCS, battery and core
+//! EKF, scanner) that stopped AUTO or RTL, once every failsafe has cleared
+//! and nobody changed the mode or disarmed meanwhile. The GCS, battery and core
 //! failsafes leave the vehicle stopped until the operator acts (as
 //! ArduPilot does).
 
 use std::time::Duration;
 
-use mavlink::dialects::ardupilotmega::MavSeverity;
+use mavlink::dialects::ardupilotmega::{EkfStatusFlags, MavSeverity, MavSysStatusSensor};
 
 use super::Core;
 use crate::modes::Mode;
@@ -81,13 +90,64 @@ impl Failsafe {
         )
     }
 
-    /// Stays on until disarmed once it started (a battery does not recover
-    /// under load; a missed deadline is an event, not a state).
+    /// Stays on while armed once it started, whatever the cause does
+    /// meanwhile: a battery recovers when unloaded, a missed deadline is an
+    /// event, a path error or a runaway cannot be seen once stopped.
     fn latches(self) -> bool {
         matches!(
             self,
-            Failsafe::BatteryLow | Failsafe::BatteryCritical | Failsafe::CoreStall | Failsafe::Control
+            Failsafe::BatteryLow
+                | Failsafe::BatteryCritical
+                | Failsafe::CoreStall
+                | Failsafe::Control
+                | Failsafe::Runaway
         )
+    }
+
+    /// The modes in which the cause starts the failsafe (and which it
+    /// refuses while on): a position failsafe matters only to a mode that
+    /// steers by the position, a scanner only to one that drives itself.
+    pub fn acts_in(self, mode: Mode) -> bool {
+        match self {
+            Failsafe::GnssLost | Failsafe::HeadingLost | Failsafe::Ekf => mode.requires_position(),
+            Failsafe::Scanner => mode.self_driving(),
+            Failsafe::Runaway => mode == Mode::Hold,
+            Failsafe::Gcs
+            | Failsafe::BatteryLow
+            | Failsafe::BatteryCritical
+            | Failsafe::CoreStall
+            | Failsafe::Control => true,
+        }
+    }
+
+    /// The SYS_STATUS health bit cleared while this failsafe is on.
+    pub fn health_sensor(self) -> Option<MavSysStatusSensor> {
+        match self {
+            Failsafe::GnssLost => Some(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS),
+            Failsafe::HeadingLost | Failsafe::Ekf => Some(MavSysStatusSensor::MAV_SYS_STATUS_AHRS),
+            Failsafe::Scanner => Some(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_PROXIMITY),
+            Failsafe::BatteryLow | Failsafe::BatteryCritical => Some(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY),
+            Failsafe::Control => Some(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL),
+            Failsafe::Runaway => Some(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS),
+            // No SYS_STATUS sensor for a link or the scheduler: HEARTBEAT
+            // CRITICAL is what says it.
+            Failsafe::Gcs | Failsafe::CoreStall => None,
+        }
+    }
+
+    /// The EKF_STATUS_REPORT flags withheld while this failsafe is on.
+    pub fn ekf_flags_withheld(self) -> EkfStatusFlags {
+        match self {
+            Failsafe::GnssLost | Failsafe::Ekf => {
+                EkfStatusFlags::EKF_VELOCITY_HORIZ
+                    | EkfStatusFlags::EKF_POS_HORIZ_REL
+                    | EkfStatusFlags::EKF_POS_HORIZ_ABS
+                    | EkfStatusFlags::EKF_PRED_POS_HORIZ_REL
+                    | EkfStatusFlags::EKF_PRED_POS_HORIZ_ABS
+            }
+            Failsafe::HeadingLost => EkfStatusFlags::EKF_ATTITUDE,
+            _ => EkfStatusFlags::empty(),
+        }
     }
 
     fn bit(self) -> u16 {
@@ -130,9 +190,10 @@ pub(super) struct FailsafeState {
     /// Bit per [`Failsafe`] that is on.
     active: u16,
     /// Since when the vehicle has been off its path by more than
-    /// `FS_XTRACK_M`, and since when it has been in HOLD.
+    /// `FS_XTRACK_M`, and since when it has been told to stop (HOLD or
+    /// disarmed).
     off_path_since: Option<Duration>,
-    hold_since: Option<Duration>,
+    stop_since: Option<Duration>,
     /// Since when the battery has read below each threshold.
     battery_low_since: Option<Duration>,
     battery_critical_since: Option<Duration>,
@@ -142,6 +203,16 @@ pub(super) struct FailsafeState {
     heading_frozen_since: Option<Duration>,
     /// The mode a resumable failsafe stopped (for `FS_RESUME`).
     interrupted: Option<Mode>,
+    /// The mode a failsafe took the vehicle out of, while it stays in the
+    /// one the failsafe chose: a further cause is judged for that mode (a
+    /// GNSS lost after the EKF's HOLD stopped GUIDED is still said).
+    stopped: Option<Stopped>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Stopped {
+    from: Mode,
+    into: Mode,
 }
 
 impl FailsafeState {
@@ -159,27 +230,33 @@ impl Core {
     pub(super) fn update_failsafes(&mut self) {
         self.track_battery();
         if !self.armed {
-            // Disarmed, nothing is acted on: what would stop the vehicle is
-            // for the arming checks to refuse.
-            self.failsafes.active = 0;
-            self.failsafes.stall = None;
+            // A disarm is the operator taking over: nothing resumes by itself.
             self.failsafes.interrupted = None;
-            self.failsafes.hold_since = None;
-            self.failsafes.off_path_since = None;
-            return;
+        }
+        let mode = self.mode;
+        if !(self.armed && self.failsafes.any()) || self.failsafes.stopped.is_some_and(|s| s.into != mode) {
+            self.failsafes.stopped = None;
         }
         for failsafe in Failsafe::ALL {
-            let condition = self.failsafe_condition(failsafe);
-            let active = self.failsafes.is_active(failsafe);
-            if condition && !active {
-                self.failsafes.active |= failsafe.bit();
-                self.start_failsafe(failsafe);
-            } else if !condition && active && !failsafe.latches() {
+            // Judged every tick, on or not, so its timers run in every mode.
+            let cause = self.failsafe_cause(failsafe);
+            if !self.failsafes.is_active(failsafe) {
+                let acts =
+                    failsafe.acts_in(self.mode) || self.failsafes.stopped.is_some_and(|s| failsafe.acts_in(s.from));
+                if cause && self.armed && acts {
+                    self.failsafes.active |= failsafe.bit();
+                    self.start_failsafe(failsafe);
+                }
+            } else if !cause && !(failsafe.latches() && self.armed) {
                 self.failsafes.active &= !failsafe.bit();
                 self.send_text(
                     MavSeverity::MAV_SEVERITY_INFO,
                     &format!("Failsafe cleared: {}", failsafe.name()),
                 );
+            } else if self.armed && self.mode.self_driving() && self.failsafe_blocks(failsafe, self.mode) {
+                // Driving by itself where the failsafe refuses it: only a
+                // forced arm gets here. The failsafe acts again.
+                self.start_failsafe(failsafe);
             }
         }
         self.failsafes.stall = None;
@@ -195,15 +272,12 @@ impl Core {
         self.failsafes.is_active(failsafe)
     }
 
-    fn failsafe_condition(&mut self, failsafe: Failsafe) -> bool {
+    /// Whether the failsafe's cause is present now, whatever the mode and
+    /// whether armed (a HOLD needs no position, but the GNSS is still lost).
+    fn failsafe_cause(&mut self, failsafe: Failsafe) -> bool {
         let fs = self.p.failsafe;
         let t = &self.params;
         let now = self.now.boot;
-        // Judged for the mode the vehicle was in when a failsafe stopped it,
-        // so a condition does not clear just because HOLD needs no position.
-        let interrupted = self.failsafes.interrupted;
-        let uses_position = self.mode.requires_position() || interrupted.is_some_and(Mode::requires_position);
-        let self_driving = self.mode.self_driving() || interrupted.is_some_and(Mode::self_driving);
         match failsafe {
             Failsafe::Gcs => {
                 let timeout = Duration::from_secs_f64(f64::from(fs.gcs_timeout_s.get(t)));
@@ -214,62 +288,80 @@ impl Core {
             }
             Failsafe::GnssLost => {
                 let timeout = Duration::from_secs_f64(f64::from(fs.gnss_lost_s.get(t)));
-                uses_position && !self.estimator.gnss().has_fix(now, timeout)
+                !self.estimator.gnss().has_fix(now, timeout)
             }
-            Failsafe::HeadingLost => {
-                let timeout = Duration::from_secs_f64(f64::from(fs.heading_lost_s.get(t)));
-                let Some(last) = self.estimator.heading_sensor_last() else {
-                    // Driving on the GNSS course: no sensor to lose.
-                    return false;
-                };
-                let silent = now.saturating_sub(last) > timeout;
-                let unchanged_since = self.estimator.heading_unchanged_since();
-                let driving = self.estimator.gnss().speed_mps >= DRIVING_MIN_SPEED_MPS;
-                if driving && unchanged_since.is_some_and(|since| now.saturating_sub(since) > timeout) {
-                    self.failsafes.heading_frozen_since = unchanged_since;
-                }
-                let frozen = self.failsafes.heading_frozen_since.is_some()
-                    && self.failsafes.heading_frozen_since == unchanged_since;
-                uses_position && (silent || frozen)
-            }
-            Failsafe::Ekf => fs.ekf_action.get(t) != 0 && uses_position && !self.estimator.healthy(),
-            Failsafe::Scanner => self_driving && self.stale_scanners().next().is_some(),
+            Failsafe::HeadingLost => self.heading_lost_cause(),
+            Failsafe::Ekf => fs.ekf_action.get(t) != 0 && !self.estimator.healthy(),
+            Failsafe::Scanner => self.stale_scanners().next().is_some(),
             Failsafe::BatteryLow => self.battery_below_for(self.failsafes.battery_low_since),
             Failsafe::BatteryCritical => self.battery_below_for(self.failsafes.battery_critical_since),
             Failsafe::CoreStall => self.failsafes.stall.is_some(),
-            Failsafe::Control => {
-                let limit_m = f64::from(fs.xtrack_max_m.get(t));
-                let status = self.navigator.status();
-                let off = limit_m > 0.0
-                    && self.mode.self_driving()
-                    && status.active
-                    && !self.obstacles.detouring()
-                    && status.crosstrack_m.abs() > limit_m;
-                self.failsafes.off_path_since = if off {
-                    self.failsafes.off_path_since.or(Some(now))
-                } else {
-                    None
-                };
-                self.failsafes
-                    .off_path_since
-                    .is_some_and(|s| now.saturating_sub(s) >= OFF_PATH_FOR)
-            }
-            Failsafe::Runaway => {
-                self.failsafes.hold_since = if self.mode == Mode::Hold {
-                    self.failsafes.hold_since.or(Some(now))
-                } else {
-                    None
-                };
-                // Only a speed the vehicle can trust: dead reckoning without
-                // GNSS keeps its last speed.
-                let measured = self.estimator.healthy() && self.estimator.gnss().has_fix(now, Duration::from_secs(1));
-                self.failsafes
-                    .hold_since
-                    .is_some_and(|s| now.saturating_sub(s) >= RUNAWAY_AFTER)
-                    && measured
-                    && self.estimator.estimate().speed_mps.abs() > RUNAWAY_SPEED_MPS
-            }
+            Failsafe::Control => self.off_path_cause(),
+            Failsafe::Runaway => self.runaway_cause(),
         }
+    }
+
+    /// The heading sensor silent, or reading exactly the same since it was
+    /// seen to while driving (a sensor at rest may repeat its value, so a
+    /// freeze is only caught under way, and lasts until the value moves).
+    fn heading_lost_cause(&mut self) -> bool {
+        let now = self.now.boot;
+        let timeout = Duration::from_secs_f64(f64::from(self.p.failsafe.heading_lost_s.get(&self.params)));
+        let Some(last) = self.estimator.heading_sensor_last() else {
+            // Driving on the GNSS course: no sensor to lose.
+            return false;
+        };
+        let silent = now.saturating_sub(last) > timeout;
+        let unchanged_since = self.estimator.heading_unchanged_since();
+        let driving = self.estimator.gnss().speed_mps >= DRIVING_MIN_SPEED_MPS;
+        if driving && unchanged_since.is_some_and(|since| now.saturating_sub(since) > timeout) {
+            self.failsafes.heading_frozen_since = unchanged_since;
+        }
+        let frozen =
+            self.failsafes.heading_frozen_since.is_some() && self.failsafes.heading_frozen_since == unchanged_since;
+        silent || frozen
+    }
+
+    /// Off the path by more than `FS_XTRACK_M` for `OFF_PATH_FOR`, while
+    /// driving a leg by itself (a detour leaves the leg on purpose).
+    fn off_path_cause(&mut self) -> bool {
+        let now = self.now.boot;
+        let limit_m = f64::from(self.p.failsafe.xtrack_max_m.get(&self.params));
+        let status = self.navigator.status();
+        let off = limit_m > 0.0
+            && self.armed
+            && self.mode.self_driving()
+            && status.active
+            && !self.obstacles.detouring()
+            && status.crosstrack_m.abs() > limit_m;
+        self.failsafes.off_path_since = if off {
+            self.failsafes.off_path_since.or(Some(now))
+        } else {
+            None
+        };
+        self.failsafes
+            .off_path_since
+            .is_some_and(|s| now.saturating_sub(s) >= OFF_PATH_FOR)
+    }
+
+    /// Still moving `RUNAWAY_AFTER` after being told to stop (HOLD, or
+    /// disarmed: a runaway's own disarm does not end it while it coasts).
+    fn runaway_cause(&mut self) -> bool {
+        let now = self.now.boot;
+        let told_to_stop = self.mode == Mode::Hold || !self.armed;
+        self.failsafes.stop_since = if told_to_stop {
+            self.failsafes.stop_since.or(Some(now))
+        } else {
+            None
+        };
+        // Only a speed the vehicle can trust: dead reckoning without GNSS
+        // keeps its last speed.
+        let measured = self.estimator.healthy() && self.estimator.gnss().has_fix(now, Duration::from_secs(1));
+        self.failsafes
+            .stop_since
+            .is_some_and(|s| now.saturating_sub(s) >= RUNAWAY_AFTER)
+            && measured
+            && self.estimator.estimate().speed_mps.abs() > RUNAWAY_SPEED_MPS
     }
 
     fn battery_below_for(&self, since: Option<Duration>) -> bool {
@@ -299,11 +391,12 @@ impl Core {
         };
     }
 
-    fn configured_action(&self, failsafe: Failsafe) -> FailsafeAction {
+    /// What the failsafe does when it starts in `mode`.
+    fn configured_action(&self, failsafe: Failsafe, mode: Mode) -> FailsafeAction {
         let fs = self.p.failsafe;
         let t = &self.params;
         match failsafe {
-            Failsafe::Gcs if fs.gcs_enable.get(t) == 2 && self.mode == Mode::Auto => FailsafeAction::Report,
+            Failsafe::Gcs if fs.gcs_enable.get(t) == 2 && mode == Mode::Auto => FailsafeAction::Report,
             Failsafe::Gcs => FailsafeAction::from_param(fs.action.get(t)),
             Failsafe::GnssLost => FailsafeAction::from_param(fs.gnss_action.get(t)),
             Failsafe::HeadingLost => FailsafeAction::from_param(fs.heading_action.get(t)),
@@ -318,16 +411,64 @@ impl Core {
         }
     }
 
-    fn start_failsafe(&mut self, failsafe: Failsafe) {
-        let mut action = self.configured_action(failsafe);
-        // RTL needs a position and home; without them the nearest safe thing
-        // is to stop where it is.
+    /// The action as it can be carried out: RTL needs a position and home;
+    /// without them the nearest safe thing is to stop where it is.
+    fn effective_action(&self, failsafe: Failsafe, mode: Mode) -> FailsafeAction {
+        let action = self.configured_action(failsafe, mode);
         let can_rtl = self.home.is_some()
             && self.estimator.estimate().position_valid
             && !matches!(failsafe, Failsafe::GnssLost | Failsafe::Ekf | Failsafe::HeadingLost);
         if action == FailsafeAction::Rtl && !can_rtl {
-            action = FailsafeAction::Hold;
+            FailsafeAction::Hold
+        } else {
+            action
         }
+    }
+
+    /// Whether being in `mode` is what the failsafe, on, would stop: it
+    /// acts there, by more than a report, and not by choosing `mode` itself.
+    fn failsafe_blocks(&self, failsafe: Failsafe, mode: Mode) -> bool {
+        if !failsafe.acts_in(mode) {
+            return false;
+        }
+        match self.effective_action(failsafe, mode) {
+            FailsafeAction::Report => false,
+            FailsafeAction::Rtl => mode != Mode::Rtl,
+            FailsafeAction::Hold => mode != Mode::Hold,
+            FailsafeAction::Disarm => true,
+        }
+    }
+
+    /// The failsafe that is on and refuses entering `mode`, if any (only
+    /// the modes that drive by themselves are refused: HOLD and MANUAL are
+    /// how the operator takes over).
+    pub(super) fn failsafe_refusing_mode(&self, mode: Mode) -> Option<Failsafe> {
+        if !mode.self_driving() {
+            return None;
+        }
+        self.active_failsafes().find(|&f| self.failsafe_blocks(f, mode))
+    }
+
+    /// The failsafes that are on and refuse arming in `mode`: where they
+    /// act, anywhere once they cut the power, and in HOLD (where the
+    /// vehicle waits to drive itself) when they refuse driving.
+    pub(super) fn failsafes_refusing_arming(&self, mode: Mode) -> impl Iterator<Item = Failsafe> + '_ {
+        self.active_failsafes().filter(move |&f| {
+            self.failsafe_blocks(f, mode)
+                || self.effective_action(f, mode) == FailsafeAction::Disarm
+                || (mode == Mode::Hold
+                    && [Mode::Auto, Mode::Guided, Mode::Rtl]
+                        .into_iter()
+                        .any(|m| self.failsafe_blocks(f, m)))
+        })
+    }
+
+    pub(super) fn active_failsafes(&self) -> impl Iterator<Item = Failsafe> + '_ {
+        Failsafe::ALL.into_iter().filter(|&f| self.failsafes.is_active(f))
+    }
+
+    fn start_failsafe(&mut self, failsafe: Failsafe) {
+        let action = self.effective_action(failsafe, self.mode);
         let what = match (failsafe, self.failsafes.stall) {
             (Failsafe::CoreStall, Some(gap)) => format!("core stalled {} ms", gap.as_millis()),
             _ => failsafe.name().to_string(),
@@ -336,6 +477,7 @@ impl Core {
             MavSeverity::MAV_SEVERITY_CRITICAL,
             &format!("Failsafe: {what}: {}", action.name()),
         );
+        let from = self.mode;
         match action {
             FailsafeAction::Report => {}
             FailsafeAction::Disarm => {
@@ -360,6 +502,9 @@ impl Core {
         if !failsafe.resumable() {
             // A stop nobody may undo automatically.
             self.failsafes.interrupted = None;
+        }
+        if self.armed && self.mode != from && self.failsafes.stopped.is_none() {
+            self.failsafes.stopped = Some(Stopped { from, into: self.mode });
         }
     }
 

@@ -3,6 +3,7 @@
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
 use super::Core;
+use super::failsafe::Failsafe;
 use crate::geo::{GeoPoint, wrap_pi};
 use crate::guidance::navigator::NavTarget;
 use crate::guidance::tracker::Direction;
@@ -16,6 +17,8 @@ pub(super) enum ModeRefusal {
     NoHome,
     NoMission,
     NoMagneticSensors,
+    /// A failsafe that is on would stop the mode (it says which).
+    Failsafe(Failsafe),
 }
 
 impl Core {
@@ -24,11 +27,13 @@ impl Core {
         let result = self.check_mode(mode);
         if let Err(why) = result {
             let reason = match why {
-                ModeRefusal::NotAvailable => "not available",
-                ModeRefusal::NeedsPosition => "requires position",
-                ModeRefusal::NoHome => "home not set",
-                ModeRefusal::NoMission => "no mission",
-                ModeRefusal::NoMagneticSensors => "no tape sensors",
+                ModeRefusal::NotAvailable => "not available".to_string(),
+                ModeRefusal::NeedsPosition => "requires position".to_string(),
+                ModeRefusal::NoHome => "home not set".to_string(),
+                ModeRefusal::NoMission => "no mission".to_string(),
+                ModeRefusal::NoMagneticSensors => "no tape sensors".to_string(),
+                // "Mode change to GUIDED failed: GNSS lost" fits one STATUSTEXT.
+                ModeRefusal::Failsafe(failsafe) => failsafe.name().to_string(),
             };
             self.send_text(
                 MavSeverity::MAV_SEVERITY_WARNING,
@@ -43,6 +48,9 @@ impl Core {
     fn check_mode(&self, mode: Mode) -> Result<(), ModeRefusal> {
         if !mode.is_available() {
             return Err(ModeRefusal::NotAvailable);
+        }
+        if let Some(failsafe) = self.failsafe_refusing_mode(mode) {
+            return Err(ModeRefusal::Failsafe(failsafe));
         }
         let estimate = self.estimator.estimate();
         if mode.requires_position() && !(estimate.position_valid && estimate.heading_valid) {

@@ -69,8 +69,9 @@ impl Core {
             || StreamMsg::from_message_id(id).is_some()
     }
 
-    /// The message REQUEST_MESSAGE asks for, if it can be built now.
-    pub(super) fn build_requested(&self, id: u32) -> Option<MavMessage> {
+    /// The message REQUEST_MESSAGE asks for, if it can be built now (also
+    /// what a bench samples every tick: what the vehicle would report).
+    pub fn build_requested(&self, id: u32) -> Option<MavMessage> {
         match id {
             HEARTBEAT_ID => Some(MavMessage::HEARTBEAT(identity::heartbeat(&VehicleStatus {
                 mode: self.mode,
@@ -180,14 +181,21 @@ impl Core {
         if !gps_ok {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS);
         }
-        if self.battery_arming_failure().is_some()
-            || self.failsafe_is_active(Failsafe::BatteryLow)
-            || self.failsafe_is_active(Failsafe::BatteryCritical)
-        {
+        if self.battery_arming_failure().is_some() {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY);
         }
         if !(estimate.position_valid && estimate.heading_valid) {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_AHRS);
+        }
+        // A failsafe's sensor stays unhealthy as long as the failsafe is on,
+        // even where the raw reading would pass.
+        for failsafe in self.active_failsafes() {
+            if let Some(sensor) = failsafe.health_sensor() {
+                health.remove(sensor);
+            }
+            if failsafe == Failsafe::Scanner {
+                health.remove(MavSysStatusSensor::MAV_SYS_STATUS_OBSTACLE_AVOIDANCE);
+            }
         }
         if !self.arming_failures().is_empty() {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_PREARM_CHECK);
@@ -489,6 +497,11 @@ impl Core {
                 | EkfStatusFlags::EKF_POS_HORIZ_ABS
                 | EkfStatusFlags::EKF_PRED_POS_HORIZ_REL
                 | EkfStatusFlags::EKF_PRED_POS_HORIZ_ABS;
+        }
+        // Dead reckoning may still call its position valid: a GNSS, heading
+        // or EKF failsafe that is on says otherwise, as long as it is on.
+        for failsafe in self.active_failsafes() {
+            flags.remove(failsafe.ekf_flags_withheld());
         }
         // As ArduPilot: the "variances" are the innovation test ratios'
         // square roots (1.0 = at the gate), which GCSs colour by.
