@@ -194,6 +194,9 @@ pub(super) struct FailsafeState {
     /// disarmed).
     off_path_since: Option<Duration>,
     stop_since: Option<Duration>,
+    /// Whether the vehicle has been within `FS_XTRACK_M` of the path since
+    /// it started driving this leg.
+    was_on_path: bool,
     /// Since when the battery has read below each threshold.
     battery_low_since: Option<Duration>,
     battery_critical_since: Option<Duration>,
@@ -323,17 +326,17 @@ impl Core {
     }
 
     /// Off the path by more than `FS_XTRACK_M` for `OFF_PATH_FOR`, while
-    /// driving a leg by itself (a detour leaves the leg on purpose).
+    /// driving a leg by itself (a detour leaves the leg on purpose), having
+    /// been on it: a vehicle resumed where this failsafe stopped it starts
+    /// off the path and is rejoining it, not leaving it.
     fn off_path_cause(&mut self) -> bool {
         let now = self.now.boot;
         let limit_m = f64::from(self.p.failsafe.xtrack_max_m.get(&self.params));
         let status = self.navigator.status();
-        let off = limit_m > 0.0
-            && self.armed
-            && self.mode.self_driving()
-            && status.active
-            && !self.obstacles.detouring()
-            && status.crosstrack_m.abs() > limit_m;
+        let on_a_leg = self.armed && self.mode.self_driving() && status.active && !self.obstacles.detouring();
+        let beyond = limit_m > 0.0 && status.crosstrack_m.abs() > limit_m;
+        self.failsafes.was_on_path = on_a_leg && (self.failsafes.was_on_path || !beyond);
+        let off = on_a_leg && beyond && self.failsafes.was_on_path;
         self.failsafes.off_path_since = if off {
             self.failsafes.off_path_since.or(Some(now))
         } else {
