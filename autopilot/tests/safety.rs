@@ -720,3 +720,24 @@ fn a_runaway_stays_on_while_it_coasts_after_its_disarm() {
     h.run_for(3.0);
     assert_eq!(count(&h, &cleared_text(kind)), 1);
 }
+
+#[test]
+fn a_report_only_failsafe_acts_once_its_action_is_set_while_it_lasts() {
+    let kind = Failsafe::HeadingLost;
+    let mut h = driving(112);
+    set(&mut h, "FS_HDG_ACT", 0.0);
+    set(&mut h, "SIM_HDG_ENABLE", 0.0);
+    assert!(h.run_until(2.0, |s| s.core().failsafe_is_active(kind)));
+    assert!(h.texts().contains(&"Failsafe: heading lost: report only".to_string()));
+    // Report only: it neither stops GUIDED nor refuses it.
+    assert_on_for(&mut h, kind, 2.0);
+    assert_eq!(h.sim.core().mode(), Mode::Guided);
+    assert_eq!(mode_ack(&mut h, 15), MavResult::MAV_RESULT_ACCEPTED);
+    set(&mut h, "FS_HDG_ACT", 2.0);
+    h.step();
+    assert_eq!(h.sim.core().mode(), Mode::Hold);
+    assert!(h.texts().contains(&"Failsafe: heading lost: HOLD".to_string()));
+    assert_on_for(&mut h, kind, 1.0);
+    set(&mut h, "SIM_HDG_ENABLE", 1.0);
+    assert_cleared_once(&mut h, kind, 1.0);
+}

@@ -243,6 +243,8 @@ impl Core {
         for failsafe in Failsafe::ALL {
             // Judged every tick, on or not, so its timers run in every mode.
             let cause = self.failsafe_cause(failsafe);
+            // A latching failsafe outlasts its cause while armed.
+            let lasts = cause || (failsafe.latches() && self.armed);
             if !self.failsafes.is_active(failsafe) {
                 let acts =
                     failsafe.acts_in(self.mode) || self.failsafes.stopped.is_some_and(|s| failsafe.acts_in(s.from));
@@ -250,15 +252,16 @@ impl Core {
                     self.failsafes.active |= failsafe.bit();
                     self.start_failsafe(failsafe);
                 }
-            } else if !cause && !(failsafe.latches() && self.armed) {
+            } else if !lasts {
                 self.failsafes.active &= !failsafe.bit();
                 self.send_text(
                     MavSeverity::MAV_SEVERITY_INFO,
                     &format!("Failsafe cleared: {}", failsafe.name()),
                 );
             } else if self.armed && self.mode.self_driving() && self.failsafe_blocks(failsafe, self.mode) {
-                // Driving by itself where the failsafe refuses it: only a
-                // forced arm gets here. The failsafe acts again.
+                // Driving by itself where the failsafe, on, refuses it (its
+                // action was report only until a parameter changed, or the
+                // fence chose the mode): it acts again.
                 self.start_failsafe(failsafe);
             }
         }
