@@ -105,10 +105,18 @@ impl GnssSim {
         let w = truth.yaw_rate_rad_s;
         let (vx, vy) = (truth.speed_mps - w * ay, w * ax);
         let speed_mps = vx.hypot(vy);
-        let course_deg = (speed_mps >= COURSE_MIN_SPEED_MPS).then(|| (truth.yaw_rad + vy.atan2(vx)).to_degrees());
+        // The truth's yaw is about the home frame's north; the receiver
+        // reports both angles from true north where it is (they differ by
+        // the meridians' convergence, degrees within a kilometre of a pole).
+        let course_deg = (speed_mps >= COURSE_MIN_SPEED_MPS).then(|| {
+            frame
+                .heading_to_true(&position, truth.yaw_rad + vy.atan2(vx))
+                .to_degrees()
+        });
+        let true_yaw_deg = frame.heading_to_true(&position, truth.yaw_rad).to_degrees();
         let heading_deg = cfg.heading_enabled.then(|| {
             cfg.heading_hold_deg
-                .unwrap_or(truth.yaw_rad.to_degrees() + cfg.heading_sigma_deg * heading_noise)
+                .unwrap_or(true_yaw_deg + cfg.heading_sigma_deg * heading_noise)
         });
 
         let t_us = i64::try_from(epoch_t.as_micros()).unwrap_or(i64::MAX);
