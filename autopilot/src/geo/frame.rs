@@ -31,7 +31,26 @@ impl FrameKind {
             _ => FrameKind::TangentPlane,
         }
     }
+
+    /// The kind a frame about `origin` can use: itself, except seed 000's
+    /// haversine frame within [`HAVERSINE_MAX_ABS_LAT_DEG`] of a pole, which
+    /// becomes the tangent plane. That frame measures east along each
+    /// point's own parallel: around a pole the parallels are small circles,
+    /// and a point passing behind the pole (Δλ through ±180°) jumps from
+    /// one side of the frame to the other.
+    pub fn usable_at(self, origin: &GeoPoint) -> FrameKind {
+        match self {
+            // A NaN latitude is no place for it either.
+            FrameKind::Haversine if origin.lat_deg.abs() <= HAVERSINE_MAX_ABS_LAT_DEG => FrameKind::Haversine,
+            FrameKind::Haversine => FrameKind::TangentPlane,
+            kind => kind,
+        }
+    }
 }
+
+/// Beyond this latitude (111 km from a pole) the haversine frame is not
+/// used (see [`FrameKind::usable_at`]).
+pub const HAVERSINE_MAX_ABS_LAT_DEG: f64 = 89.0;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Projection {
@@ -72,8 +91,10 @@ impl LocalFrame {
     /// the plant grid: `to_local` returns `map.apply(projected)`. A map that
     /// cannot be inverted (see [`PlaneTransform::is_valid`]) makes
     /// `to_geodetic` return NaN.
+    /// The haversine kind is replaced near a pole ([`FrameKind::usable_at`]);
+    /// [`LocalFrame::kind`] tells which kind was built.
     pub fn with_kind(kind: FrameKind, origin: GeoPoint, map: Option<PlaneTransform>) -> Self {
-        match kind {
+        match kind.usable_at(&origin) {
             FrameKind::TangentPlane => Self::build(origin, Projection::TangentPlane, map),
             FrameKind::Haversine => Self::build(origin, Projection::Haversine, map),
             FrameKind::GaussKruger(ellipsoid) => Self::gauss_kruger(ellipsoid, origin.lon_deg, origin, map),
@@ -304,6 +325,20 @@ mod tests {
         assert!((back.lat_deg - p.lat_deg).abs() < 1e-12 && (back.lon_deg - p.lon_deg).abs() < 1e-12);
         assert_eq!(mapped.map(), Some(map));
         assert_eq!(plain.map(), None);
+    }
+
+    #[test]
+    fn the_haversine_frame_gives_way_to_the_tangent_plane_near_a_pole() {
+        for lat in [-90.0, -89.5, 89.01, 90.0, f64::NAN] {
+            let frame = LocalFrame::with_kind(FrameKind::Haversine, GeoPoint::new(lat, 10.0, 0.0), None);
+            assert_eq!(frame.kind(), FrameKind::TangentPlane, "{lat}");
+        }
+        for lat in [-89.0, 0.0, 88.99] {
+            let frame = LocalFrame::with_kind(FrameKind::Haversine, GeoPoint::new(lat, 10.0, 0.0), None);
+            assert_eq!(frame.kind(), FrameKind::Haversine, "{lat}");
+        }
+        let gk = FrameKind::GaussKruger(Ellipsoid::Wgs84);
+        assert_eq!(gk.usable_at(&GeoPoint::new(90.0, 0.0, 0.0)), gk);
     }
 
     #[test]

@@ -66,7 +66,7 @@ pub mod plane;
 pub mod tangent;
 
 pub use ellipsoid::Ellipsoid;
-pub use frame::{FrameKind, LocalFrame};
+pub use frame::{FrameKind, HAVERSINE_MAX_ABS_LAT_DEG, LocalFrame};
 pub use gauss_kruger::{TransverseMercator, ZoneWidth, zone_meridian_deg};
 pub use params::{GeoParams, frame_from_params};
 pub use plane::PlaneTransform;
