@@ -89,11 +89,37 @@ fn telemetry_problems(h: &Harness) -> Vec<String> {
     );
     let (north_m, east_m) = h.sim.world().geodetic_to_local(&reported);
     let error_m = h.distance_to(north_m, east_m);
+    let mut problems = Vec::new();
     if error_m > 0.05 {
-        vec![format!("GLOBAL_POSITION_INT {error_m:.3} m from the truth")]
-    } else {
-        Vec::new()
+        problems.push(format!("GLOBAL_POSITION_INT {error_m:.3} m from the truth"));
     }
+    // hdg is the true heading where the vehicle is, in centidegrees.
+    let gap_deg = (f64::from(g.hdg) / 100.0 - true_heading_deg(h) + 180.0).rem_euclid(360.0) - 180.0;
+    if gap_deg.abs() > 0.1 {
+        problems.push(format!("GLOBAL_POSITION_INT.hdg {gap_deg:.3}° off the true heading"));
+    }
+    problems
+}
+
+/// The truth's heading from true north where it is, by central differences
+/// in latitude/longitude over ±1 mm on the WGS-84 radii (no ECEF: not the
+/// method under test).
+fn true_heading_deg(h: &Harness) -> f64 {
+    const STEP_M: f64 = 1e-3;
+    const A_M: f64 = 6_378_137.0;
+    const E2: f64 = 6.694_379_990_141_3e-3;
+    let t = h.sim.world().truth();
+    let (sin, cos) = t.yaw_rad.sin_cos();
+    let world = h.sim.world();
+    let ahead = world.local_to_geodetic(t.north_m + STEP_M * cos, t.east_m + STEP_M * sin);
+    let behind = world.local_to_geodetic(t.north_m - STEP_M * cos, t.east_m - STEP_M * sin);
+    let lat = ((ahead.lat_deg + behind.lat_deg) / 2.0).to_radians();
+    let w2 = 1.0 - E2 * lat.sin().powi(2);
+    let (meridian_m, normal_m) = (A_M * (1.0 - E2) / (w2 * w2.sqrt()), A_M / w2.sqrt());
+    let dlon_deg = (ahead.lon_deg - behind.lon_deg + 180.0).rem_euclid(360.0) - 180.0;
+    let north = meridian_m * (ahead.lat_deg - behind.lat_deg).to_radians();
+    let east = normal_m * lat.cos() * dlon_deg.to_radians();
+    east.atan2(north).to_degrees()
 }
 
 fn assert_goto(home: GeoPoint, heading_deg: f64, north_m: f64, east_m: f64, limit_s: f64) {
