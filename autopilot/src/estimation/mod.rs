@@ -496,6 +496,36 @@ mod tests {
     }
 
     #[test]
+    fn a_true_heading_at_the_pole_itself_is_used() {
+        // True north at 90° N is the limit along the reported meridian; at
+        // the origin it is the frame's north axis.
+        let mut est = Estimator::new();
+        for k in 0..5u64 {
+            est.update(
+                Duration::from_millis(100 * k),
+                &config(0.0),
+                &[
+                    heading(100 * k, 30.0, HeadingReference::True),
+                    fix(100 * k, 90.0, 0.0, FixQuality::RtkFixed),
+                ],
+                false,
+            );
+        }
+        let e = est.estimate();
+        assert!(e.heading_valid && e.position_valid, "{e:?}");
+        assert!(
+            (e.yaw_rad.to_degrees() - 30.0).abs() < 1e-6,
+            "{}",
+            e.yaw_rad.to_degrees()
+        );
+        assert!(
+            !est.take_events()
+                .iter()
+                .any(|e| matches!(e, EstimatorEvent::HeadingRejected { .. }))
+        );
+    }
+
+    #[test]
     fn the_haversine_frame_is_replaced_and_reported_near_a_pole() {
         let mut est = Estimator::new();
         let cfg = EstimatorConfig {
