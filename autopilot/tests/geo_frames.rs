@@ -589,3 +589,102 @@ proptest! {
         prop_assert!(lat_m.hypot(lon_m) < 1e-6, "geo → local → geo: {} m", lat_m.hypot(lon_m));
     }
 }
+
+/// The worst error per origin of polar.csv, printed for the README's table.
+fn report(what: &str, worst: &std::collections::BTreeMap<String, f64>, unit: &str) {
+    for (origin, err) in worst {
+        println!("{what} {origin}: {err:.1e} {unit}");
+    }
+}
+
+fn note_worst(worst: &mut std::collections::BTreeMap<String, f64>, origin: &str, err: f64) {
+    let entry = worst.entry(origin.to_owned()).or_insert(0.0);
+    *entry = entry.max(err);
+}
+
+/// polar.csv: 1 µm for positions (the fixture is rounded to 0.1 µm).
+const POLAR_POSITION_TOL_M: f64 = 1e-6;
+
+#[test]
+fn tangent_plane_holds_at_the_poles_the_antimeridian_and_0_0() {
+    let polar = Fixture::load("polar.csv");
+    let (mut forward, mut inverse) = (Default::default(), Default::default());
+    for row in polar.rows() {
+        let frame = LocalFrame::new(row.origin());
+        let err = frame.to_local(&row.point()).distance_to(&row.enu());
+        let label = format!(
+            "{} {} m {}°",
+            row.text("origin"),
+            row.num("dist_m"),
+            row.num("bearing_deg")
+        );
+        assert!(err < POLAR_POSITION_TOL_M, "to_local {label}: {err} m");
+        note_worst(&mut forward, row.text("origin"), err);
+        // The inverse lands on the fixture's point: measured as a distance
+        // in the point's own tangent plane (longitude means little there).
+        let back = frame.to_geodetic(&row.enu());
+        let err = LocalFrame::new(row.point())
+            .to_local(&back)
+            .distance_to(&Ned::default());
+        assert!(err < POLAR_POSITION_TOL_M, "to_geodetic {label}: {err} m");
+        note_worst(&mut inverse, row.text("origin"), err);
+    }
+    report("tangent plane to_local vs PROJ", &forward, "m");
+    report("tangent plane to_geodetic vs PROJ", &inverse, "m");
+}
+
+#[test]
+fn gauss_kruger_holds_at_the_poles_the_antimeridian_and_0_0() {
+    let polar = Fixture::load("polar.csv");
+    let mut worst = Default::default();
+    for row in polar.rows() {
+        let frame = LocalFrame::with_kind(FrameKind::GaussKruger(Ellipsoid::Wgs84), row.origin(), None);
+        let want = Ned::new(row.num("wgs84_north_m"), row.num("wgs84_east_m"));
+        let err = frame.to_local(&row.point()).distance_to(&want);
+        let label = format!(
+            "{} {} m {}°",
+            row.text("origin"),
+            row.num("dist_m"),
+            row.num("bearing_deg")
+        );
+        assert!(err < POLAR_POSITION_TOL_M, "{label}: {err} m");
+        let back = frame.to_local(&frame.to_geodetic(&want)).distance_to(&want);
+        assert!(back < POLAR_POSITION_TOL_M, "round trip {label}: {back} m");
+        note_worst(&mut worst, row.text("origin"), err);
+    }
+    report("Gauss-Krüger vs PROJ", &worst, "m");
+}
+
+/// Headings in polar.csv are GeographicLib azimuths turned into the frame
+/// by central differences along the geodesic: good to ~1e-8°.
+const POLAR_HEADING_TOL_DEG: f64 = 1e-6;
+
+#[test]
+fn headings_hold_at_the_poles_the_antimeridian_and_0_0() {
+    let polar = Fixture::load("polar.csv");
+    let mut worst = std::collections::BTreeMap::new();
+    for row in polar.rows() {
+        let azimuth = row.num("azimuth_deg").to_radians();
+        let label = format!(
+            "{} {} m {}°",
+            row.text("origin"),
+            row.num("dist_m"),
+            row.num("bearing_deg")
+        );
+        for (kind, column) in [
+            (FrameKind::TangentPlane, "local_heading_deg"),
+            (FrameKind::GaussKruger(Ellipsoid::Wgs84), "gk_heading_deg"),
+        ] {
+            let frame = LocalFrame::with_kind(kind, row.origin(), None);
+            let local = frame.heading_to_local(&row.point(), azimuth);
+            let err_deg = wrap_pi(local - row.num(column).to_radians()).to_degrees().abs();
+            assert!(err_deg < POLAR_HEADING_TOL_DEG, "{kind:?} {label}: {err_deg}°");
+            let back_deg = wrap_pi(frame.heading_to_true(&row.point(), local) - azimuth)
+                .to_degrees()
+                .abs();
+            assert!(back_deg < POLAR_HEADING_TOL_DEG, "{kind:?} back {label}: {back_deg}°");
+            note_worst(&mut worst, &format!("{column} {}", row.text("origin")), err_deg);
+        }
+    }
+    report("heading vs GeographicLib", &worst, "deg");
+}

@@ -111,6 +111,12 @@ pub enum EstimatorEvent {
     },
     Initialised,
     Healthy(bool),
+    /// The frame kind asked for cannot be used at the origin (the haversine
+    /// frame near a pole): the frame built is `used`.
+    FrameSubstituted {
+        requested: FrameKind,
+        used: FrameKind,
+    },
 }
 
 #[derive(Default)]
@@ -228,9 +234,10 @@ impl Estimator {
                 if fix.quality == FixQuality::NoFix || !p.is_valid() {
                     return;
                 }
-                let frame = *self
-                    .frame
-                    .get_or_insert_with(|| LocalFrame::with_kind(config.frame_kind, p, config.map));
+                let frame = match self.frame {
+                    Some(frame) => frame,
+                    None => self.build_frame(config, p),
+                };
                 let antenna = frame.to_local(&p);
                 let sigma = self.position_sigma(fix.t);
                 Self::advance(ekf, fix.t);
@@ -299,6 +306,20 @@ impl Estimator {
             }
             _ => {}
         }
+    }
+
+    /// The local frame about the first fix, saying so when its kind cannot
+    /// be the one asked for.
+    fn build_frame(&mut self, config: &EstimatorConfig, origin: GeoPoint) -> LocalFrame {
+        let frame = LocalFrame::with_kind(config.frame_kind, origin, config.map);
+        if frame.kind() != config.frame_kind {
+            self.events.push(EstimatorEvent::FrameSubstituted {
+                requested: config.frame_kind,
+                used: frame.kind(),
+            });
+        }
+        self.frame = Some(frame);
+        frame
     }
 
     /// The filter's tuning for the current fix: the slowly wandering part of
@@ -472,6 +493,68 @@ mod tests {
         assert!((e.position.east_m + 0.5).abs() < 1e-6, "{:?}", e.position);
         assert!(e.position.north_m.abs() < 1e-6);
         assert!(est.take_events().contains(&EstimatorEvent::Initialised));
+    }
+
+    #[test]
+    fn a_true_heading_at_the_pole_itself_is_used() {
+        // True north at 90° N is the limit along the reported meridian; at
+        // the origin it is the frame's north axis.
+        let mut est = Estimator::new();
+        for k in 0..5u64 {
+            est.update(
+                Duration::from_millis(100 * k),
+                &config(0.0),
+                &[
+                    heading(100 * k, 30.0, HeadingReference::True),
+                    fix(100 * k, 90.0, 0.0, FixQuality::RtkFixed),
+                ],
+                false,
+            );
+        }
+        let e = est.estimate();
+        assert!(e.heading_valid && e.position_valid, "{e:?}");
+        assert!(
+            (e.yaw_rad.to_degrees() - 30.0).abs() < 1e-6,
+            "{}",
+            e.yaw_rad.to_degrees()
+        );
+        assert!(
+            !est.take_events()
+                .iter()
+                .any(|e| matches!(e, EstimatorEvent::HeadingRejected { .. }))
+        );
+    }
+
+    #[test]
+    fn the_haversine_frame_is_replaced_and_reported_near_a_pole() {
+        let mut est = Estimator::new();
+        let cfg = EstimatorConfig {
+            frame_kind: FrameKind::Haversine,
+            ..config(0.0)
+        };
+        est.update(
+            Duration::ZERO,
+            &cfg,
+            &[fix(0, -89.999, 30.0, FixQuality::RtkFixed)],
+            false,
+        );
+        assert_eq!(est.frame().map(LocalFrame::kind), Some(FrameKind::TangentPlane));
+        assert!(est.take_events().contains(&EstimatorEvent::FrameSubstituted {
+            requested: FrameKind::Haversine,
+            used: FrameKind::TangentPlane
+        }));
+        // Once: later fixes keep the frame quietly.
+        est.update(
+            Duration::from_millis(100),
+            &cfg,
+            &[fix(100, -89.999, 30.0, FixQuality::RtkFixed)],
+            false,
+        );
+        assert!(
+            !est.take_events()
+                .iter()
+                .any(|e| matches!(e, EstimatorEvent::FrameSubstituted { .. }))
+        );
     }
 
     #[test]

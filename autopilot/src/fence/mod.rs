@@ -171,6 +171,41 @@ mod tests {
     }
 
     #[test]
+    fn a_fence_around_the_south_pole_holds_the_pole_in() {
+        use crate::geo::GeoPoint;
+        use mission::command::{cmd, frame};
+        // A square of vertices 222 m from the pole on four meridians, seen
+        // from an origin 111 m away: in latitude/longitude it is a line.
+        let vertex = |seq: u16, lon_deg: f64| MissionItem {
+            seq,
+            frame: frame::GLOBAL_INT,
+            command: cmd::NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+            current: false,
+            autocontinue: true,
+            params: [4.0, 0.0, 0.0, 0.0],
+            x: -899_980_000,
+            y: (lon_deg * 1e7) as i32,
+            z: 0.0,
+        };
+        let items: Vec<MissionItem> = [0.0, 90.0, 180.0, -90.0]
+            .iter()
+            .zip(0..)
+            .map(|(&lon, seq)| vertex(seq, lon))
+            .collect();
+        let local = LocalFrame::new(GeoPoint::new(-89.999, 30.0, 2800.0));
+        let fence = Fence::from_items(&items, &local);
+        let at = |lat: f64, lon: f64| local.to_local(&GeoPoint::new(lat, lon, 2800.0));
+        assert_eq!(fence.breach(&at(-90.0, 0.0)), None, "the pole");
+        assert_eq!(fence.breach(&at(-89.999, 135.0)), None, "across the pole");
+        assert_eq!(fence.breach(&at(-89.999, -170.0)), None, "across ±180°");
+        assert_eq!(
+            fence.breach(&at(-89.997, 45.0)),
+            Some(Breach::OutsideInclusion),
+            "333 m out"
+        );
+    }
+
+    #[test]
     fn polygon_containment() {
         //  (0,10)-----(10,10)
         //    |    . (5,5) in

@@ -1,6 +1,8 @@
 //! [`LocalFrame`]: a projection about an origin, optionally followed by a
 //! plant-grid transform.
 
+use map_3d::{Ellipsoid as Map3dEllipsoid, ecef2geodetic, geodetic2ecef};
+
 use super::ellipsoid::Ellipsoid;
 use super::gauss_kruger::TransverseMercator;
 use super::plane::PlaneTransform;
@@ -29,7 +31,26 @@ impl FrameKind {
             _ => FrameKind::TangentPlane,
         }
     }
+
+    /// The kind a frame about `origin` can use: itself, except seed 000's
+    /// haversine frame within [`HAVERSINE_MAX_ABS_LAT_DEG`] of a pole, which
+    /// becomes the tangent plane. That frame measures east along each
+    /// point's own parallel: around a pole the parallels are small circles,
+    /// and a point passing behind the pole (Δλ through ±180°) jumps from
+    /// one side of the frame to the other.
+    pub fn usable_at(self, origin: &GeoPoint) -> FrameKind {
+        match self {
+            // A NaN latitude is no place for it either.
+            FrameKind::Haversine if origin.lat_deg.abs() <= HAVERSINE_MAX_ABS_LAT_DEG => FrameKind::Haversine,
+            FrameKind::Haversine => FrameKind::TangentPlane,
+            kind => kind,
+        }
+    }
 }
+
+/// Beyond this latitude (111 km from a pole) the haversine frame is not
+/// used (see [`FrameKind::usable_at`]).
+pub const HAVERSINE_MAX_ABS_LAT_DEG: f64 = 89.0;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Projection {
@@ -70,8 +91,10 @@ impl LocalFrame {
     /// the plant grid: `to_local` returns `map.apply(projected)`. A map that
     /// cannot be inverted (see [`PlaneTransform::is_valid`]) makes
     /// `to_geodetic` return NaN.
+    /// The haversine kind is replaced near a pole ([`FrameKind::usable_at`]);
+    /// [`LocalFrame::kind`] tells which kind was built.
     pub fn with_kind(kind: FrameKind, origin: GeoPoint, map: Option<PlaneTransform>) -> Self {
-        match kind {
+        match kind.usable_at(&origin) {
             FrameKind::TangentPlane => Self::build(origin, Projection::TangentPlane, map),
             FrameKind::Haversine => Self::build(origin, Projection::Haversine, map),
             FrameKind::GaussKruger(ellipsoid) => Self::gauss_kruger(ellipsoid, origin.lon_deg, origin, map),
@@ -186,29 +209,72 @@ impl LocalFrame {
     }
 
     /// Local metres per true metre north and east at `at`: rows local
-    /// (north, east), columns true (north, east). Central differences cancel
-    /// the second-order terms; ±10 m keeps the ~1e-9 m rounding of the ECEF
-    /// path (coordinates of 6e6 m) to ~1e-10 in the result.
+    /// (north, east), columns true (north, east), the map's rotation and
+    /// scale included.
     fn jacobian(&self, at: &GeoPoint) -> [[f64; 2]; 2] {
+        let projected = match self.projection {
+            Projection::TangentPlane => tangent::true_axes(&self.origin, at),
+            _ => self.projection_jacobian(at),
+        };
+        match &self.map {
+            Some((forward, _)) => {
+                // The map's linear part, s·R(r), applied to each column.
+                let (sin, cos) = forward.rotation_rad.sin_cos();
+                let s = forward.scale;
+                let [[nn, ne], [en, ee]] = projected;
+                [
+                    [s * (nn * cos - en * sin), s * (ne * cos - ee * sin)],
+                    [s * (nn * sin + en * cos), s * (ne * sin + ee * cos)],
+                ]
+            }
+            None => projected,
+        }
+    }
+
+    /// The projection's Jacobian by central differences, stepping ±10 m
+    /// along true north and east in ECEF (so no step divides by cos φ and a
+    /// step across a pole stays 10 m long). Central differences cancel the
+    /// second-order terms, and the 8 µm each step rises above the ground
+    /// is the same either way. The steps start on the ellipsoid: these
+    /// projections are functions of latitude and longitude alone, and at a
+    /// height h a step's latitude/longitude direction would turn by
+    /// h·(1/M − 1/N)·sin 2α / 2 (1e-6° at 250 m).
+    fn projection_jacobian(&self, at: &GeoPoint) -> [[f64; 2]; 2] {
         const STEP_M: f64 = 10.0;
-        let lat_rad = at.lat_deg.to_radians();
-        // A true direction is one on the ground, at `at`'s height: the radii
-        // there differ from the ellipsoid's by h, and by h/M − h/N ≈ 3e-8
-        // between the axes at 40 m (which would turn headings by ~1e-8).
-        let (meridian_m, normal_m) = Ellipsoid::Wgs84.radii_of_curvature_m(lat_rad);
-        let dlat_deg = (STEP_M / (meridian_m + at.alt_m)).to_degrees();
-        let dlon_deg = (STEP_M / ((normal_m + at.alt_m) * lat_rad.cos())).to_degrees();
-        let column = |dlat: f64, dlon: f64| {
-            let plus = self.to_local(&GeoPoint::new(at.lat_deg + dlat, at.lon_deg + dlon, at.alt_m));
-            let minus = self.to_local(&GeoPoint::new(at.lat_deg - dlat, at.lon_deg - dlon, at.alt_m));
+        let (north_axis, east_axis) = tangent::north_east_ecef(at.lat_deg, at.lon_deg);
+        let (x, y, z) = geodetic2ecef(
+            at.lat_deg.to_radians(),
+            at.lon_deg.to_radians(),
+            0.0,
+            Map3dEllipsoid::WGS84,
+        );
+        let projected_at = |sign: f64, axis: [f64; 3]| {
+            let (lat, lon, alt) = ecef2geodetic(
+                x + sign * STEP_M * axis[0],
+                y + sign * STEP_M * axis[1],
+                z + sign * STEP_M * axis[2],
+                Map3dEllipsoid::WGS84,
+            );
+            let p = GeoPoint::new(lat.to_degrees(), lon.to_degrees(), alt);
+            match &self.projection {
+                Projection::TangentPlane => tangent::to_local(&self.origin, &p),
+                Projection::Haversine => haversine::to_local(&self.origin, &p),
+                Projection::GaussKruger { tm, .. } => {
+                    let (north_m, east_m) = tm.forward(p.lat_deg, p.lon_deg);
+                    Ned::new(north_m, east_m)
+                }
+            }
+        };
+        let column = |axis: [f64; 3]| {
+            let (plus, minus) = (projected_at(1.0, axis), projected_at(-1.0, axis));
             let scale = 1.0 / (2.0 * STEP_M);
             (
                 (plus.north_m - minus.north_m) * scale,
                 (plus.east_m - minus.east_m) * scale,
             )
         };
-        let (nn, en) = column(dlat_deg, 0.0);
-        let (ne, ee) = column(0.0, dlon_deg);
+        let (nn, en) = column(north_axis);
+        let (ne, ee) = column(east_axis);
         [[nn, ne], [en, ee]]
     }
 }
@@ -259,6 +325,20 @@ mod tests {
         assert!((back.lat_deg - p.lat_deg).abs() < 1e-12 && (back.lon_deg - p.lon_deg).abs() < 1e-12);
         assert_eq!(mapped.map(), Some(map));
         assert_eq!(plain.map(), None);
+    }
+
+    #[test]
+    fn the_haversine_frame_gives_way_to_the_tangent_plane_near_a_pole() {
+        for lat in [-90.0, -89.5, 89.01, 90.0, f64::NAN] {
+            let frame = LocalFrame::with_kind(FrameKind::Haversine, GeoPoint::new(lat, 10.0, 0.0), None);
+            assert_eq!(frame.kind(), FrameKind::TangentPlane, "{lat}");
+        }
+        for lat in [-89.0, 0.0, 88.99] {
+            let frame = LocalFrame::with_kind(FrameKind::Haversine, GeoPoint::new(lat, 10.0, 0.0), None);
+            assert_eq!(frame.kind(), FrameKind::Haversine, "{lat}");
+        }
+        let gk = FrameKind::GaussKruger(Ellipsoid::Wgs84);
+        assert_eq!(gk.usable_at(&GeoPoint::new(90.0, 0.0, 0.0)), gk);
     }
 
     #[test]

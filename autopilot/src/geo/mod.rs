@@ -56,6 +56,22 @@
 //! north axis in any of these frames (meridian convergence, ≈ east·tan φ/N:
 //! 0.005° at 1 km, 0.05° at 10 km east of the bench origin, against the
 //! ±0.1° bar of seed 000); [`LocalFrame::heading_to_local`] converts.
+//! For the tangent plane that conversion is exact and has no cos φ in it
+//! (true north and east at the point, in ECEF, projected onto the origin's
+//! plane), so it holds beside and at a pole, where true north is the limit
+//! along the given longitude's meridian; the other kinds take central
+//! differences along true north and east stepped in ECEF.
+//!
+//! # Any latitude
+//!
+//! `tests/data/geo/polar.csv` (PROJ, GeographicLib) has origins at both
+//! poles, 5 m, 111 m, 1 km and 1.1 km from them, on and beside ±180° and at
+//! 0°, 0°, with points out to 1 km (across the pole from the origins beside
+//! it). Worst errors over it: tangent plane 5.7e-8 m (`to_local`), 5.8e-8 m
+//! (`to_geodetic`), headings 1.2e-7°; Gauss–Krüger (WGS-84, central meridian
+//! at the origin) 5.4e-8 m, headings 1.6e-7° — the fixtures' own rounding.
+//! The haversine frame is not used within [`HAVERSINE_MAX_ABS_LAT_DEG`] of a
+//! pole ([`FrameKind::usable_at`]).
 
 pub mod ellipsoid;
 pub mod frame;
@@ -66,7 +82,7 @@ pub mod plane;
 pub mod tangent;
 
 pub use ellipsoid::Ellipsoid;
-pub use frame::{FrameKind, LocalFrame};
+pub use frame::{FrameKind, HAVERSINE_MAX_ABS_LAT_DEG, LocalFrame};
 pub use gauss_kruger::{TransverseMercator, ZoneWidth, zone_meridian_deg};
 pub use params::{GeoParams, frame_from_params};
 pub use plane::PlaneTransform;

@@ -130,6 +130,11 @@ impl Core {
                 EstimatorEvent::Healthy(false) => {
                     self.send_text(MavSeverity::MAV_SEVERITY_CRITICAL, "EKF: unhealthy, no position")
                 }
+                // The one substitution there is (STATUSTEXT holds 50 characters).
+                EstimatorEvent::FrameSubstituted { .. } => self.send_text(
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    "EKF: GEO_FRAME 1 unusable at a pole: tangent plane",
+                ),
             }
         }
     }

@@ -43,4 +43,24 @@ impl LocalFrame {
             Ellipsoid::WGS84,
         )
     }
+
+    /// The true heading (radians from true north at `at`, clockwise) of the
+    /// home-frame heading `local_heading_rad`: what a receiver at `at`
+    /// reports as its course or dual-antenna heading. The direction goes
+    /// through ECEF, so this holds at a pole, where true north is the limit
+    /// along the meridian of `at`'s longitude (at 90° N it points along the
+    /// meridian λ + 180°), as for a receiver computing its heading in the
+    /// local frame of the position it reports.
+    pub(crate) fn heading_to_true(self, at: &GeoPoint, local_heading_rad: f64) -> f64 {
+        let (sin, cos) = local_heading_rad.sin_cos();
+        let (x, y, z) = map_3d::enu2uvw(
+            sin,
+            cos,
+            0.0,
+            self.home.lat_deg.to_radians(),
+            self.home.lon_deg.to_radians(),
+        );
+        let (east, north, _up) = map_3d::uvw2enu(x, y, z, at.lat_deg.to_radians(), at.lon_deg.to_radians());
+        east.atan2(north)
+    }
 }

@@ -156,6 +156,54 @@ mod tests {
     }
 
     #[test]
+    fn poles_and_the_antimeridian_format_and_read_back() {
+        assert_eq!(coordinate(90.0, 2, ['N', 'S']), "9000.0000000,N");
+        assert_eq!(coordinate(-90.0, 2, ['N', 'S']), "9000.0000000,S");
+        assert_eq!(coordinate(180.0, 3, ['E', 'W']), "18000.0000000,E");
+        assert_eq!(coordinate(-180.0, 3, ['E', 'W']), "18000.0000000,W");
+        // Rounds into 180°, never to "17960.0000000".
+        assert_eq!(coordinate(-179.999_999_999_9, 3, ['E', 'W']), "18000.0000000,W");
+        assert_eq!(coordinate(179.999_999_99, 3, ['E', 'W']), "17959.9999994,E");
+        for (lat_deg, lon_deg) in [
+            (-90.0, 0.0),
+            (89.999_999_9, -180.0),
+            (-89.999, 179.999_999_9),
+            (0.0, 0.0),
+        ] {
+            let report = EpochReport {
+                utc_unix_us: 0,
+                quality: FixQuality::RtkFixed,
+                position: GeoPoint {
+                    lat_deg,
+                    lon_deg,
+                    alt_m: 2835.0,
+                },
+                satellites: 20,
+                hdop: 0.6,
+                speed_mps: 0.0,
+                course_deg: None,
+                sigma_horizontal_m: 0.01,
+                sigma_alt_m: 0.02,
+                heading_deg: Some(359.9996),
+            };
+            let mut bytes = Vec::new();
+            write_epoch("GN", &report, &mut bytes);
+            let mut samples = Vec::new();
+            crate::gnss::NmeaReader::new().push(std::time::Duration::ZERO, &bytes, &mut samples);
+            let fix = samples
+                .iter()
+                .find_map(|s| match s {
+                    crate::gnss::GnssSample::Fix(f) => Some(*f),
+                    _ => None,
+                })
+                .unwrap_or_else(|| panic!("{lat_deg} {lon_deg}: {samples:?}"));
+            // 1e-7 arc minute is 1.7e-9°.
+            assert!((fix.lat_deg - lat_deg).abs() < 2e-9, "{} vs {lat_deg}", fix.lat_deg);
+            assert!((fix.lon_deg - lon_deg).abs() < 2e-9, "{} vs {lon_deg}", fix.lon_deg);
+        }
+    }
+
+    #[test]
     fn angles_wrap_after_rounding() {
         assert_eq!(milli_degrees(359.9996), "0.000");
         assert_eq!(milli_degrees(-0.25), "359.750");
