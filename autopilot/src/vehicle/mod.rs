@@ -43,7 +43,7 @@ use crate::time::{Now, TaskTimer};
 
 pub use drive::DriveState;
 pub use failsafe::{Failsafe, FailsafeAction};
-pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, ScanInput, UndecodableItem};
+pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, PeerId, ScanInput, UndecodableItem};
 pub use obstacles::ObstacleStatus;
 pub use params::CoreParams;
 
@@ -333,9 +333,13 @@ impl Core {
             match *event {
                 LinkEvent::Opened { link, stream_slot } => {
                     self.links.insert(link, LinkStreams::new(stream_slot));
+                }
+                // Told per ground station, not per link: one that starts
+                // listening after boot must hear them too.
+                LinkEvent::PeerJoined { link, peer } => {
                     for (severity, text) in self.startup_notices.clone() {
                         for chunk in statustext(severity, &text, &mut self.statustext_id) {
-                            self.send(Destination::Link(link), MavMessage::STATUSTEXT(chunk));
+                            self.send(Destination::Peer { link, peer }, MavMessage::STATUSTEXT(chunk));
                         }
                     }
                 }
