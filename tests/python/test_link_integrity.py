@@ -2,9 +2,11 @@
 connects late (issue 15, points 4 and 7)."""
 
 import os
+import select
 import socket
 import threading
 import time
+import tty
 
 from pymavlink import mavutil
 
@@ -156,3 +158,38 @@ def test_a_gcs_on_a_udpin_endpoint_gets_the_notice_when_it_first_speaks(tmp_path
             assert recv(gcs, "HEARTBEAT", 5, lambda h: h.get_srcSystem() == 1) is not None
     finally:
         s.stop()
+
+
+def read_pty(fd, seconds):
+    """Everything the vehicle writes to the pty's master side in `seconds`."""
+    data = b""
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        ready, _, _ = select.select([fd], [], [], 0.05)
+        if ready:
+            data += os.read(fd, 65536)
+    return data
+
+
+def test_a_serial_gcs_that_first_speaks_after_boot_gets_the_notice(tmp_path):
+    # A radio link whose GCS attaches late: what the vehicle sent before
+    # is gone (drained here), then the GCS's first frame arrives.
+    master, slave = os.openpty()
+    tty.setraw(master)
+    s = Sitl(
+        tmp_path,
+        data_dir=corrupt_params(tmp_path),
+        extra_args=["--mavlink", f"serial:{os.ttyname(slave)}:57600"],
+    )
+    try:
+        before = read_pty(master, 2)
+        assert len(before) > 0, "no telemetry on the serial link"
+        mav = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
+        heartbeat = mav.heartbeat_encode(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        os.write(master, heartbeat.pack(mav))
+        texts = [m for m in mav.parse_buffer(read_pty(master, 3)) or [] if m.get_type() == "STATUSTEXT"]
+        assert any(is_params_notice(t) for t in texts), f"not told; texts: {[t.text for t in texts]}"
+    finally:
+        s.stop()
+        os.close(master)
+        os.close(slave)
