@@ -3,8 +3,8 @@
 //!
 //! | spec | meaning |
 //! |---|---|
-//! | `udp:HOST:PORT` / `udpout:HOST:PORT` | send to HOST:PORT, answer whoever talks to us |
-//! | `udpin:HOST:PORT` | listen on HOST:PORT, answer the last sender |
+//! | `udp:HOST:PORT` / `udpout:HOST:PORT` | send to HOST:PORT and to every address that sends a valid frame |
+//! | `udpin:HOST:PORT` | listen on HOST:PORT, answer every address that sends a valid frame |
 //! | `tcp:HOST:PORT` | connect to a server, reconnecting when it goes away |
 //! | `tcpin:HOST:PORT` | listen for clients (each client is a link) |
 //! | `serial:DEVICE:BAUD` | a serial port (telemetry radio) |

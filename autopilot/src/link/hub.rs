@@ -8,6 +8,12 @@
 //! signed where the link needs it) → each link's bounded queue (`try_send`:
 //! a full queue drops and counts, it never waits) → the link's writer.
 //!
+//! Who a link answers is the hub's too ([`super::peers`]): a UDP link
+//! sends to every address that sent it an admitted frame, never to one that
+//! merely sent a datagram. Each new ground station (a TCP client, a new UDP
+//! address, a serial port heard after a silence) is reported to the core,
+//! which tells it the start-up notices.
+//!
 //! SETUP_SIGNING is the hub's own: taken only from a secure link and only
 //! when addressed to us, never forwarded, never given to the core or the
 //! tlog. The key is kept in the data directory
@@ -19,7 +25,7 @@ use std::net::{SocketAddr, ToSocketAddrs};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, AtomicU16, Ordering};
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use mavlink::dialects::ardupilotmega::{MavMessage, MavResult};
 use mavlink::{MavHeader, Message};
@@ -30,12 +36,13 @@ use tokio::sync::{mpsc, oneshot};
 use super::encode::{encode_raw_command_ack, encode_v2};
 use super::endpoint::{Endpoint, LinkEndpoint};
 use super::frame::{FrameStats, ReceivedFrame};
+use super::peers::Peers;
 use super::router::Router;
-use super::sign_policy::{Admission, DropReason, LinkSecurity, admit};
+use super::sign_policy::{Admission, DropReason, LinkSecurity, admit, makes_peer};
 use super::signing::{KeyChange, SecretKey, SigningState, TimestampSaver, Verdict};
 use super::tlog::{self, TlogRecord};
 use crate::storage::signing_key::{self, KeyFileWriter, StoredSigning};
-use crate::vehicle::{COMPONENT_ID, Destination, Inbound, LinkEvent, LinkId, Outbound, UndecodableItem};
+use crate::vehicle::{COMPONENT_ID, Destination, Inbound, LinkEvent, LinkId, Outbound, PeerId, UndecodableItem};
 
 /// Messages queued per link before new ones are dropped.
 pub(super) const LINK_QUEUE: usize = 512;
@@ -44,8 +51,25 @@ const SETUP_SIGNING_ID: u32 = 256;
 /// How long dropping the runtime waits for the last timestamp save.
 const STOP_WAIT: Duration = Duration::from_secs(3);
 
-/// A finished frame for a link's writer.
-pub(super) type LinkFrame = Vec<u8>;
+/// A finished frame for a link's writer, and (for a UDP link) the
+/// addresses it goes to; a byte-stream link has one peer and ignores `to`.
+#[derive(Clone, Debug)]
+pub(super) struct LinkFrame {
+    pub bytes: Vec<u8>,
+    pub to: Arc<[SocketAddr]>,
+}
+
+/// How a link learns its ground stations (see [`super::peers`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum PeerPolicy {
+    /// A TCP client: its own link, a peer from the moment it connects.
+    Connection,
+    /// A serial port: a peer once a frame is heard, again after a silence.
+    FirstFrame,
+    /// UDP: every address that sends an admitted frame, and `fixed` (the
+    /// configured destination) always.
+    Addresses { fixed: Option<SocketAddr> },
+}
 
 /// What a link is for: its stream slot (`SRn_*`, `SIGN_REQUIRE` bit) and
 /// whether it is secure (SETUP_SIGNING and unsigned packets accepted).
@@ -114,7 +138,7 @@ impl LinkEncoder {
 /// Writes a link's queue to its byte stream until the stream fails.
 pub(super) async fn write_loop<W: AsyncWrite + Unpin>(mut write: W, mut rx: mpsc::Receiver<LinkFrame>) {
     while let Some(frame) = rx.recv().await {
-        if write.write_all(&frame).await.is_err() {
+        if write.write_all(&frame.bytes).await.is_err() {
             return;
         }
     }
@@ -136,15 +160,18 @@ pub(super) enum HubEvent {
     Opened {
         link: LinkId,
         role: LinkRole,
+        peers: PeerPolicy,
         name: String,
         tx: mpsc::Sender<LinkFrame>,
     },
     Closed {
         link: LinkId,
     },
+    /// A valid frame, and the address it came from on a UDP link.
     Frame {
         link: LinkId,
         frame: ReceivedFrame,
+        from: Option<SocketAddr>,
     },
     Stats {
         link: LinkId,
@@ -420,6 +447,8 @@ impl SigningDrops {
 struct LinkEntry {
     name: String,
     role: LinkRole,
+    policy: PeerPolicy,
+    peers: Peers,
     tx: mpsc::Sender<LinkFrame>,
     encoder: LinkEncoder,
     /// A correctly signed packet came in here: what we send is signed too,
@@ -434,6 +463,22 @@ struct LinkEntry {
 }
 
 impl LinkEntry {
+    /// Records an admitted frame from `from`; returns the peer if new.
+    fn hear(&mut self, from: Option<SocketAddr>, now: Duration, link: LinkId) -> Option<PeerId> {
+        let key = match self.policy {
+            PeerPolicy::Connection => return None,
+            PeerPolicy::FirstFrame => None,
+            PeerPolicy::Addresses { .. } => from,
+        };
+        let joined = self.peers.heard(key, now);
+        if joined.is_some()
+            && let Some(addr) = key
+        {
+            tracing::info!("link {} ({}): answering {addr}", link.0, self.name);
+        }
+        joined
+    }
+
     fn security(&self, sign_require_mask: u8) -> LinkSecurity {
         LinkSecurity {
             secure: self.role.secure,
@@ -460,6 +505,8 @@ struct Hub {
     key_writer: Option<KeyFileWriter>,
     timestamp_saver: TimestampSaver,
     sign_require: Arc<AtomicU8>,
+    /// The peers' clock (monotonic).
+    started: Instant,
 }
 
 impl Hub {
@@ -487,7 +534,12 @@ impl Hub {
             key_writer,
             timestamp_saver,
             sign_require,
+            started: Instant::now(),
         }
+    }
+
+    fn since_start(&self) -> Duration {
+        self.started.elapsed()
     }
 
     async fn run(
@@ -510,6 +562,7 @@ impl Hub {
                 _ = report.tick() => {
                     self.report();
                     self.save_timestamp_when_due();
+                    self.refresh_peers();
                 }
                 _ = &mut stop => break,
             }
@@ -521,14 +574,34 @@ impl Hub {
 
     async fn on_event(&mut self, event: HubEvent) {
         match event {
-            HubEvent::Opened { link, role, name, tx } => {
+            HubEvent::Opened {
+                link,
+                role,
+                peers: policy,
+                name,
+                tx,
+            } => {
                 let secure = if role.secure { ", secure" } else { "" };
                 tracing::info!("link {}: {name} (stream slot SR{}{secure})", link.0, role.slot);
+                let fixed = match policy {
+                    PeerPolicy::Addresses { fixed } => fixed,
+                    PeerPolicy::Connection | PeerPolicy::FirstFrame => None,
+                };
+                let mut peers = Peers::new(fixed);
+                // A TCP client is there as it connects; a configured UDP
+                // destination may be listening without ever speaking.
+                let joined = match policy {
+                    PeerPolicy::Connection => peers.heard(None, self.since_start()),
+                    PeerPolicy::Addresses { .. } => peers.fixed(),
+                    PeerPolicy::FirstFrame => None,
+                };
                 self.links.insert(
                     link,
                     LinkEntry {
                         name,
                         role,
+                        policy,
+                        peers,
                         tx,
                         encoder: LinkEncoder::new(self.sysid),
                         peer_signs: false,
@@ -547,6 +620,9 @@ impl Hub {
                         stream_slot: role.slot,
                     }))
                     .await;
+                if let Some(peer) = joined {
+                    self.peer_joined(link, peer).await;
+                }
             }
             HubEvent::Closed { link } => {
                 self.links.remove(&link);
@@ -558,29 +634,47 @@ impl Hub {
                     entry.rx_stats = stats;
                 }
             }
-            HubEvent::Frame { link, frame } => self.on_frame(link, frame),
+            HubEvent::Frame { link, frame, from } => {
+                if let Some(peer) = self.on_frame(link, frame, from) {
+                    self.peer_joined(link, peer).await;
+                }
+            }
         }
     }
 
-    fn on_frame(&mut self, link: LinkId, frame: ReceivedFrame) {
+    /// Like link events, a new peer must not be lost: wait for room.
+    async fn peer_joined(&self, link: LinkId, peer: PeerId) {
+        let _ = self
+            .to_core
+            .send(ToCore::Event(LinkEvent::PeerJoined { link, peer }))
+            .await;
+    }
+
+    /// Handles one frame; returns the peer that sent it when that peer is
+    /// new on its link.
+    fn on_frame(&mut self, link: LinkId, frame: ReceivedFrame, from: Option<SocketAddr>) -> Option<PeerId> {
         let now = wall_clock();
         if frame.message_id() == SETUP_SIGNING_ID {
             self.on_setup_signing(link, &frame, now);
-            return;
+            return None;
         }
-        let Some(entry) = self.links.get_mut(&link) else {
-            return;
-        };
+        let since_start = self.since_start();
+        let entry = self.links.get_mut(&link)?;
         let verdict = self.signing.verify(&frame.raw, now);
         let security = entry.security(self.sign_require.load(Ordering::Relaxed));
         let admission = admit(verdict, security, frame.message_id(), frame.header.component_id);
         if let Admission::Drop(reason) = admission {
             entry.signing_drops.count(reason);
-            return;
+            return None;
         }
         if verdict == Verdict::Signed {
             entry.peer_signs = true;
         }
+        let joined = if makes_peer(verdict, security) {
+            entry.hear(from, since_start, link)
+        } else {
+            None
+        };
         if let Some(tlog) = &self.tlog {
             let _ = tlog.try_send(TlogRecord::now(frame.bytes().to_vec()));
         }
@@ -603,7 +697,7 @@ impl Hub {
             }
         }
         if !decision.deliver_locally || admission == Admission::RouteOnly {
-            return;
+            return joined;
         }
         match frame.message {
             Ok(message) => {
@@ -642,6 +736,7 @@ impl Hub {
                 }
             }
         }
+        joined
     }
 
     /// SETUP_SIGNING: acted on only from a secure link and only when
@@ -716,6 +811,7 @@ impl Hub {
         let message = Arc::new(out.message);
         match out.dest {
             Destination::Link(link) => self.queue(link, OutItem::Message(message)),
+            Destination::Peer { link, peer } => self.queue_for(link, Some(peer), OutItem::Message(message)),
             Destination::AllLinks => {
                 let links: Vec<LinkId> = self.links.keys().copied().collect();
                 for link in links {
@@ -727,8 +823,19 @@ impl Hub {
 
     /// Encodes for one link (its sequence, its signature) and queues.
     fn queue(&mut self, link: LinkId, item: OutItem) {
+        self.queue_for(link, None, item);
+    }
+
+    /// Queues for one peer of a link (`None`: all its peers). A peer that
+    /// is gone gets nothing, and nothing goes elsewhere in its place.
+    fn queue_for(&mut self, link: LinkId, peer: Option<PeerId>, item: OutItem) {
         let Some(entry) = self.links.get_mut(&link) else {
             return;
+        };
+        let to = match peer.map(|id| entry.peers.address(id)) {
+            None | Some(Some(None)) => entry.peers.targets().clone(),
+            Some(Some(Some(addr))) => Arc::from([addr]),
+            Some(None) => return,
         };
         let mut bytes = entry.encoder.encode(&item);
         let ours = !matches!(item, OutItem::Frame(_));
@@ -739,11 +846,19 @@ impl Hub {
         {
             bytes = signed;
         }
-        if entry.tx.try_send(bytes).is_err() {
+        if entry.tx.try_send(LinkFrame { bytes, to }).is_err() {
             if entry.dropped_out == 0 {
                 tracing::warn!("link {} ({}): not keeping up, dropping messages", link.0, entry.name);
             }
             entry.dropped_out += 1;
+        }
+    }
+
+    /// Lets peers that went quiet age out of the links' destinations.
+    fn refresh_peers(&mut self) {
+        let now = self.since_start();
+        for entry in self.links.values_mut() {
+            entry.peers.refresh(now);
         }
     }
 
@@ -804,4 +919,259 @@ fn command_targets(frame: &ReceivedFrame) -> Option<(u16, u8, u8)> {
     let n = raw.len().min(payload.len());
     payload[..n].copy_from_slice(&raw[..n]);
     Some((u16::from_le_bytes([payload[28], payload[29]]), payload[30], payload[31]))
+}
+
+#[cfg(test)]
+mod tests {
+    //! The runtime in-process, on loopback sockets bound to port 0: no core
+    //! runs, so only what a test sends as the core goes out.
+
+    use std::net::UdpSocket as StdUdpSocket;
+
+    use mavlink::dialects::ardupilotmega::{HEARTBEAT_DATA, MavSeverity, MavType, RADIO_STATUS_DATA, STATUSTEXT_DATA};
+
+    use super::super::frame::frame_datagram;
+    use super::*;
+
+    const WAIT: Duration = Duration::from_secs(3);
+    /// How long a socket that must receive nothing is watched.
+    const QUIET: Duration = Duration::from_millis(500);
+
+    fn gcs_socket() -> StdUdpSocket {
+        let socket = StdUdpSocket::bind("127.0.0.1:0").expect("bind");
+        socket
+            .set_read_timeout(Some(Duration::from_millis(50)))
+            .expect("timeout");
+        socket
+    }
+
+    fn start_hub(
+        fixed: &StdUdpSocket,
+        sign_require_mask: u8,
+        signing_dir: Option<PathBuf>,
+    ) -> (LinkRuntime, CoreChannels) {
+        start(LinkConfig {
+            sysid: 1,
+            udp_out: Some(fixed.local_addr().expect("addr").to_string()),
+            sign_require_mask,
+            signing_dir,
+            ..LinkConfig::default()
+        })
+        .expect("links start")
+    }
+
+    fn frame_of(message: &MavMessage, sequence: u8) -> Vec<u8> {
+        let header = MavHeader {
+            system_id: 255,
+            component_id: 190,
+            sequence,
+        };
+        encode_v2(header, message)
+    }
+
+    fn gcs_heartbeat() -> Vec<u8> {
+        frame_of(
+            &MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                mavtype: MavType::MAV_TYPE_GCS,
+                ..HEARTBEAT_DATA::DEFAULT
+            }),
+            0,
+        )
+    }
+
+    fn text(words: &str) -> MavMessage {
+        let mut data = STATUSTEXT_DATA {
+            severity: MavSeverity::MAV_SEVERITY_WARNING,
+            ..STATUSTEXT_DATA::DEFAULT
+        };
+        data.text[..words.len()].copy_from_slice(words.as_bytes());
+        MavMessage::STATUSTEXT(data)
+    }
+
+    /// The next link event the core would get, skipping messages.
+    fn next_event(channels: &mut CoreChannels, wait: Duration) -> Option<LinkEvent> {
+        let deadline = Instant::now() + wait;
+        while Instant::now() < deadline {
+            match channels.inbound.try_recv() {
+                Ok(ToCore::Event(event)) => return Some(event),
+                Ok(_) => {}
+                Err(_) => std::thread::sleep(Duration::from_millis(5)),
+            }
+        }
+        None
+    }
+
+    fn joined(channels: &mut CoreChannels) -> (LinkId, PeerId) {
+        loop {
+            match next_event(channels, WAIT) {
+                Some(LinkEvent::PeerJoined { link, peer }) => return (link, peer),
+                Some(_) => {}
+                None => panic!("no peer joined"),
+            }
+        }
+    }
+
+    fn from_core(channels: &CoreChannels, dest: Destination, message: MavMessage) {
+        channels
+            .outbound
+            .blocking_send(Outbound { dest, message })
+            .expect("hub running");
+    }
+
+    /// Whether `socket` receives a STATUSTEXT saying `words` within `wait`.
+    fn hears(socket: &StdUdpSocket, words: &str, wait: Duration) -> bool {
+        let deadline = Instant::now() + wait;
+        let mut buf = [0u8; 2048];
+        while Instant::now() < deadline {
+            let Ok(n) = socket.recv(&mut buf) else { continue };
+            let mut said = false;
+            frame_datagram(&buf[..n], &mut FrameStats::default(), |f| {
+                if let Ok(MavMessage::STATUSTEXT(t)) = &f.message {
+                    said |= t.text.starts_with(words.as_bytes());
+                }
+            });
+            if said {
+                return true;
+            }
+        }
+        false
+    }
+
+    #[test]
+    fn every_udp_peer_gets_what_the_core_sends_to_all() {
+        let fixed = gcs_socket();
+        let (runtime, mut channels) = start_hub(&fixed, 0, None);
+        let udp = runtime.bound.udp_local.expect("udp bound");
+        let (link, _) = joined(&mut channels);
+        let (a, b) = (gcs_socket(), gcs_socket());
+        a.send_to(&gcs_heartbeat(), udp).expect("send");
+        joined(&mut channels);
+        b.send_to(&gcs_heartbeat(), udp).expect("send");
+        joined(&mut channels);
+        from_core(&channels, Destination::AllLinks, text("to all"));
+        from_core(&channels, Destination::Link(link), text("to the link"));
+        for socket in [&fixed, &a, &b] {
+            assert!(hears(socket, "to all", WAIT));
+            assert!(hears(socket, "to the link", WAIT));
+        }
+    }
+
+    #[test]
+    fn a_strangers_datagrams_never_divert_the_telemetry() {
+        let fixed = gcs_socket();
+        let (runtime, mut channels) = start_hub(&fixed, 0, None);
+        let udp = runtime.bound.udp_local.expect("udp bound");
+        joined(&mut channels);
+        let gcs = gcs_socket();
+        gcs.send_to(&gcs_heartbeat(), udp).expect("send");
+        joined(&mut channels);
+        let stranger = gcs_socket();
+        let mut bad_crc = gcs_heartbeat();
+        let last = bad_crc.len() - 1;
+        bad_crc[last] ^= 0x55;
+        let truncated = gcs_heartbeat()[..8].to_vec();
+        let garbage: Vec<u8> = (0..200u32)
+            .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
+            .collect();
+        for datagram in [
+            vec![],
+            vec![0x00],
+            vec![0xFD],
+            vec![0xFE, 0x09],
+            truncated,
+            bad_crc,
+            garbage,
+        ] {
+            stranger.send_to(&datagram, udp).expect("send");
+        }
+        from_core(&channels, Destination::AllLinks, text("telemetry"));
+        assert!(
+            hears(&fixed, "telemetry", WAIT),
+            "the configured GCS lost its telemetry"
+        );
+        assert!(hears(&gcs, "telemetry", WAIT), "the GCS that spoke lost its telemetry");
+        assert!(!hears(&stranger, "telemetry", QUIET), "a stranger drew the telemetry");
+        assert_eq!(next_event(&mut channels, QUIET), None, "a stranger became a peer");
+    }
+
+    #[test]
+    fn a_new_peer_is_reported_once_and_a_message_for_it_goes_to_it_alone() {
+        let fixed = gcs_socket();
+        let (runtime, mut channels) = start_hub(&fixed, 0, None);
+        let udp = runtime.bound.udp_local.expect("udp bound");
+        let (link, fixed_peer) = joined(&mut channels);
+        let (a, b) = (gcs_socket(), gcs_socket());
+        a.send_to(&gcs_heartbeat(), udp).expect("send");
+        let (_, peer_a) = joined(&mut channels);
+        b.send_to(&gcs_heartbeat(), udp).expect("send");
+        let (_, peer_b) = joined(&mut channels);
+        a.send_to(&gcs_heartbeat(), udp).expect("send");
+        assert_eq!(next_event(&mut channels, QUIET), None, "a peer heard again is not new");
+        assert!(fixed_peer != peer_a && peer_a != peer_b);
+
+        from_core(
+            &channels,
+            Destination::Peer { link, peer: peer_a },
+            text("notice for a"),
+        );
+        assert!(hears(&a, "notice for a", WAIT));
+        assert!(!hears(&b, "notice for a", QUIET));
+        assert!(!hears(&fixed, "notice for a", QUIET));
+        from_core(
+            &channels,
+            Destination::Peer { link, peer: fixed_peer },
+            text("notice at boot"),
+        );
+        assert!(hears(&fixed, "notice at boot", WAIT));
+        assert!(!hears(&a, "notice at boot", QUIET));
+    }
+
+    /// A signing key in a fresh directory, as SETUP_SIGNING would leave it.
+    struct KeyDir(PathBuf);
+
+    impl KeyDir {
+        fn new(key: [u8; 32]) -> KeyDir {
+            let dir = std::env::temp_dir().join(format!("furrow-hub-test-{}", std::process::id()));
+            std::fs::create_dir_all(&dir).expect("temp dir");
+            let stored = StoredSigning {
+                key: SecretKey::new(key),
+                timestamp: 0,
+            };
+            signing_key::save(&dir, &stored).expect("key saved");
+            KeyDir(dir)
+        }
+    }
+
+    impl Drop for KeyDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    #[test]
+    fn where_signing_is_required_only_a_signed_frame_makes_a_peer() {
+        const KEY: [u8; 32] = [7; 32];
+        let dir = KeyDir::new(KEY);
+        let fixed = gcs_socket();
+        // SIGN_REQUIRE bit 1: the UDP link's stream slot.
+        let (runtime, mut channels) = start_hub(&fixed, 0b10, Some(dir.0.clone()));
+        let udp = runtime.bound.udp_local.expect("udp bound");
+        joined(&mut channels);
+        let stranger = gcs_socket();
+        let radio_status = frame_of(&MavMessage::RADIO_STATUS(RADIO_STATUS_DATA::DEFAULT), 1);
+        stranger.send_to(&gcs_heartbeat(), udp).expect("send");
+        stranger.send_to(&radio_status, udp).expect("send");
+        assert_eq!(next_event(&mut channels, QUIET), None, "unsigned frames made a peer");
+        from_core(&channels, Destination::AllLinks, text("signed telemetry"));
+        assert!(!hears(&stranger, "signed telemetry", QUIET));
+
+        let mut signer = SigningState::start(Some(SecretKey::new(KEY)), 0, wall_clock());
+        let signed = signer.sign(&gcs_heartbeat(), 0, wall_clock()).expect("signed");
+        let gcs = gcs_socket();
+        gcs.send_to(&signed, udp).expect("send");
+        joined(&mut channels);
+        from_core(&channels, Destination::AllLinks, text("for the signer"));
+        assert!(hears(&gcs, "for the signer", WAIT));
+        assert!(!hears(&stranger, "for the signer", QUIET));
+    }
 }

@@ -7,6 +7,7 @@
 //! - [`endpoint`]: the `--mavlink` endpoint syntax.
 //! - [`signing`]: MAVLink 2 signing: key, timestamps, verify and sign (no I/O).
 //! - [`sign_policy`]: which frames a link acts on once a key is set (no I/O).
+//! - [`peers`]: which ground stations a link answers (no I/O).
 //! - [`hub`]: the tokio runtime: one task per link, a hub that routes frames
 //!   and fans the core's messages out, and the tlog recorder. A slow or dead
 //!   link only ever fills its own bounded queue; the core never waits.
@@ -15,6 +16,7 @@ pub mod encode;
 pub mod endpoint;
 pub mod frame;
 pub mod hub;
+pub mod peers;
 pub mod router;
 mod serial;
 pub mod sign_policy;

@@ -7,7 +7,7 @@ use std::time::Duration;
 use tokio::sync::mpsc;
 
 use super::frame::StreamFramer;
-use super::hub::{HubEvent, LinkFrame, LinkIds, LinkRole};
+use super::hub::{HubEvent, LinkFrame, LinkIds, LinkRole, PeerPolicy};
 
 /// Opens the port, retrying every second until it exists (a USB radio
 /// plugged in later), and serves it; reopens after an unplug.
@@ -48,6 +48,7 @@ fn serve(
         .blocking_send(HubEvent::Opened {
             link,
             role,
+            peers: PeerPolicy::FirstFrame,
             name: format!("serial {device}"),
             tx,
         })
@@ -61,7 +62,7 @@ fn serve(
     };
     let writer = std::thread::spawn(move || {
         while let Some(frame) = rx.blocking_recv() {
-            if writer_port.write_all(&frame).is_err() {
+            if writer_port.write_all(&frame.bytes).is_err() {
                 return;
             }
         }
@@ -75,7 +76,14 @@ fn serve(
                 let mut frames = Vec::new();
                 framer.push(&buf[..n], |f| frames.push(f));
                 for frame in frames {
-                    if hub.blocking_send(HubEvent::Frame { link, frame }).is_err() {
+                    if hub
+                        .blocking_send(HubEvent::Frame {
+                            link,
+                            frame,
+                            from: None,
+                        })
+                        .is_err()
+                    {
                         return;
                     }
                 }

@@ -63,6 +63,18 @@ pub fn admit(verdict: Verdict, link: LinkSecurity, message_id: u32, component_id
     }
 }
 
+/// Whether an admitted frame makes its sender a peer the link answers (see
+/// [`super::peers`]): where signed frames are required only a correctly
+/// signed one does, so an unsigned RADIO_STATUS or radio HEARTBEAT, which
+/// anyone can forge, never draws the telemetry to a stranger.
+pub fn makes_peer(verdict: Verdict, link: LinkSecurity) -> bool {
+    match verdict {
+        Verdict::Signed | Verdict::SigningOff => true,
+        Verdict::Unsigned => link.secure || !link.require_signed,
+        Verdict::BadSignature | Verdict::Replayed | Verdict::OutOfWindow => link.secure,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -135,6 +147,17 @@ mod tests {
         ] {
             assert_eq!(admit(verdict, SECURE, COMMAND_LONG, GCS), Admission::Accept);
         }
+    }
+
+    #[test]
+    fn only_a_signed_frame_makes_a_peer_where_signing_is_required() {
+        assert!(makes_peer(Verdict::Signed, REQUIRING));
+        assert!(!makes_peer(Verdict::Unsigned, REQUIRING));
+        assert!(!makes_peer(Verdict::BadSignature, REQUIRING));
+        assert!(!makes_peer(Verdict::Replayed, OPEN));
+        assert!(makes_peer(Verdict::Unsigned, OPEN));
+        assert!(makes_peer(Verdict::SigningOff, REQUIRING));
+        assert!(makes_peer(Verdict::Unsigned, SECURE));
     }
 
     #[test]

@@ -8,7 +8,7 @@ use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::mpsc;
 
 use super::frame::StreamFramer;
-use super::hub::{HubEvent, LinkIds, LinkRole, write_loop};
+use super::hub::{HubEvent, LinkIds, LinkRole, PeerPolicy, write_loop};
 
 /// Accepts clients until the runtime stops.
 pub(super) async fn serve(listener: TcpListener, role: LinkRole, ids: LinkIds, hub: mpsc::Sender<HubEvent>) {
@@ -82,6 +82,7 @@ pub(super) async fn run_link<R, W>(
         .send(HubEvent::Opened {
             link,
             role,
+            peers: PeerPolicy::Connection,
             name: name.clone(),
             tx,
         })
@@ -101,7 +102,7 @@ pub(super) async fn run_link<R, W>(
                     let mut frames = Vec::new();
                     framer.push(&buf[..n], |f| frames.push(f));
                     for frame in frames {
-                        if hub.send(HubEvent::Frame { link, frame }).await.is_err() {
+                        if hub.send(HubEvent::Frame { link, frame, from: None }).await.is_err() {
                             return;
                         }
                     }

@@ -11,12 +11,32 @@ use mavlink::{MavHeader, MavlinkVersion};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct LinkId(pub u16);
 
-/// A link came or went. `stream_slot` picks the `SRn_*` defaults it starts
-/// with (TCP server 0, UDP 1, extra endpoints 2, 3).
+/// One ground station on a link, numbered by the link layer. A UDP link can
+/// serve several (one per address that sent a valid frame); a TCP client or
+/// a serial port is one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct PeerId(pub u32);
+
+/// A link came or went, or a ground station appeared on one. `stream_slot`
+/// picks the `SRn_*` defaults a link starts with (TCP server 0, UDP 1,
+/// extra endpoints 2, 3).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum LinkEvent {
-    Opened { link: LinkId, stream_slot: u8 },
-    Closed { link: LinkId },
+    Opened {
+        link: LinkId,
+        stream_slot: u8,
+    },
+    Closed {
+        link: LinkId,
+    },
+    /// A ground station is there to be told what it missed: a new TCP
+    /// client, the first valid frame from a new UDP address (or one silent
+    /// for a while), a serial port heard from after opening or a silence,
+    /// and a UDP link's configured destination when the link opens.
+    PeerJoined {
+        link: LinkId,
+        peer: PeerId,
+    },
 }
 
 /// A decoded message addressed to this vehicle (or broadcast).
@@ -49,6 +69,8 @@ pub enum Destination {
     AllLinks,
     /// One link: a reply to a request, or that link's telemetry stream.
     Link(LinkId),
+    /// One ground station of a link (the notices it missed).
+    Peer { link: LinkId, peer: PeerId },
 }
 
 #[derive(Clone, Debug)]

@@ -43,7 +43,7 @@ use crate::time::{Now, TaskTimer};
 
 pub use drive::DriveState;
 pub use failsafe::{Failsafe, FailsafeAction};
-pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, ScanInput, UndecodableItem};
+pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, PeerId, ScanInput, UndecodableItem};
 pub use obstacles::ObstacleStatus;
 pub use params::CoreParams;
 
@@ -333,9 +333,13 @@ impl Core {
             match *event {
                 LinkEvent::Opened { link, stream_slot } => {
                     self.links.insert(link, LinkStreams::new(stream_slot));
+                }
+                // Told per ground station, not per link: one that starts
+                // listening after boot must hear them too.
+                LinkEvent::PeerJoined { link, peer } => {
                     for (severity, text) in self.startup_notices.clone() {
                         for chunk in statustext(severity, &text, &mut self.statustext_id) {
-                            self.send(Destination::Link(link), MavMessage::STATUSTEXT(chunk));
+                            self.send(Destination::Peer { link, peer }, MavMessage::STATUSTEXT(chunk));
                         }
                     }
                 }
@@ -428,6 +432,49 @@ impl Core {
     fn send_text(&mut self, severity: MavSeverity, text: &str) {
         for chunk in statustext(severity, text, &mut self.statustext_id) {
             self.send(Destination::AllLinks, MavMessage::STATUSTEXT(chunk));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use mavlink::dialects::ardupilotmega::{MavMessage, MavSeverity};
+
+    use super::{Destination, LinkEvent, LinkId, PeerId};
+    use crate::sitl::simulation::{Simulation, SimulationConfig, SimulationParams};
+    use crate::time::FrozenTimer;
+
+    /// Where the notice went over a few steps.
+    fn notices(sim: &mut Simulation) -> Vec<Destination> {
+        let mut dests = Vec::new();
+        for _ in 0..5 {
+            let wall = sim.time();
+            let out = sim.step(wall, &mut FrozenTimer);
+            for o in out.mavlink.drain(..) {
+                if let MavMessage::STATUSTEXT(t) = &o.message
+                    && t.text.starts_with(b"Parameter file unreadable")
+                {
+                    dests.push(o.dest);
+                }
+            }
+        }
+        dests
+    }
+
+    #[test]
+    fn a_ground_station_that_appears_is_told_the_startup_notices_alone() {
+        let config = SimulationConfig::default();
+        let mut sim = Simulation::new(&config, SimulationParams::new(config.model));
+        sim.core_mut()
+            .add_startup_notice(MavSeverity::MAV_SEVERITY_WARNING, "Parameter file unreadable");
+        let link = LinkId(3);
+        sim.inputs_mut()
+            .link_events
+            .push(LinkEvent::Opened { link, stream_slot: 1 });
+        assert!(notices(&mut sim).is_empty(), "a link without a ground station");
+        for peer in [PeerId(7), PeerId(8)] {
+            sim.inputs_mut().link_events.push(LinkEvent::PeerJoined { link, peer });
+            assert_eq!(notices(&mut sim), vec![Destination::Peer { link, peer }]);
         }
     }
 }

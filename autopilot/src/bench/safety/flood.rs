@@ -9,6 +9,11 @@
 //! the flood; compared: deadline misses (the exit report), cross-track
 //! error (NAV_CONTROLLER_OUTPUT), the largest gap in the observer's
 //! telemetry, the mission item reached.
+//!
+//! Then a stranger floods the UDP link a GCS listens on with garbage
+//! ([`stranger`]): the GCS's HEARTBEAT gaps must not change.
+
+mod stranger;
 
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream, UdpSocket};
@@ -52,7 +57,9 @@ const TCP_FLOOD_SYSID: u8 = 253;
 pub fn run(exe: &Path, rate: u32, seed: u64) -> Result<Vec<Row>, String> {
     let quiet = course_run(exe, 0, seed)?;
     let flooded = course_run(exe, rate, seed)?;
-    Ok(rows(rate, &quiet, &flooded))
+    let mut rows = rows(rate, &quiet, &flooded);
+    rows.extend(stranger::run(exe, seed)?);
+    Ok(rows)
 }
 
 /// What the exit report line says.
