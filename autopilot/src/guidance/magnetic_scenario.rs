@@ -1,5 +1,6 @@
-//! Re-acquiring a curved magnetic tape (seed 002 §4.3: back on a curved path
-//! within 2 s at 1.5 m/s, correction within ±10°): the SITL world's vehicle
+//! Re-acquiring a magnetic tape ("Path tracking of a wheeled AGV with double
+//! magnetic guide" §4.3: back on a curved path within 2 s at 1.5 m/s,
+//! correction within ±10°): the SITL world's vehicle
 //! driven by [`super::magnetic::MagneticGuide`] alone, no autopilot core.
 //! [`run`] is pure and deterministic, for tests and benchmarks.
 //!
@@ -30,16 +31,16 @@
 //! 0.87 m). So the result reports the largest steering both as it is and
 //! relative to that curve angle, which is what the correction limit bounds.
 //!
-//! Measured (default scenario: 15 m arc, 1.5 m/s, ±1 m sensors with 2 mm
-//! edge noise, [`MagneticGuideConfig::seed_figure`], 50 Hz, 10 mm): from
-//! 0.1 m and 5° *towards* the tape, either side, arc curving either way,
-//! seeds 1–4: re-acquired in 1.28–1.94 s, correction within ±10.0°, largest
-//! steering 21.0° (11° + 10°), never lost. From 5° *away* it is not: both
-//! sensors leave their ±92 mm range in about 0.6 s, before 30°/s steering
-//! can turn the vehicle (the rear sensor, behind the rear axle, even swings
-//! outwards as the vehicle turns back); the guide then drives straight
-//! (seed §4.3), which finds the arc again after ≈ 8.4 s from its inside and
-//! never from its outside.
+//! A straight tape (infinite radius) is laid the same way; with a straight
+//! run-up, `lead_in_m` lays a straight that runs into the arc ahead of the
+//! vehicle, as a tape on a floor is laid.
+//!
+//! [`MagneticProfile`] holds the vehicles: the bench AGV and the robot of
+//! "Path tracking of a wheeled AGV with double magnetic guide" (Yin et al.).
+//! `furrow bench magnetic` runs the whole grid of starts and prints what it
+//! measures; from 5° *away* from the tape on the bench AGV both sensors leave
+//! their ±92 mm range before 30°/s steering can turn the vehicle, and the
+//! search (back towards the side last seen, then straight) takes 5–9 s.
 
 use std::f64::consts::{PI, TAU};
 use std::time::Duration;
