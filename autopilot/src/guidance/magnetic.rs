@@ -57,10 +57,12 @@
 //!   search: steer towards the side the sensors last saw the tape on (the
 //!   front sensor's, else the rear's; a sensor cannot cross the tape unseen,
 //!   so that side stays true) at the correction limit, until the body has
-//!   turned the last angle deviation plus the approach limit, then straight
-//!   at the search speed (seed §4.3, Fig. 4c). Never having seen the tape
-//!   (a start off it), straight at once, as the seed. `lost` is reported
-//!   throughout;
+//!   turned the last angle deviation plus the approach limit, then on at
+//!   the search speed with the steering the integral learnt (straight on a
+//!   straight, as the seed's §4.3 and Fig. 4c; along an arc it keeps the
+//!   approach instead of leaving the arc for good). Never having seen the
+//!   tape (a start off it), straight at once, as the seed. `lost` is
+//!   reported throughout;
 //! - the speed PID acts on |α| minus a dead band and only lowers the speed
 //!   from the cruise speed; with the dead band its integral winds back down
 //!   once the vehicle is aligned;
@@ -701,12 +703,13 @@ impl MagneticGuide {
             turn_left_rad,
             ..search
         });
-        let steer_rad = if search.side != 0.0 && turn_left_rad > 0.0 {
-            let steer_max_rad = config.steer_max_rad.abs();
-            (self.steer.integral() + search.side * self.correction_max_rad(config)).clamp(-steer_max_rad, steer_max_rad)
+        let turn_rad = if search.side != 0.0 && turn_left_rad > 0.0 {
+            search.side * self.correction_max_rad(config)
         } else {
             0.0
         };
+        let steer_max_rad = config.steer_max_rad.abs();
+        let steer_rad = (self.steer.integral() + turn_rad).clamp(-steer_max_rad, steer_max_rad);
         (steer_rad, config.lost_speed_mps)
     }
 

@@ -40,7 +40,7 @@
 //! `furrow bench magnetic` runs the whole grid of starts and prints what it
 //! measures; from 5° *away* from the tape on the bench AGV both sensors leave
 //! their ±92 mm range before 30°/s steering can turn the vehicle, and the
-//! search (back towards the side last seen, then straight) takes 5–9 s.
+//! search (back towards the side last seen, then on) takes 5–9 s.
 
 use std::f64::consts::{PI, TAU};
 use std::time::Duration;
