@@ -44,7 +44,7 @@ fn reacquired(what: &str, r: &ScenarioResult) -> f64 {
 #[test]
 fn the_papers_robot_is_back_within_two_seconds_from_its_three_starts() {
     let robot = MagneticProfile::double_guide_robot();
-    for radius_m in [f64::INFINITY, 25.0, 15.0] {
+    for radius_m in [f64::INFINITY, 25.0, 15.0, 10.0] {
         for (offset_m, off_path) in [(0.1, false), (-0.1, false), (0.15, true), (-0.15, true)] {
             for seed in 1..=2 {
                 let r = run(&start(&robot, radius_m, 1.5, offset_m, 5.0, seed));
@@ -52,11 +52,8 @@ fn the_papers_robot_is_back_within_two_seconds_from_its_three_starts() {
                 assert_eq!(r.samples[0].lost, off_path, "{what}: the start is not the one meant");
                 let t = reacquired(&what, &r);
                 assert!(t <= 2.0, "{what}: {t} s");
-                // The paper's ±10° bounds its PD; the integral this profile
-                // adds (learnt while tracking) rides on top, by well under
-                // half a degree in these runs.
                 let correction_deg = r.max_correction_reacquiring_rad.to_degrees();
-                assert!(correction_deg <= 10.5, "{what}: {correction_deg}°");
+                assert!(correction_deg <= 10.0 + 1e-9, "{what}: {correction_deg}°");
                 // Off the path, the front sensor finds the tape alone and can
                 // cross it before the rear one arrives: a few steps with
                 // neither, which the hold bridges.

@@ -186,16 +186,18 @@ impl MagneticProfile {
         }
     }
 
-    /// The paper's dual PID on its robot: its correction within ±10°, the
-    /// bench's gains scaled down for a wheelbase a third as long (the same
-    /// steering turns it three times as fast), and a small integral,
-    /// learnt while tracking, so that arcs are held without the paper's
-    /// standing offset of steering/kp.
+    /// The paper's dual PID on its robot, as the paper has it: PD steering
+    /// (no integral; the steering the robot had when the guide took over is
+    /// carried as the incremental form's integral) with the correction
+    /// within ±10°, the bench's gains scaled down for a wheelbase a third
+    /// as long (the same steering turns it three times as fast). Without an
+    /// integral it holds an arc it enters from a straight with a standing
+    /// offset of steering/kp (22 mm on a 10 m arc), as the paper's would.
     fn robot_guide() -> MagneticGuideConfig {
         MagneticGuideConfig {
             steer: IncrementalPidGains {
                 kp: 4.0,
-                ki: 1.0,
+                ki: 0.0,
                 kd: 3.0,
                 d_filter_hz: 0.0,
             },
