@@ -1,9 +1,9 @@
 //! Double magnetic guide tracking ("Path tracking of a wheeled AGV with
 //! double magnetic guide", Yin et al., called "the seed" below: its §2 and
-//! §4; DESIGN §5.4): two 16-probe sensors, front and rear, read the tape; their deviations give the
-//! vehicle's lateral and angle deviation; a PD on the lateral deviation sets
-//! the steering angle and a PID on the angle deviation the speed, both in
-//! incremental form (eq. 15).
+//! §4; DESIGN §5.4): two 16-probe sensors, front and rear, read the tape;
+//! their deviations give the vehicle's lateral and angle deviation; a PD on
+//! the lateral deviation sets the steering angle and a PID on the angle
+//! deviation the speed, both in incremental form (eq. 15).
 //!
 //! Signs (the seed's eq. 1–2 use magnitudes and lose them; fixed here):
 //! - probe i is bit i−1 of the mask, probe 1 the rightmost (the seed's §4.2
@@ -523,7 +523,8 @@ pub struct MagneticGuide {
 struct Search {
     /// +1 the tape is to the right, −1 left; 0 unknown (straight on).
     side: f64,
-    /// How much more to turn towards it before going straight.
+    /// How much more to turn towards it before going on with the steering
+    /// the integral learnt.
     turn_left_rad: f64,
 }
 
