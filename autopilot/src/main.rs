@@ -58,6 +58,8 @@ enum BenchCommand {
     Obstacles(autopilot::bench::obstacles::ObstacleBenchArgs),
     /// Safety: injected faults and the failsafe that answers, SIGKILL during saves, a MAVLink flood while driving.
     Safety(autopilot::bench::safety::SafetyBenchArgs),
+    /// MAGNETIC mode's guide back on the tape: three starts, straight and arcs, 0.5–1.5 m/s, two vehicles.
+    Magnetic(autopilot::bench::magnetic::MagneticBenchArgs),
 }
 
 #[derive(clap::Args)]
@@ -227,6 +229,9 @@ fn main() -> ExitCode {
         Command::Bench {
             which: BenchCommand::Safety(args),
         } => autopilot::bench::safety::run(&args),
+        Command::Bench {
+            which: BenchCommand::Magnetic(args),
+        } => autopilot::bench::magnetic::run_bench(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

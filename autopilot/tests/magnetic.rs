@@ -7,7 +7,7 @@ use autopilot::guidance::magnetic::{
     IncrementalPid, IncrementalPidGains, LateralRate, MagneticGuide, MagneticGuideConfig, MagneticInput,
     lateral_and_angle, probe_num, sensor_deviation_m,
 };
-use autopilot::guidance::magnetic_scenario::{MagneticScenario, run};
+use autopilot::guidance::magnetic_scenario::{MagneticProfile, MagneticScenario, run};
 use drivers::sim::{MagneticSensor, MagneticSensorConfig, MagneticTape, VehicleTruth};
 
 const PITCH_M: f64 = 0.010;
@@ -216,17 +216,54 @@ fn steering_follows_the_tape_side() {
 }
 
 #[test]
-fn both_sensors_lost_keeps_straight_and_reports_it() {
+fn both_sensors_lost_searches_back_towards_the_side_last_seen() {
     let tape_right = probes(&[4, 5, 6]);
-    // Seed behaviour (no hold): straight at once, at the search speed.
-    let cfg = guide_config(0.0);
-    let mut guide = MagneticGuide::default();
-    assert!(guide.update(&cfg, &input(tape_right, tape_right), 0.02).steer_rad > 0.0);
-    let s = guide.update(&cfg, &input(0, 0), 0.02);
-    assert!(s.lost && !s.acquired);
-    assert_eq!((s.steer_rad, s.speed_mps), (0.0, cfg.lost_speed_mps));
-    // With a hold: the last demands for lost_hold_s, then straight.
-    let cfg = guide_config(0.1);
+    let tape_left = probes(&[11, 12, 13]);
+    for (tape, side) in [(tape_right, 1.0), (tape_left, -1.0)] {
+        // No hold: the search starts at once, at the search speed, towards
+        // the side the sensors last read the tape on, at the correction
+        // limit (about the integral, which is 0 here).
+        let cfg = MagneticGuideConfig {
+            steer: IncrementalPidGains {
+                ki: 0.0,
+                ..MagneticGuideConfig::default().steer
+            },
+            ..guide_config(0.0)
+        };
+        let limit_rad = cfg.correction_limit_rad();
+        let mut guide = MagneticGuide::default();
+        assert_eq!(guide.update(&cfg, &input(tape, tape), 0.02).steer_rad.signum(), side);
+        let s = guide.update(&cfg, &input(0, 0), 0.02);
+        assert!(s.lost && !s.acquired);
+        assert_eq!(s.speed_mps, cfg.lost_speed_mps);
+        assert!(
+            (s.steer_rad - side * limit_rad).abs() < 1e-12,
+            "{} vs {side}·{limit_rad}",
+            s.steer_rad
+        );
+        // Bounded: once the body has turned the last angle deviation (0
+        // here) plus the approach limit towards the tape, straight on.
+        let bound_rad = cfg.approach_limit_rad(0.0);
+        let turning = MagneticInput {
+            yaw_rate_rad_s: side * 0.1,
+            ..input(0, 0)
+        };
+        let steps = (bound_rad / (0.1 * 0.02)).ceil() as usize;
+        for _ in 0..steps - 1 {
+            assert_eq!(guide.update(&cfg, &turning, 0.02).steer_rad.signum(), side);
+        }
+        let s = guide.update(&cfg, &turning, 0.02);
+        assert_eq!((s.steer_rad, s.speed_mps), (0.0, cfg.lost_speed_mps));
+        assert!(s.lost);
+    }
+    // With a hold: the last demands for lost_hold_s, then the search.
+    let cfg = MagneticGuideConfig {
+        steer: IncrementalPidGains {
+            ki: 0.0,
+            ..MagneticGuideConfig::default().steer
+        },
+        ..guide_config(0.1)
+    };
     let mut guide = MagneticGuide::default();
     let on_tape = guide.update(&cfg, &input(tape_right, tape_right), 0.02);
     let mut steer = Vec::new();
@@ -236,7 +273,7 @@ fn both_sensors_lost_keeps_straight_and_reports_it() {
         steer.push(s.steer_rad);
     }
     assert!(steer[..5].iter().all(|s| *s == on_tape.steer_rad), "{steer:?}");
-    assert!(steer[5..].iter().all(|s| *s == 0.0), "{steer:?}");
+    assert!(steer[5..].iter().all(|s| *s == cfg.correction_limit_rad()), "{steer:?}");
     // Found again: no derivative kick (difference form: D starts at 0).
     let cfg = MagneticGuideConfig {
         lateral_rate: LateralRate::Difference,
@@ -244,6 +281,68 @@ fn both_sensors_lost_keeps_straight_and_reports_it() {
     };
     let s = guide.update(&cfg, &input(tape_right, tape_right), 0.02);
     assert!(!s.lost && s.steer.d == 0.0 && s.steer_rad > 0.0);
+}
+
+/// Seed §4.3 (Fig. 4c): a start with no sensor on the tape drives straight
+/// at the search speed until one triggers, then corrects.
+#[test]
+fn a_start_off_the_tape_goes_straight_until_a_sensor_triggers() {
+    let cfg = guide_config(0.3);
+    // Steering when the mode engaged is no clue where the tape is.
+    let mut guide = MagneticGuide::engaged_at(0.2);
+    for _ in 0..100 {
+        let s = guide.update(&cfg, &input(0, 0), 0.02);
+        assert!(s.lost);
+        assert_eq!((s.steer_rad, s.speed_mps), (0.0, cfg.lost_speed_mps));
+    }
+    // The front sensor finds the tape on its right: steer right.
+    let s = guide.update(&cfg, &input(probes(&[2, 3, 4]), 0), 0.02);
+    assert!(!s.lost && s.steer_rad > 0.0, "{s:?}");
+}
+
+/// Both sensors keep the tape only while |y| + (d/2)·sin α is within the
+/// outermost probe: the P term is limited so the PD law steers to no more
+/// than that approach angle, and the correction's yaw rate to what sweeps
+/// the outer sensor no faster.
+#[test]
+fn approach_and_correction_are_limited_to_the_sensors_reach() {
+    let cfg = MagneticGuideConfig {
+        steer_correction_max_rad: 1.0,
+        steer: IncrementalPidGains {
+            ki: 0.0,
+            ..MagneticGuideConfig::default().steer
+        },
+        ..guide_config(0.3)
+    };
+    // 16 probes at 10 mm: the outermost is 75 mm from the centre; ±1 m.
+    assert!((cfg.sensor_reach_m() - 0.075).abs() < 1e-12);
+    assert!((cfg.approach_limit_rad(0.0) - 0.075f64.asin()).abs() < 1e-12);
+    assert!((cfg.approach_limit_rad(0.02) - 0.055f64.asin()).abs() < 1e-12);
+    // Near or past the reach: no less than half the centred angle.
+    assert!((cfg.approach_limit_rad(0.05) - 0.0375f64.asin()).abs() < 1e-12);
+    assert!((cfg.approach_limit_rad(-0.2) - 0.0375f64.asin()).abs() < 1e-12);
+    assert!((cfg.correction_limit_rad() - (2.9 * 0.075f64).atan()).abs() < 1e-12);
+    // Both sensors 65 mm left of the tape (probes 1–3 right of centre),
+    // aligned, at 0.5 m/s: kp·y alone would be 0.585 rad; limited to
+    // kd·v·sin α_max.
+    let tape = probes(&[1, 2, 3]);
+    let slow = MagneticInput {
+        speed_mps: 0.5,
+        ..input(tape, tape)
+    };
+    let s = MagneticGuide::default().update(&cfg, &slow, 0.02);
+    let lateral_m = 0.065;
+    assert!((s.lateral_m - lateral_m).abs() < 1e-12, "{}", s.lateral_m);
+    let expected = cfg.steer.kd * 0.5 * cfg.approach_limit_rad(lateral_m).sin();
+    assert!(expected < cfg.correction_limit_rad() && expected < cfg.steer.kp * lateral_m);
+    assert!((s.steer_rad - expected).abs() < 1e-9, "{} vs {expected}", s.steer_rad);
+    // At 1.5 m/s that would be more than the correction limit, which holds.
+    let s = MagneticGuide::default().update(&cfg, &input(tape, tape), 0.02);
+    assert!(
+        (s.steer_rad - cfg.correction_limit_rad()).abs() < 1e-12,
+        "{}",
+        s.steer_rad
+    );
 }
 
 #[test]
@@ -270,16 +369,15 @@ fn engaging_carries_the_current_steering() {
     let mut guide = MagneticGuide::engaged_at(0.2);
     let s = guide.update(&cfg, &input(centred, centred), 0.02);
     assert!((s.steer_rad - 0.2).abs() < 1e-12 && (s.steer.i - 0.2).abs() < 1e-12);
-    // Lost from the start: the held demand is that steering.
-    let mut guide = MagneticGuide::engaged_at(0.2);
-    assert_eq!(guide.update(&cfg, &input(0, 0), 0.02).steer_rad, 0.2);
 }
 
-/// Seed 002's figure: back on a curved tape within 2 s at 1.5 m/s with the
-/// correction within ±10°, from 0.1 m and 5° off towards the tape, either
-/// side of it, curving either way, several noise seeds.
+/// The double-guide paper's figure on its own robot: back on a curved tape
+/// within 2 s at 1.5 m/s with the correction within ±10°, from 0.1 m and 5°
+/// off towards the tape, either side of it, curving either way, several
+/// noise seeds.
 #[test]
 fn scenario_reacquires_a_curve_within_two_seconds() {
+    let robot = MagneticProfile::double_guide_robot().scenario(1.5);
     for (offset_m, heading_deg) in [(0.1, -5.0f64), (-0.1, 5.0)] {
         for curves_right in [true, false] {
             for seed in 1..=3 {
@@ -288,7 +386,7 @@ fn scenario_reacquires_a_curve_within_two_seconds() {
                     start_heading_rad: heading_deg.to_radians(),
                     tape_curves_right: curves_right,
                     seed,
-                    ..MagneticScenario::default()
+                    ..robot
                 };
                 let r = run(&scenario);
                 let what = format!("offset {offset_m} m, heading {heading_deg}°, right {curves_right}, seed {seed}");
@@ -332,8 +430,8 @@ fn scenario_starts_where_it_says_and_is_deterministic() {
     assert!((a.samples.len() as f64 - scenario.duration_s * scenario.control_rate_hz).abs() < 1.0);
 }
 
-/// The general-purpose defaults (an integral, no correction limit): a 15 m
-/// arc starting under a vehicle driving straight is caught and held.
+/// The general-purpose defaults (an integral): a tape running straight into
+/// a 15 m arc 2 m ahead is caught and held.
 #[test]
 fn default_config_takes_a_curve_from_a_straight() {
     let seed_figure = MagneticScenario::default();
@@ -349,6 +447,7 @@ fn default_config_takes_a_curve_from_a_straight() {
                 start_heading_rad: heading_deg.to_radians(),
                 tape_curves_right: curves_right,
                 run_up_on_curve: false,
+                lead_in_m: 2.0,
                 duration_s: 15.0,
                 ..seed_figure
             };

@@ -42,6 +42,7 @@ impl Core {
             },
             steer_max_rad: f(self.p.vehicle.steer_max_deg).to_radians(),
             steer_correction_max_rad: f(m.steer_correction_deg).to_radians(),
+            wheelbase_m: f(self.p.vehicle.wheelbase_m),
             speed: IncrementalPidGains {
                 kp: f(m.speed_p),
                 ki: f(m.speed_i),

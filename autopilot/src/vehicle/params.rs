@@ -234,7 +234,7 @@ declare_params! {
             desc: "Rear sensor centre, forward of the rear axle centre (negative: behind it)",
         },
         steer_p: f32 = "MAG_STR_P" => {
-            default: 6.0, range: 0.0, 100.0, unit: "rad/m",
+            default: 9.0, range: 0.0, 100.0, unit: "rad/m",
             desc: "Steering PID P gain on the lateral deviation (incremental form, seed eq. 15)",
         },
         steer_i: f32 = "MAG_STR_I" => {
@@ -242,12 +242,12 @@ declare_params! {
             desc: "Steering PID I gain (0 in seed 002)",
         },
         steer_d: f32 = "MAG_STR_D" => {
-            default: 4.0, range: 0.0, 100.0, unit: "rad.s/m",
+            default: 6.0, range: 0.0, 100.0, unit: "rad.s/m",
             desc: "Steering PID D gain",
         },
         steer_correction_deg: f32 = "MAG_STR_CMAX" => {
             default: 30.0, range: 1.0, 60.0, unit: "deg",
-            desc: "Largest correction of the P and D terms about the integral",
+            desc: "Largest correction of the P and D terms about the integral (the sensors' geometry may limit it further)",
         },
         speed_p: f32 = "MAG_SPD_P" => {
             default: 3.0, range: 0.0, 100.0, unit: "m/s/rad",
@@ -271,11 +271,11 @@ declare_params! {
         },
         lost_speed_mps: f32 = "MAG_LOST_SPD" => {
             default: 0.5, range: 0.0, 5.0, unit: "m/s",
-            desc: "Speed while both sensors are off the tape (straight ahead, as seed 002)",
+            desc: "Speed while both sensors are off the tape (searching: back towards the side it was last seen, then straight)",
         },
         lost_hold_s: f32 = "MAG_LOST_HOLD" => {
             default: 0.3, range: 0.0, 5.0, unit: "s",
-            desc: "After losing the tape, keep the last demand this long before going straight",
+            desc: "After losing the tape, keep the last demand this long before searching",
         },
         lost_stop_s: f32 = "MAG_LOST_STOP" => {
             default: 10.0, range: 0.0, 600.0, unit: "s",
