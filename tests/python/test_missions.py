@@ -119,9 +119,14 @@ def test_fence_and_rally_are_separate_plans(start_sitl):
     cur = recv(m, "MISSION_CURRENT", 5)
     _, fence_id, rally_id = current_ids(cur)
     assert fence_id != 0 and rally_id != 0
+    # MISSION_TYPE_ALL is refused, as ArduPilot refuses it: nothing cleared.
     m.mav.mission_clear_all_send(m.target_system, m.target_component, mavlink.MAV_MISSION_TYPE_ALL)
+    assert recv(m, "MISSION_ACK", 5).type == mavlink.MAV_MISSION_UNSUPPORTED
+    assert len(download_mission(m, 1)[0]) == 4
+    m.mav.mission_clear_all_send(m.target_system, m.target_component, mavlink.MAV_MISSION_TYPE_FENCE)
     assert recv(m, "MISSION_ACK", 5).type == mavlink.MAV_MISSION_ACCEPTED
     assert len(download_mission(m, 1)[0]) == 0
+    assert len(download_mission(m, 2)[0]) == 1
 
 
 def heading_diff(a, b):
