@@ -32,6 +32,8 @@
 //! - MISSION_CLEAR_ALL → MISSION_ACK(ACCEPTED).
 //! - MISSION_TYPE_ALL (255) anywhere, MISSION_CLEAR_ALL included:
 //!   MISSION_ACK(UNSUPPORTED), as ArduPilot answers it (no plan changes);
+//!   a type the dialect does not know (7, 9…) cannot be decoded, and the
+//!   link layer answers it the same way ([`inspect_unknown_mission_type`]);
 //!   MISSION_WRITE_PARTIAL_LIST: MISSION_ACK(UNSUPPORTED).
 //! - Saved before acknowledged: with [`MissionProtocol::set_save_first`] a
 //!   complete upload or a clear is not put in force at once; the caller
@@ -352,6 +354,42 @@ pub fn inspect_undecodable_item(message_id: u32, payload: &[u8]) -> Option<Undec
         target_component: p[33],
         mission_type,
         bad_frame,
+    })
+}
+
+/// A mission message (not an item) whose `mission_type` is none the dialect
+/// knows (7, 9…): it cannot be decoded, and is answered
+/// MISSION_ACK(UNSUPPORTED) with that type, as ArduPilot answers any type
+/// it has no plan for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct UnknownMissionType {
+    pub target_system: u8,
+    pub target_component: u8,
+    pub mission_type: u8,
+}
+
+/// Reads an undecodable MISSION_REQUEST_LIST, MISSION_COUNT,
+/// MISSION_CLEAR_ALL, MISSION_REQUEST(_INT) or MISSION_WRITE_PARTIAL_LIST
+/// payload whose mission type is unknown. `None` for other messages and
+/// for known types (MISSION_ACK is never answered).
+pub fn inspect_unknown_mission_type(message_id: u32, payload: &[u8]) -> Option<UnknownMissionType> {
+    // Offsets of target_system (target_component follows) and mission_type.
+    let (target, mission_type) = match message_id {
+        43 | 45 => (0, 2),      // REQUEST_LIST, CLEAR_ALL
+        40 | 44 | 51 => (2, 4), // REQUEST, COUNT, REQUEST_INT
+        38 => (4, 6),           // WRITE_PARTIAL_LIST
+        _ => return None,
+    };
+    let mut p = [0u8; 8];
+    let n = payload.len().min(p.len());
+    p[..n].copy_from_slice(&payload[..n]);
+    if raw_mission_type(p[mission_type]).is_some() {
+        return None;
+    }
+    Some(UnknownMissionType {
+        target_system: p[target],
+        target_component: p[target + 1],
+        mission_type: p[mission_type],
     })
 }
 

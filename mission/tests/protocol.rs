@@ -1406,3 +1406,63 @@ fn saving_first_clears_wait_for_the_save_too() {
         b.take_events();
     }
 }
+
+#[test]
+fn unknown_mission_types_are_found_in_undecodable_payloads() {
+    use mavlink::Message;
+    use mission::protocol::{UnknownMissionType, inspect_unknown_mission_type};
+    // Each message serialised with a known type (fence, 1), then the type
+    // byte changed to one the dialect lacks.
+    let fence = MavMissionType::MAV_MISSION_TYPE_FENCE;
+    let messages = [
+        request_list(fence),
+        MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+            count: 300,
+            target_system: 1,
+            target_component: 1,
+            mission_type: fence,
+            opaque_id: 0,
+        }),
+        clear_all(fence),
+        request_int(fence, 4),
+        MavMessage::MISSION_REQUEST(MISSION_REQUEST_DATA {
+            seq: 4,
+            target_system: 1,
+            target_component: 1,
+            mission_type: fence,
+        }),
+        MavMessage::MISSION_WRITE_PARTIAL_LIST(MISSION_WRITE_PARTIAL_LIST_DATA {
+            start_index: 1,
+            end_index: 2,
+            target_system: 1,
+            target_component: 1,
+            mission_type: fence,
+        }),
+    ];
+    for message in messages {
+        let mut bytes = [0u8; 64];
+        let n = message.ser(mavlink::MavlinkVersion::V2, &mut bytes);
+        let id = message.message_id();
+        assert_eq!(
+            inspect_unknown_mission_type(id, &bytes[..n]),
+            None,
+            "{id}: a known type"
+        );
+        let at = bytes[..n].iter().rposition(|b| *b == 1).expect("the type byte");
+        for unknown in [7u8, 9, 254] {
+            bytes[at] = unknown;
+            assert_eq!(
+                inspect_unknown_mission_type(id, &bytes[..n]),
+                Some(UnknownMissionType {
+                    target_system: 1,
+                    target_component: 1,
+                    mission_type: unknown,
+                }),
+                "message {id}"
+            );
+        }
+    }
+    // Other messages, MISSION_ACK included, are not answered.
+    assert_eq!(inspect_unknown_mission_type(47, &[1, 1, 0, 7]), None);
+    assert_eq!(inspect_unknown_mission_type(73, &[0; 38]), None);
+}
