@@ -302,13 +302,14 @@ impl Core {
         self.missions.plan(mission_type)
     }
 
-    /// Changes whenever a plan does (the edge persists plans then).
+    /// Changes whenever a plan in force does.
     pub fn plans_generation(&self) -> u64 {
         self.missions.generation
     }
 
     /// Puts a plan in force (plans loaded from the data directory at start,
-    /// files imported). The plan must be valid (`mission::validate_plan`).
+    /// files imported), without saving it. The plan must be valid
+    /// (`mission::validate_plan`).
     pub fn load_plan(&mut self, mission_type: mission::MissionType, plan: mission::Plan) {
         self.missions.replace(mission_type, plan);
         self.plan_changed(mission_type);
