@@ -29,9 +29,20 @@
 //!   plan in force, allowed during someone else's upload. Mission item 0 is
 //!   home (ArduPilot): the current home when [`MissionProtocol::set_home`]
 //!   gave one.
-//! - MISSION_CLEAR_ALL (255: all three plans) → MISSION_ACK(ACCEPTED).
-//! - MISSION_TYPE_ALL anywhere else: MISSION_ACK(UNSUPPORTED);
+//! - MISSION_CLEAR_ALL → MISSION_ACK(ACCEPTED).
+//! - MISSION_TYPE_ALL (255) anywhere, MISSION_CLEAR_ALL included:
+//!   MISSION_ACK(UNSUPPORTED), as ArduPilot answers it (no plan changes);
+//!   a type the dialect does not know (7, 9…) cannot be decoded, and the
+//!   link layer answers it the same way ([`inspect_unknown_mission_type`]);
 //!   MISSION_WRITE_PARTIAL_LIST: MISSION_ACK(UNSUPPORTED).
+//! - Saved before acknowledged: with [`MissionProtocol::set_save_first`] a
+//!   complete upload or a clear is not put in force at once; the caller
+//!   gets [`MissionEvent::SaveRequested`], saves the plan and reports with
+//!   [`MissionProtocol::saved`]. Only then does the plan replace the old one
+//!   and MISSION_ACK(ACCEPTED) go out; a failed save answers
+//!   MISSION_ACK(ERROR) and the old plan stays. While a save is pending,
+//!   uploads and clears from anyone get DENIED (the partner's repeated last
+//!   item is ignored: its ACK is coming).
 //! - Every reply goes to the requester's link, addressed to its system and
 //!   component. MISSION_ACK.opaque_id is the new plan's id on success, 0
 //!   otherwise.
@@ -89,6 +100,10 @@ pub enum MissionEvent {
     /// An upload failed and the old plan stays in force; the text is for a
     /// STATUSTEXT.
     TransferFailed { mission_type: MissionType, text: String },
+    /// A complete plan waits to be saved (only with
+    /// [`MissionProtocol::set_save_first`]): save it, then call
+    /// [`MissionProtocol::saved`].
+    SaveRequested { mission_type: MissionType, plan: Plan },
 }
 
 /// The three plans in force.
@@ -196,6 +211,15 @@ struct Partner<L> {
     mission_type: MissionType,
 }
 
+/// A plan accepted by the protocol, waiting for its save to be reported.
+#[derive(Clone, Debug)]
+struct Saving<L> {
+    partner: Partner<L>,
+    /// The last item's seq (`None`: a clear, which has no final item).
+    last_seq: Option<u16>,
+    plan: Plan,
+}
+
 /// The mission microservice.
 #[derive(Clone, Debug)]
 pub struct MissionProtocol<L> {
@@ -203,6 +227,8 @@ pub struct MissionProtocol<L> {
     home: Option<HomeItem>,
     upload: Option<Upload<L>>,
     final_ack: Option<FinalAck<L>>,
+    save_first: bool,
+    saving: Option<Saving<L>>,
 }
 
 /// An item as it arrived: decoded, or already refused (a deprecated
@@ -331,6 +357,42 @@ pub fn inspect_undecodable_item(message_id: u32, payload: &[u8]) -> Option<Undec
     })
 }
 
+/// A mission message (not an item) whose `mission_type` is none the dialect
+/// knows (7, 9…): it cannot be decoded, and is answered
+/// MISSION_ACK(UNSUPPORTED) with that type, as ArduPilot answers any type
+/// it has no plan for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct UnknownMissionType {
+    pub target_system: u8,
+    pub target_component: u8,
+    pub mission_type: u8,
+}
+
+/// Reads an undecodable MISSION_REQUEST_LIST, MISSION_COUNT,
+/// MISSION_CLEAR_ALL, MISSION_REQUEST(_INT) or MISSION_WRITE_PARTIAL_LIST
+/// payload whose mission type is unknown. `None` for other messages and
+/// for known types (MISSION_ACK is never answered).
+pub fn inspect_unknown_mission_type(message_id: u32, payload: &[u8]) -> Option<UnknownMissionType> {
+    // Offsets of target_system (target_component follows) and mission_type.
+    let (target, mission_type) = match message_id {
+        43 | 45 => (0, 2),      // REQUEST_LIST, CLEAR_ALL
+        40 | 44 | 51 => (2, 4), // REQUEST, COUNT, REQUEST_INT
+        38 => (4, 6),           // WRITE_PARTIAL_LIST
+        _ => return None,
+    };
+    let mut p = [0u8; 8];
+    let n = payload.len().min(p.len());
+    p[..n].copy_from_slice(&payload[..n]);
+    if raw_mission_type(p[mission_type]).is_some() {
+        return None;
+    }
+    Some(UnknownMissionType {
+        target_system: p[target],
+        target_component: p[target + 1],
+        mission_type: p[mission_type],
+    })
+}
+
 impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
     pub fn new(plans: Plans) -> Self {
         MissionProtocol {
@@ -338,6 +400,124 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
             home: None,
             upload: None,
             final_ack: None,
+            save_first: false,
+            saving: None,
+        }
+    }
+
+    /// Whether a new plan must be saved before it is in force and
+    /// acknowledged (see the module rules).
+    pub fn set_save_first(&mut self, on: bool) {
+        self.save_first = on;
+    }
+
+    /// Whether a plan waits for [`MissionProtocol::saved`].
+    pub fn is_saving(&self) -> bool {
+        self.saving.is_some()
+    }
+
+    /// The save of the pending plan ended: `Ok` puts it in force and
+    /// acknowledges it; `Err(why)` keeps the old plan and answers
+    /// MISSION_ACK(ERROR), with a [`MissionEvent::TransferFailed`] naming
+    /// `why`. Without a pending plan, nothing happens.
+    pub fn saved(
+        &mut self,
+        now: Duration,
+        result: Result<(), String>,
+        out: &mut Vec<Outgoing<L>>,
+        events: &mut Vec<MissionEvent>,
+    ) {
+        let Some(Saving {
+            partner,
+            last_seq,
+            plan,
+        }) = self.saving.take()
+        else {
+            return;
+        };
+        let (result, opaque_id) = match result {
+            Ok(()) => {
+                let id = plan.opaque_id();
+                self.plans.set(partner.mission_type, plan);
+                events.push(MissionEvent::PlanReplaced(partner.mission_type));
+                (MavMissionResult::MAV_MISSION_ACCEPTED, id)
+            }
+            Err(why) => {
+                events.push(MissionEvent::TransferFailed {
+                    mission_type: partner.mission_type,
+                    text: format!(
+                        "{} not saved ({why}): old {} kept",
+                        title(partner.mission_type),
+                        partner.mission_type.name()
+                    ),
+                });
+                (MavMissionResult::MAV_MISSION_ERROR, 0)
+            }
+        };
+        self.acknowledge(now, partner, last_seq, result, opaque_id, out);
+    }
+
+    /// Puts `plan` in force and acknowledges it, or (saving first) asks
+    /// for it to be saved and waits.
+    fn accept(
+        &mut self,
+        now: Duration,
+        partner: Partner<L>,
+        last_seq: Option<u16>,
+        plan: Plan,
+        out: &mut Vec<Outgoing<L>>,
+        events: &mut Vec<MissionEvent>,
+    ) {
+        if self.save_first {
+            events.push(MissionEvent::SaveRequested {
+                mission_type: partner.mission_type,
+                plan: plan.clone(),
+            });
+            self.saving = Some(Saving {
+                partner,
+                last_seq,
+                plan,
+            });
+            return;
+        }
+        self.saving = Some(Saving {
+            partner,
+            last_seq,
+            plan,
+        });
+        self.saved(now, Ok(()), out, events);
+    }
+
+    /// Sends an upload's or a clear's final MISSION_ACK and, for an upload,
+    /// remembers it in case it is lost.
+    fn acknowledge(
+        &mut self,
+        now: Duration,
+        partner: Partner<L>,
+        last_seq: Option<u16>,
+        result: MavMissionResult,
+        opaque_id: u32,
+        out: &mut Vec<Outgoing<L>>,
+    ) {
+        let Partner {
+            link,
+            sender,
+            mission_type,
+        } = partner;
+        out.push(Outgoing {
+            dest: Reply::Link(link),
+            message: ack(sender, mission_type.to_mavlink(), result, opaque_id),
+        });
+        if let Some(last_seq) = last_seq {
+            self.final_ack = Some(FinalAck {
+                link,
+                sender,
+                mission_type,
+                last_seq,
+                result,
+                opaque_id,
+                at: now,
+            });
         }
     }
 
@@ -433,7 +613,7 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
             // Deprecated: answered with MISSION_ITEM_INT, as the XML says.
             MavMessage::MISSION_REQUEST(m) => self.on_request(link, sender, m.seq, m.mission_type, out),
             MavMessage::MISSION_ACK(m) => self.on_ack(link, sender, m, events),
-            MavMessage::MISSION_CLEAR_ALL(m) => self.on_clear(link, sender, m.mission_type, out, events),
+            MavMessage::MISSION_CLEAR_ALL(m) => self.on_clear(now, link, sender, m.mission_type, out, events),
             MavMessage::MISSION_WRITE_PARTIAL_LIST(m) => out.push(Outgoing {
                 dest: Reply::Link(link),
                 message: ack(sender, m.mission_type, MavMissionResult::MAV_MISSION_UNSUPPORTED, 0),
@@ -517,9 +697,10 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
             .is_some_and(|u| u.link == link && u.sender == sender)
     }
 
-    /// Someone other than the uploading partner while an upload runs.
+    /// Someone other than the uploading partner while an upload runs, or
+    /// anyone while a plan is being saved.
     fn busy_for(&self, link: L, sender: Sender) -> bool {
-        self.upload.is_some() && !self.is_partner(link, sender)
+        self.saving.is_some() || (self.upload.is_some() && !self.is_partner(link, sender))
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -560,11 +741,12 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
             return;
         }
         if count == 0 {
-            let plan = Plan::new(mission_type, Vec::new());
-            let id = plan.opaque_id();
-            self.plans.set(mission_type, plan);
-            reply(out, MavMissionResult::MAV_MISSION_ACCEPTED, id);
-            events.push(MissionEvent::PlanReplaced(mission_type));
+            let partner = Partner {
+                link,
+                sender,
+                mission_type,
+            };
+            self.accept(now, partner, None, Plan::new(mission_type, Vec::new()), out, events);
             return;
         }
         self.upload = Some(Upload {
@@ -602,6 +784,14 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
             })
         };
         let mission_type = raw_mission_type(raw_type).and_then(MissionType::from_mavlink);
+        if self
+            .saving
+            .as_ref()
+            .is_some_and(|s| s.partner.link == link && s.partner.sender == sender)
+        {
+            // Its last item again: the ACK follows the save.
+            return;
+        }
         if self.busy_for(link, sender) {
             reply(out, MavMissionResult::MAV_MISSION_DENIED);
             return;
@@ -686,18 +876,9 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
         out: &mut Vec<Outgoing<L>>,
         events: &mut Vec<MissionEvent>,
     ) {
-        let Partner {
-            link,
-            sender,
-            mission_type,
-        } = partner;
-        let (result, opaque_id) = match outcome {
-            Ok(plan) => {
-                let id = plan.opaque_id();
-                self.plans.set(mission_type, plan);
-                events.push(MissionEvent::PlanReplaced(mission_type));
-                (MavMissionResult::MAV_MISSION_ACCEPTED, id)
-            }
+        let mission_type = partner.mission_type;
+        match outcome {
+            Ok(plan) => self.accept(now, partner, Some(last_seq), plan, out, events),
             Err((bad_seq, result)) => {
                 events.push(MissionEvent::TransferFailed {
                     mission_type,
@@ -708,22 +889,9 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
                         result_text(result)
                     ),
                 });
-                (result, 0)
+                self.acknowledge(now, partner, Some(last_seq), result, 0, out);
             }
-        };
-        out.push(Outgoing {
-            dest: Reply::Link(link),
-            message: ack(sender, mission_type.to_mavlink(), result, opaque_id),
-        });
-        self.final_ack = Some(FinalAck {
-            link,
-            sender,
-            mission_type,
-            last_seq,
-            result,
-            opaque_id,
-            at: now,
-        });
+        }
     }
 
     fn on_request_list(&mut self, link: L, sender: Sender, raw_type: MavMissionType, out: &mut Vec<Outgoing<L>>) {
@@ -783,6 +951,7 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
 
     fn on_clear(
         &mut self,
+        now: Duration,
         link: L,
         sender: Sender,
         raw_type: MavMissionType,
@@ -795,6 +964,11 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
                 message: ack(sender, raw_type, result, opaque_id),
             })
         };
+        // MISSION_TYPE_ALL included: ArduPilot answers it UNSUPPORTED too.
+        let Some(mission_type) = MissionType::from_mavlink(raw_type) else {
+            reply(out, MavMissionResult::MAV_MISSION_UNSUPPORTED, 0);
+            return;
+        };
         if self.busy_for(link, sender) {
             reply(out, MavMissionResult::MAV_MISSION_DENIED, 0);
             return;
@@ -802,24 +976,11 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
         // The partner clearing instead of finishing: its upload is abandoned.
         self.upload = None;
         self.final_ack = None;
-        let types: Vec<MissionType> = match (raw_type, MissionType::from_mavlink(raw_type)) {
-            (MavMissionType::MAV_MISSION_TYPE_ALL, _) => MissionType::ALL.to_vec(),
-            (_, Some(t)) => vec![t],
-            (_, None) => {
-                reply(out, MavMissionResult::MAV_MISSION_UNSUPPORTED, 0);
-                return;
-            }
+        let partner = Partner {
+            link,
+            sender,
+            mission_type,
         };
-        // One plan: its new id; all three: no single id.
-        let mut id = 0;
-        for &t in &types {
-            let plan = Plan::new(t, Vec::new());
-            if types.len() == 1 {
-                id = plan.opaque_id();
-            }
-            self.plans.set(t, plan);
-            events.push(MissionEvent::PlanReplaced(t));
-        }
-        reply(out, MavMissionResult::MAV_MISSION_ACCEPTED, id);
+        self.accept(now, partner, None, Plan::new(mission_type, Vec::new()), out, events);
     }
 }

@@ -533,7 +533,7 @@ fn a_second_partner_is_denied_while_the_first_completes() {
         ..GCS
     };
     denied(b.send(1, other_component, count(t, 2)));
-    denied(b.send(2, GCS, clear_all(MavMissionType::MAV_MISSION_TYPE_ALL)));
+    denied(b.send(2, GCS, clear_all(MavMissionType::MAV_MISSION_TYPE_FENCE)));
     denied(b.send(2, GCS, item_int(t, &items[1])));
     // A download meanwhile sees the plan in force.
     same(&download(&mut b, 2, OTHER_GCS, t).0, &old);
@@ -712,7 +712,7 @@ fn count_zero_clears_one_plan() {
 }
 
 #[test]
-fn clear_all_clears_one_plan_or_all_three() {
+fn clear_all_clears_one_plan_and_refuses_type_all() {
     let mut b = Bench::new();
     for (t, items) in [
         (MissionType::Mission, mission_items(4)),
@@ -729,15 +729,15 @@ fn clear_all_clears_one_plan_or_all_three() {
     assert_eq!(a.opaque_id, b.p.plans().fence.opaque_id());
     assert!(b.p.plans().fence.is_empty() && !b.p.plans().mission.is_empty());
     assert_eq!(b.take_events(), vec![MissionEvent::PlanReplaced(MissionType::Fence)]);
+    // MISSION_TYPE_ALL: UNSUPPORTED, as ArduPilot answers it; nothing cleared.
+    let ids = |p: &Plans| MissionType::ALL.map(|t| p.get(t).opaque_id());
+    let before = ids(b.p.plans());
     let r = b.send(2, OTHER_GCS, clear_all(MavMissionType::MAV_MISSION_TYPE_ALL));
     let a = ack_of(&r[0]).unwrap();
-    assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_ACCEPTED);
+    assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_UNSUPPORTED);
     assert_eq!(a.mission_type, MavMissionType::MAV_MISSION_TYPE_ALL);
-    assert_eq!(*b.p.plans(), Plans::default());
-    assert_eq!(
-        b.take_events(),
-        MissionType::ALL.map(MissionEvent::PlanReplaced).to_vec()
-    );
+    assert_eq!(ids(b.p.plans()), before);
+    assert!(b.take_events().is_empty());
     // The partner clearing mid-upload abandons its upload.
     b.send(1, GCS, count(MissionType::Mission, 3));
     b.send(1, GCS, clear_all(MavMissionType::MAV_MISSION_TYPE_MISSION));
@@ -1290,4 +1290,179 @@ mod random {
             }
         }
     }
+}
+
+/// A protocol that saves before it acknowledges.
+fn saving_bench() -> Bench {
+    let mut b = Bench::new();
+    b.p.set_save_first(true);
+    b
+}
+
+/// Uploads all but the last item's answer: returns the replies to the last.
+fn upload_to_last(b: &mut Bench, t: MissionType, items: &[MissionItem]) -> Vec<MavMessage> {
+    b.send(1, GCS, count(t, items.len() as u16));
+    let mut last = Vec::new();
+    for it in items {
+        last = b.send(1, GCS, item_int(t, it));
+    }
+    last
+}
+
+fn save_requested(events: &[MissionEvent]) -> Option<(MissionType, Plan)> {
+    events.iter().find_map(|e| match e {
+        MissionEvent::SaveRequested { mission_type, plan } => Some((*mission_type, plan.clone())),
+        _ => None,
+    })
+}
+
+#[test]
+fn saving_first_the_ack_and_the_new_plan_wait_for_the_save() {
+    let mut b = saving_bench();
+    let items = mission_items(4);
+    let t = MissionType::Mission;
+    let last = upload_to_last(&mut b, t, &items);
+    assert!(last.is_empty(), "no ACK before the save: {last:?}");
+    let (saved_type, plan) = save_requested(&b.take_events()).expect("save requested");
+    assert_eq!(saved_type, t);
+    same(plan.items(), &items);
+    assert!(b.p.plans().mission.is_empty(), "not in force before the save");
+    assert!(b.p.is_saving());
+    // Meanwhile: others are denied, the partner's repeated last item waits
+    // for its ACK, downloads see the old plan.
+    let r = b.send(2, OTHER_GCS, count(MissionType::Fence, 2));
+    assert_eq!(ack_of(&r[0]).unwrap().mavtype, MavMissionResult::MAV_MISSION_DENIED);
+    assert!(b.send(1, GCS, item_int(t, &items[3])).is_empty());
+    assert!(download(&mut b, 2, OTHER_GCS, t).0.is_empty());
+    let mut out = Vec::new();
+    b.p.saved(b.now, Ok(()), &mut out, &mut b.events);
+    let r = replies(out, 1, GCS);
+    let a = ack_of(&r[0]).unwrap();
+    assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_ACCEPTED);
+    assert_eq!(a.opaque_id, plan.opaque_id());
+    assert_eq!(b.p.plans().mission.opaque_id(), plan.opaque_id());
+    assert_eq!(b.take_events(), vec![MissionEvent::PlanReplaced(t)]);
+    // A lost ACK is sent again for the repeated last item.
+    let again = b.send(1, GCS, item_int(t, &items[3]));
+    assert_eq!(
+        ack_of(&again[0]).unwrap().mavtype,
+        MavMissionResult::MAV_MISSION_ACCEPTED
+    );
+}
+
+#[test]
+fn saving_first_a_failed_save_answers_error_and_keeps_the_old_plan() {
+    let mut b = saving_bench();
+    let t = MissionType::Mission;
+    let old = mission_items(3);
+    upload_to_last(&mut b, t, &old);
+    let mut out = Vec::new();
+    b.p.saved(b.now, Ok(()), &mut out, &mut b.events);
+    b.take_events();
+    let old_id = b.p.plans().mission.opaque_id();
+    upload_to_last(&mut b, t, &mission_items(6));
+    assert!(save_requested(&b.take_events()).is_some());
+    let mut out = Vec::new();
+    b.p.saved(
+        b.now,
+        Err("mission.waypoints: No space left on device".into()),
+        &mut out,
+        &mut b.events,
+    );
+    let r = replies(out, 1, GCS);
+    let a = ack_of(&r[0]).unwrap();
+    assert_eq!((a.mavtype, a.opaque_id), (MavMissionResult::MAV_MISSION_ERROR, 0));
+    assert_eq!(b.p.plans().mission.opaque_id(), old_id, "the old plan stays in force");
+    match &b.take_events()[..] {
+        [MissionEvent::TransferFailed { text, .. }] => {
+            assert!(text.contains("No space left on device"), "{text}")
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(!b.p.is_saving());
+    // Uploads work again afterwards.
+    let r = b.send(1, GCS, count(t, 1));
+    assert!(matches!(r[0], MavMessage::MISSION_REQUEST_INT(_)), "{r:?}");
+}
+
+#[test]
+fn saving_first_clears_wait_for_the_save_too() {
+    let mut b = saving_bench();
+    let t = MissionType::Mission;
+    upload_to_last(&mut b, t, &mission_items(3));
+    let mut out = Vec::new();
+    b.p.saved(b.now, Ok(()), &mut out, &mut b.events);
+    b.take_events();
+    for clear in [count(t, 0), clear_all(MavMissionType::MAV_MISSION_TYPE_MISSION)] {
+        assert!(b.send(1, GCS, clear).is_empty(), "no ACK before the save");
+        let (_, plan) = save_requested(&b.take_events()).expect("save requested");
+        assert!(plan.is_empty());
+        assert!(!b.p.plans().mission.is_empty());
+        let mut out = Vec::new();
+        b.p.saved(b.now, Err("read-only".into()), &mut out, &mut b.events);
+        let r = replies(out, 1, GCS);
+        assert_eq!(ack_of(&r[0]).unwrap().mavtype, MavMissionResult::MAV_MISSION_ERROR);
+        assert!(!b.p.plans().mission.is_empty(), "the mission is not cleared");
+        b.take_events();
+    }
+}
+
+#[test]
+fn unknown_mission_types_are_found_in_undecodable_payloads() {
+    use mavlink::Message;
+    use mission::protocol::{UnknownMissionType, inspect_unknown_mission_type};
+    // Each message serialised with a known type (fence, 1), then the type
+    // byte changed to one the dialect lacks.
+    let fence = MavMissionType::MAV_MISSION_TYPE_FENCE;
+    let messages = [
+        request_list(fence),
+        MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+            count: 300,
+            target_system: 1,
+            target_component: 1,
+            mission_type: fence,
+            opaque_id: 0,
+        }),
+        clear_all(fence),
+        request_int(fence, 4),
+        MavMessage::MISSION_REQUEST(MISSION_REQUEST_DATA {
+            seq: 4,
+            target_system: 1,
+            target_component: 1,
+            mission_type: fence,
+        }),
+        MavMessage::MISSION_WRITE_PARTIAL_LIST(MISSION_WRITE_PARTIAL_LIST_DATA {
+            start_index: 1,
+            end_index: 2,
+            target_system: 1,
+            target_component: 1,
+            mission_type: fence,
+        }),
+    ];
+    for message in messages {
+        let mut bytes = [0u8; 64];
+        let n = message.ser(mavlink::MavlinkVersion::V2, &mut bytes);
+        let id = message.message_id();
+        assert_eq!(
+            inspect_unknown_mission_type(id, &bytes[..n]),
+            None,
+            "{id}: a known type"
+        );
+        let at = bytes[..n].iter().rposition(|b| *b == 1).expect("the type byte");
+        for unknown in [7u8, 9, 254] {
+            bytes[at] = unknown;
+            assert_eq!(
+                inspect_unknown_mission_type(id, &bytes[..n]),
+                Some(UnknownMissionType {
+                    target_system: 1,
+                    target_component: 1,
+                    mission_type: unknown,
+                }),
+                "message {id}"
+            );
+        }
+    }
+    // Other messages, MISSION_ACK included, are not answered.
+    assert_eq!(inspect_unknown_mission_type(47, &[1, 1, 0, 7]), None);
+    assert_eq!(inspect_unknown_mission_type(73, &[0; 38]), None);
 }

@@ -10,6 +10,11 @@
 //!   force, broadcast so every GCS's cache stays coherent — the old value
 //!   when the set was refused. Refusals also get a PARAM_ERROR (to the
 //!   sender) and a notice the caller turns into a STATUSTEXT.
+//! - With [`ParamService::set_save_first`], a new value is not put in
+//!   force at once: the caller gets [`ParamNotice::SaveRequested`], saves
+//!   it, and calls [`ParamService::apply_saved`] (in force, echoed) or
+//!   [`ParamService::refuse_unsaved`] (the old value echoed, with a notice)
+//!   — an echo of a new value then means it is on disk.
 //! - Ids are up to 16 characters; a full-length id has no terminator.
 //! - Values travel with the C-cast encoding: the value converted to `f32`.
 //!   The one exception is `_HASH_CHECK` (see [`crate::hash`]), whose 32-bit
@@ -54,6 +59,9 @@ pub enum ParamNotice {
     RebootRequired { name: String },
     /// A request was refused; the text is for a STATUSTEXT.
     Refused { text: String },
+    /// A valid new value waits to be saved (only with
+    /// [`ParamService::set_save_first`]); nothing is echoed yet.
+    SaveRequested { index: u16, value: f64 },
 }
 
 /// Who sent a request (PARAM_ERROR is addressed back to them).
@@ -67,12 +75,14 @@ pub struct Sender {
 #[derive(Clone, Debug)]
 pub struct ParamService<L> {
     streams: BTreeMap<L, usize>,
+    save_first: bool,
 }
 
 impl<L: Copy + Ord> Default for ParamService<L> {
     fn default() -> Self {
         ParamService {
             streams: BTreeMap::new(),
+            save_first: false,
         }
     }
 }
@@ -123,6 +133,60 @@ impl<L: Copy + Ord> ParamService<L> {
 
     pub fn link_closed(&mut self, link: L) {
         self.streams.remove(&link);
+    }
+
+    /// Whether a new value must be saved before it is in force and echoed.
+    pub fn set_save_first(&mut self, on: bool) {
+        self.save_first = on;
+    }
+
+    /// Puts a saved value in force and echoes it to every link.
+    pub fn apply_saved(
+        &mut self,
+        table: &mut ParamTable,
+        index: u16,
+        value: f64,
+        out: &mut Vec<Outgoing<L>>,
+        notices: &mut Vec<ParamNotice>,
+    ) {
+        let before = table.value(index);
+        if let Ok(now) = table.set(index, value)
+            && now != before
+        {
+            notices.push(ParamNotice::Changed { index });
+            if table.def(index).flags.reboot_required {
+                notices.push(ParamNotice::RebootRequired {
+                    name: table.def(index).name.to_string(),
+                });
+            }
+        }
+        out.push(Outgoing {
+            dest: Reply::AllLinks,
+            message: value_message(table, index),
+        });
+    }
+
+    /// A value that could not be saved: the old one stays in force and is
+    /// echoed to every link, with a notice saying why.
+    pub fn refuse_unsaved(
+        &self,
+        table: &ParamTable,
+        index: u16,
+        why: &str,
+        out: &mut Vec<Outgoing<L>>,
+        notices: &mut Vec<ParamNotice>,
+    ) {
+        notices.push(ParamNotice::Refused {
+            text: format!(
+                "{} not saved ({why}), kept {}",
+                table.def(index).name,
+                table.value(index)
+            ),
+        });
+        out.push(Outgoing {
+            dest: Reply::AllLinks,
+            message: value_message(table, index),
+        });
     }
 
     /// Handles a PARAM_* message (already known to be addressed to us).
@@ -275,6 +339,13 @@ impl<L: Copy + Ord> ParamService<L> {
         };
         // param_type is ignored (as ArduPilot does): the declared type rules.
         let before = table.value(index);
+        if self.save_first
+            && let Ok(value) = table.check(index, f64::from(s.param_value))
+            && value != before
+        {
+            notices.push(ParamNotice::SaveRequested { index, value });
+            return;
+        }
         match table.set(index, f64::from(s.param_value)) {
             Ok(now) => {
                 if now != before {

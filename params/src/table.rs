@@ -173,7 +173,16 @@ impl ParamTable {
         self.set(index, value)
     }
 
-    fn set_unchecked_access(&mut self, index: u16, value: f64) -> Result<f64, SetError> {
+    /// What [`ParamTable::set`] would store, without storing it (a change
+    /// that must be saved before it is in force).
+    pub fn check(&self, index: u16, value: f64) -> Result<f64, SetError> {
+        if self.defs[usize::from(index)].flags.read_only {
+            return Err(SetError::ReadOnly);
+        }
+        self.check_value(index, value)
+    }
+
+    fn check_value(&self, index: u16, value: f64) -> Result<f64, SetError> {
         let def = &self.defs[usize::from(index)];
         if !value.is_finite() {
             return Err(SetError::NotFinite);
@@ -185,6 +194,11 @@ impl ParamTable {
                 max: def.max,
             });
         }
+        Ok(value)
+    }
+
+    fn set_unchecked_access(&mut self, index: u16, value: f64) -> Result<f64, SetError> {
+        let value = self.check_value(index, value)?;
         let slot = &mut self.values[usize::from(index)];
         if *slot != value {
             *slot = value;

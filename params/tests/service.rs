@@ -275,3 +275,75 @@ fn hash_check_changes_with_any_value_and_stops_a_stream() {
     assert!(r.out.is_empty());
     assert!(!s.is_streaming(7));
 }
+
+#[test]
+fn saving_first_a_new_value_is_echoed_only_once_saved() {
+    let mut t = table();
+    let mut s = ParamService::new();
+    s.set_save_first(true);
+    let r = run(&mut s, &mut t, set("WP_SPEED", 3.5));
+    assert!(values(&r.out).is_empty(), "no echo before the save: {:?}", r.out);
+    assert_eq!(r.notices, vec![ParamNotice::SaveRequested { index: 0, value: 3.5 }]);
+    assert_eq!(t.value_of("WP_SPEED"), Some(2.0), "not in force before the save");
+    let (mut out, mut notices) = (Vec::new(), Vec::new());
+    s.apply_saved(&mut t, 0, 3.5, &mut out, &mut notices);
+    let v = values(&out);
+    assert_eq!((v[0].0, v[0].1.param_value), (Reply::AllLinks, 3.5));
+    assert_eq!(notices, vec![ParamNotice::Changed { index: 0 }]);
+    assert_eq!(t.value_of("WP_SPEED"), Some(3.5));
+    // Reboot-required parameters still say so once saved.
+    let r = run(&mut s, &mut t, set("SYSID_THISMAV", 9.0));
+    assert_eq!(r.notices, vec![ParamNotice::SaveRequested { index: 2, value: 9.0 }]);
+    let (mut out, mut notices) = (Vec::new(), Vec::new());
+    s.apply_saved(&mut t, 2, 9.0, &mut out, &mut notices);
+    assert!(notices.contains(&ParamNotice::RebootRequired {
+        name: "SYSID_THISMAV".into()
+    }));
+}
+
+#[test]
+fn saving_first_a_failed_save_echoes_the_old_value_and_says_why() {
+    let mut t = table();
+    let mut s = ParamService::new();
+    s.set_save_first(true);
+    let r = run(&mut s, &mut t, set("WP_SPEED", 3.5));
+    let Some(ParamNotice::SaveRequested { index, .. }) = r.notices.first().cloned() else {
+        panic!("{:?}", r.notices);
+    };
+    let (mut out, mut notices) = (Vec::new(), Vec::new());
+    s.refuse_unsaved(
+        &t,
+        index,
+        "params.parm: No space left on device",
+        &mut out,
+        &mut notices,
+    );
+    let v = values(&out);
+    assert_eq!((v[0].0, v[0].1.param_value), (Reply::AllLinks, 2.0), "the old value");
+    match &notices[..] {
+        [ParamNotice::Refused { text }] => {
+            assert!(text.contains("WP_SPEED") && text.contains("No space left"), "{text}")
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(t.value_of("WP_SPEED"), Some(2.0));
+}
+
+#[test]
+fn saving_first_unchanged_and_refused_values_are_answered_at_once() {
+    let mut t = table();
+    let mut s = ParamService::new();
+    s.set_save_first(true);
+    // The value in force: nothing to save, echoed now.
+    let r = run(&mut s, &mut t, set("WP_SPEED", 2.0));
+    assert_eq!(values(&r.out)[0].1.param_value, 2.0);
+    assert!(r.notices.is_empty());
+    // Out of range: refused as before, nothing to save.
+    let r = run(&mut s, &mut t, set("WP_SPEED", 99.0));
+    assert_eq!(values(&r.out)[0].1.param_value, 2.0);
+    assert!(
+        matches!(r.notices[..], [ParamNotice::Refused { .. }]),
+        "{:?}",
+        r.notices
+    );
+}

@@ -119,13 +119,42 @@ def test_fence_and_rally_are_separate_plans(start_sitl):
     cur = recv(m, "MISSION_CURRENT", 5)
     _, fence_id, rally_id = current_ids(cur)
     assert fence_id != 0 and rally_id != 0
+    # MISSION_TYPE_ALL is refused, as ArduPilot refuses it: nothing cleared.
     m.mav.mission_clear_all_send(m.target_system, m.target_component, mavlink.MAV_MISSION_TYPE_ALL)
+    assert recv(m, "MISSION_ACK", 5).type == mavlink.MAV_MISSION_UNSUPPORTED
+    assert len(download_mission(m, 1)[0]) == 4
+    m.mav.mission_clear_all_send(m.target_system, m.target_component, mavlink.MAV_MISSION_TYPE_FENCE)
     assert recv(m, "MISSION_ACK", 5).type == mavlink.MAV_MISSION_ACCEPTED
     assert len(download_mission(m, 1)[0]) == 0
+    assert len(download_mission(m, 2)[0]) == 1
 
 
 def heading_diff(a, b):
     return abs((a - b + 180) % 360 - 180)
+
+
+def test_unknown_mission_types_are_answered_unsupported(start_sitl):
+    """Types the vehicle has no plan for (7, 9…) cannot even be decoded by its
+    dialect; they still get MISSION_ACK UNSUPPORTED with the type sent, as
+    ArduPilot answers, instead of a silence the GCS must time out on."""
+    sitl = start_sitl()
+    m = sitl.tcp()
+    requests = [
+        (7, lambda t: m.mav.mission_count_send(m.target_system, m.target_component, 3, t, 0)),
+        (9, lambda t: m.mav.mission_request_list_send(m.target_system, m.target_component, t)),
+        (7, lambda t: m.mav.mission_clear_all_send(m.target_system, m.target_component, t)),
+        (9, lambda t: m.mav.mission_request_int_send(m.target_system, m.target_component, 0, t)),
+        (200, lambda t: m.mav.mission_count_send(m.target_system, m.target_component, 1, t, 0)),
+    ]
+    for mission_type, send in requests:
+        send(mission_type)
+        ack = recv(m, "MISSION_ACK", 3)
+        assert ack is not None, f"type {mission_type}: no MISSION_ACK"
+        assert (ack.type, ack.mission_type) == (mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
+        assert (ack.target_system, ack.target_component) == (255, 0)
+    # Addressed to another vehicle: not answered.
+    m.mav.mission_count_send(42, 1, 3, 7, 0)
+    assert recv(m, "MISSION_ACK", 1) is None
 
 
 def test_agv_course_runs_in_auto(start_sitl):

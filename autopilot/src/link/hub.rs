@@ -27,13 +27,13 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, AtomicU16, Ordering};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use mavlink::dialects::ardupilotmega::{MavMessage, MavResult};
+use mavlink::dialects::ardupilotmega::{MavMessage, MavMissionResult, MavResult};
 use mavlink::{MavHeader, Message};
 use tokio::io::{AsyncWrite, AsyncWriteExt};
 use tokio::net::{TcpListener, UdpSocket};
 use tokio::sync::{mpsc, oneshot};
 
-use super::encode::{encode_raw_command_ack, encode_v2};
+use super::encode::{encode_raw_command_ack, encode_raw_mission_ack, encode_v2};
 use super::endpoint::{Endpoint, LinkEndpoint};
 use super::frame::{FrameStats, ReceivedFrame};
 use super::peers::Peers;
@@ -90,6 +90,12 @@ enum OutItem {
         target_system: u8,
         target_component: u8,
     },
+    /// MISSION_ACK(UNSUPPORTED) for a mission type the dialect lacks.
+    UnknownMissionTypeAck {
+        mission_type: u8,
+        target_system: u8,
+        target_component: u8,
+    },
 }
 
 /// Serialises a link's outgoing items with its own sequence counter.
@@ -127,6 +133,20 @@ impl LinkEncoder {
                     header,
                     *command,
                     MavResult::MAV_RESULT_UNSUPPORTED as u8,
+                    *target_system,
+                    *target_component,
+                )
+            }
+            OutItem::UnknownMissionTypeAck {
+                mission_type,
+                target_system,
+                target_component,
+            } => {
+                let header = self.header();
+                encode_raw_mission_ack(
+                    header,
+                    MavMissionResult::MAV_MISSION_UNSUPPORTED as u8,
+                    *mission_type,
                     *target_system,
                     *target_component,
                 )
@@ -725,6 +745,19 @@ impl Hub {
                     };
                     if self.to_core.try_send(ToCore::UndecodableItem(item)).is_err() {
                         self.dropped_to_core += 1;
+                    }
+                } else if let Some(unknown) =
+                    mission::protocol::inspect_unknown_mission_type(frame.message_id(), frame.raw.payload())
+                {
+                    let ours = (unknown.target_system == 0 || unknown.target_system == self.sysid)
+                        && (unknown.target_component == 0 || unknown.target_component == COMPONENT_ID);
+                    if ours {
+                        let ack = OutItem::UnknownMissionTypeAck {
+                            mission_type: unknown.mission_type,
+                            target_system: frame.header.system_id as u8,
+                            target_component: frame.header.component_id,
+                        };
+                        self.queue(link, ack);
                     }
                 } else if let Some((command, _, _)) = command_targets(&frame) {
                     let ack = OutItem::UnknownCommandAck {

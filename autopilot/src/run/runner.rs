@@ -22,7 +22,6 @@ use crate::link::hub::{self, LinkConfig, ToCore};
 use crate::sitl::runner::{InstantTimer, Persistence, drain, forward, shutdown_on_signal};
 use crate::sitl::simulation::ModelKind;
 use crate::storage::data_dir::{DataDir, Profile};
-use crate::storage::file_writer::FileWriter;
 use crate::storage::missions;
 use crate::storage::session::SessionParams;
 use crate::telemetry::statustext::statustext;
@@ -77,8 +76,7 @@ pub fn run(config_path: &Path) -> Result<(), String> {
             "No scanner configured: set OA_ENABLE 0 to drive",
         );
     }
-    let writer = FileWriter::start();
-    let mut persistence = Persistence::new(data_dir.path(), &core, &session, &writer);
+    let mut persistence = Persistence::start(&data_dir, &mut core);
 
     let (tcp_server, udp_out, extra) = split_endpoints(&config);
     let (links, mut channels) = hub::start(LinkConfig {
@@ -137,6 +135,7 @@ pub fn run(config_path: &Path) -> Result<(), String> {
             None,
         );
         devices.poll(boot, &mut inputs);
+        persistence.collect(&mut inputs);
         core.step(now, &inputs, &mut outputs, &mut timer);
         inputs.clear();
         actuators.apply(&outputs.servo_pwm_us);
@@ -147,16 +146,14 @@ pub fn run(config_path: &Path) -> Result<(), String> {
             }
         }
         forward(&mut outputs, &channels.outbound, &mut dropped_out);
-        persistence.sync(&core, &session, &writer);
+        persistence.save(std::mem::take(&mut outputs.saves), &core, &session);
         links.set_sign_require_mask(core.sign_require_mask());
 
         next_tick += period;
         // Until the next tick: answer link traffic as it comes.
         while let Some(delay) = next_tick.checked_duration_since(Instant::now()) {
             let deadline = tokio::time::Instant::now() + delay;
-            let Ok(Some(first)) =
-                waiter.block_on(async { tokio::time::timeout_at(deadline, channels.inbound.recv()).await })
-            else {
+            let Some(first) = persistence.wait(&waiter, deadline, &mut channels.inbound, &mut inputs) else {
                 break;
             };
             let boot = origin.elapsed();
@@ -167,19 +164,20 @@ pub fn run(config_path: &Path) -> Result<(), String> {
                 &actuators,
                 &channels.outbound,
                 boot,
-                Some(first),
+                first,
             );
             core.service_links(boot, &inputs, &mut outputs);
             inputs.link_events.clear();
             inputs.messages.clear();
             inputs.undecodable_items.clear();
+            inputs.saved.clear();
             forward(&mut outputs, &channels.outbound, &mut dropped_out);
-            persistence.sync(&core, &session, &writer);
+            persistence.save(std::mem::take(&mut outputs.saves), &core, &session);
             links.set_sign_require_mask(core.sign_require_mask());
         }
     }
     actuators.to_trim();
-    persistence.sync(&core, &session, &writer);
+    persistence.finish();
     let ticks = core.scheduler().tick_stats();
     tracing::info!(
         "stopped after {:.1} s: tick median {:.2} µs, p99 {:.2} µs, {} overruns, {} late ticks, {} watchdog trims, {} corrections dropped, {} messages dropped to links",

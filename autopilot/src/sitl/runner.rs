@@ -16,7 +16,7 @@ use crate::storage::file_writer::FileWriter;
 use crate::storage::missions;
 use crate::storage::session::SessionParams;
 use crate::time::TaskTimer;
-use crate::vehicle::{Core, Inputs, Outbound, Outputs};
+use crate::vehicle::{Core, Inputs, Outbound, Outputs, SaveDone, SaveRequest, SaveWhat, Storage};
 use mission::MissionType;
 
 /// `--speedup`.
@@ -146,8 +146,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
     for (severity, text) in plan_notices {
         sim.core_mut().add_startup_notice(severity, text);
     }
-    let writer = FileWriter::start();
-    let mut persistence = Persistence::new(data_dir.path(), sim.core(), &session, &writer);
+    let mut persistence = Persistence::start(&data_dir, sim.core_mut());
 
     let offset = 10 * options.instance;
     let tcp_port = options.tcp_port.unwrap_or(5760 + offset);
@@ -195,9 +194,11 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         .map_err(|e| format!("runtime: {e}"))?;
     while !shutdown.load(Ordering::Relaxed) {
         drain(&mut channels.inbound, sim.inputs_mut(), None);
+        persistence.collect(sim.inputs_mut());
         let outputs = sim.step(start.elapsed(), &mut timer);
+        let saves = std::mem::take(&mut outputs.saves);
         forward(outputs, &channels.outbound, &mut dropped_out);
-        persistence.sync(sim.core(), &session, &writer);
+        persistence.save(saves, sim.core(), &session);
         links.set_sign_require_mask(sim.core().sign_require_mask());
         if let Some(watch) = &mut world_watch {
             watch.poll(start.elapsed(), &mut sim);
@@ -206,18 +207,17 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         let next_sim = sim.time() + sim.core().loop_period();
         if let Some(delay) = pacer.delay(next_sim, start.elapsed(), sim.speedup(), sim.core().loop_period()) {
             let deadline = tokio::time::Instant::now() + delay;
-            while let Ok(Some(first)) =
-                waiter.block_on(async { tokio::time::timeout_at(deadline, channels.inbound.recv()).await })
-            {
-                drain(&mut channels.inbound, sim.inputs_mut(), Some(first));
+            while let Some(first) = persistence.wait(&waiter, deadline, &mut channels.inbound, sim.inputs_mut()) {
+                drain(&mut channels.inbound, sim.inputs_mut(), first);
                 let outputs = sim.service_links(start.elapsed());
+                let saves = std::mem::take(&mut outputs.saves);
                 forward(outputs, &channels.outbound, &mut dropped_out);
-                persistence.sync(sim.core(), &session, &writer);
+                persistence.save(saves, sim.core(), &session);
                 links.set_sign_require_mask(sim.core().sign_require_mask());
             }
         }
     }
-    persistence.sync(sim.core(), &session, &writer);
+    persistence.finish();
     let ticks = sim.core().scheduler().tick_stats();
     tracing::info!(
         "SITL stopped after {:.1} s simulated in {:.1} s: tick median {:.2} µs, p99 {:.2} µs, {} overruns, {} pacing restarts, {} messages dropped to links, {} late ticks",
@@ -308,49 +308,91 @@ impl WorldWatch {
     }
 }
 
-/// Saves parameters and plans after they change: the core only counts
-/// changes, this edge turns them into files (written on the writer thread).
+/// Does the core's saves (see `vehicle::Storage`): turns each request into
+/// a file for the writer thread and hands the writer's reports back to the
+/// core, which acknowledges a change only then.
 pub(crate) struct Persistence {
     dir: PathBuf,
-    params_generation: u64,
-    plans_generation: u64,
-    plan_ids: [u32; 3],
+    writer: Option<FileWriter>,
+    done: tokio::sync::mpsc::UnboundedReceiver<SaveDone>,
 }
 
 impl Persistence {
-    /// Saves the table as loaded (the boot count changed) and remembers the
-    /// plans as they are on disk.
-    pub(crate) fn new(dir: &std::path::Path, core: &Core, session: &SessionParams, writer: &FileWriter) -> Persistence {
-        writer.write(
-            dir.join(params::store::STORE_FILE),
-            session.snapshot(core.params()).render().into_bytes(),
-        );
+    /// Opens the data directory's storage for `core`: durable when it can
+    /// be written, else read-only (the vehicle runs on what it loaded).
+    pub(crate) fn start(data_dir: &DataDir, core: &mut Core) -> Persistence {
+        match data_dir.read_only() {
+            Some(why) => {
+                tracing::error!("data directory {}: {why}; changes refused", data_dir.path().display());
+                core.set_storage(Storage::ReadOnly(why.to_owned()));
+            }
+            None => core.set_storage(Storage::Durable),
+        }
+        let (writer, done) = FileWriter::start();
         Persistence {
-            dir: dir.to_path_buf(),
-            params_generation: core.params().generation(),
-            plans_generation: core.plans_generation(),
-            plan_ids: MissionType::ALL.map(|t| core.plan(t).opaque_id()),
+            dir: data_dir.path().to_path_buf(),
+            writer: Some(writer),
+            done,
         }
     }
 
-    pub(crate) fn sync(&mut self, core: &Core, session: &SessionParams, writer: &FileWriter) {
-        if core.params().generation() != self.params_generation {
-            self.params_generation = core.params().generation();
-            writer.write(
-                self.dir.join(params::store::STORE_FILE),
-                session.snapshot(core.params()).render().into_bytes(),
-            );
-        }
-        if core.plans_generation() != self.plans_generation {
-            self.plans_generation = core.plans_generation();
-            for (id, mission_type) in self.plan_ids.iter_mut().zip(MissionType::ALL) {
-                let plan = core.plan(mission_type);
-                if plan.opaque_id() != *id {
-                    *id = plan.opaque_id();
-                    writer.write(missions::path(&self.dir, mission_type), missions::contents(plan));
+    /// Hands the saves the core asked for to the writer thread.
+    pub(crate) fn save(&mut self, requests: Vec<SaveRequest>, core: &Core, session: &SessionParams) {
+        let Some(writer) = &self.writer else {
+            return;
+        };
+        for SaveRequest { token, what } in requests {
+            let (path, bytes) = match what {
+                SaveWhat::Params { changes } => (
+                    self.dir.join(params::store::STORE_FILE),
+                    session.snapshot_with(core.params(), &changes).render().into_bytes(),
+                ),
+                SaveWhat::Plan { mission_type, plan } => {
+                    (missions::path(&self.dir, mission_type), missions::contents(&plan))
                 }
-            }
+            };
+            writer.save(token, path, bytes);
         }
+    }
+
+    /// Moves the saves finished so far into the core's inputs.
+    pub(crate) fn collect(&mut self, inputs: &mut Inputs) {
+        while let Ok(done) = self.done.try_recv() {
+            inputs.saved.push(done);
+        }
+    }
+
+    /// Waits up to `deadline` for link traffic or a finished save (moved
+    /// into `inputs` with any others): `None` when the deadline passed with
+    /// neither, else the first link item if that is what came.
+    pub(crate) fn wait(
+        &mut self,
+        waiter: &tokio::runtime::Runtime,
+        deadline: tokio::time::Instant,
+        inbound: &mut tokio::sync::mpsc::Receiver<ToCore>,
+        inputs: &mut Inputs,
+    ) -> Option<Option<ToCore>> {
+        let done = &mut self.done;
+        let (first, saved) = waiter.block_on(async {
+            tokio::select! {
+                item = inbound.recv() => (item, None),
+                save = done.recv() => (None, save),
+                () = tokio::time::sleep_until(deadline) => (None, None),
+            }
+        });
+        match saved {
+            Some(save) => inputs.saved.push(save),
+            None if first.is_none() => return None,
+            None => {}
+        }
+        self.collect(inputs);
+        Some(first)
+    }
+
+    /// Finishes the pending writes (their changes were never acknowledged:
+    /// the process is going).
+    pub(crate) fn finish(&mut self) {
+        self.writer.take();
     }
 }
 

@@ -1,6 +1,10 @@
 //! A data directory belongs to one vehicle profile and is used by one
 //! process at a time: the running autopilot holds an exclusive lock on
 //! `furrow.lock`; the offline tools refuse to touch a locked directory.
+//!
+//! A directory that cannot be written (a read-only file system, a full or
+//! immutable one) still opens for the autopilot, marked read-only: the
+//! vehicle drives with what it loads and refuses changes it cannot save.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::Write;
@@ -10,6 +14,8 @@ use crate::sitl::simulation::ModelKind;
 
 const LOCK_FILE: &str = "furrow.lock";
 const PROFILE_FILE: &str = "profile";
+/// Written and removed at start to learn whether changes can be saved.
+const WRITE_CHECK_FILE: &str = "write-check";
 
 /// Which defaults the stored parameters are relative to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -49,7 +55,10 @@ impl Profile {
 /// An open, locked data directory.
 pub struct DataDir {
     path: PathBuf,
-    _lock: File,
+    /// `None` when no lock file exists and none can be made (read-only).
+    _lock: Option<File>,
+    /// Why changes cannot be saved here (`None`: they can).
+    read_only: Option<String>,
 }
 
 impl DataDir {
@@ -58,7 +67,12 @@ impl DataDir {
     /// directory made for one vehicle profile is refused for another.
     pub fn open(path: &Path, profile: Profile) -> Result<DataDir, String> {
         fs::create_dir_all(path).map_err(|e| format!("data directory {}: {e}", path.display()))?;
-        let lock = lock(path)?;
+        let lock = match lock(path) {
+            Ok(lock) => Some(lock),
+            Err(LockError::InUse(text)) => return Err(text),
+            Err(LockError::Unwritable(_)) => lock_read_only(path)?,
+        };
+        let mut read_only = None;
         match read_profile(path)? {
             Some(existing) if existing != profile => {
                 return Err(format!(
@@ -69,13 +83,24 @@ impl DataDir {
                 ));
             }
             Some(_) => {}
-            None => params::store::write_atomic(&path.join(PROFILE_FILE), format!("{}\n", profile.as_str()).as_bytes())
-                .map_err(|e| format!("data directory {}: {e}", path.display()))?,
+            None => {
+                let text = format!("{}\n", profile.as_str());
+                if let Err(e) = params::store::write_atomic(&path.join(PROFILE_FILE), text.as_bytes()) {
+                    read_only = Some(e.to_string());
+                }
+            }
         }
+        let read_only = read_only.or_else(|| write_check(path).err().map(|e| e.to_string()));
         Ok(DataDir {
             path: path.to_path_buf(),
             _lock: lock,
+            read_only,
         })
+    }
+
+    /// Why changes cannot be saved in this directory (`None`: they can).
+    pub fn read_only(&self) -> Option<&str> {
+        self.read_only.as_deref()
     }
 
     /// Locks an existing directory for an offline tool; fails while an
@@ -84,12 +109,15 @@ impl DataDir {
         if !path.is_dir() {
             return Err(format!("data directory {} does not exist", path.display()));
         }
-        let lock = lock(path)?;
+        let lock = lock(path).map_err(|e| match e {
+            LockError::InUse(text) | LockError::Unwritable(text) => text,
+        })?;
         let profile = read_profile(path)?.unwrap_or(Profile::Sitl(ModelKind::Ackermann));
         Ok((
             DataDir {
                 path: path.to_path_buf(),
-                _lock: lock,
+                _lock: Some(lock),
+                read_only: None,
             },
             profile,
         ))
@@ -100,14 +128,20 @@ impl DataDir {
     }
 }
 
-fn lock(path: &Path) -> Result<File, String> {
+enum LockError {
+    InUse(String),
+    /// The lock file cannot be opened for writing.
+    Unwritable(String),
+}
+
+fn lock(path: &Path) -> Result<File, LockError> {
     let file = OpenOptions::new()
         .create(true)
         .truncate(false)
         .read(true)
         .write(true)
         .open(path.join(LOCK_FILE))
-        .map_err(|e| format!("data directory {}: {e}", path.display()))?;
+        .map_err(|e| LockError::Unwritable(format!("data directory {}: {e}", path.display())))?;
     match file.try_lock() {
         Ok(()) => {
             let mut f = &file;
@@ -115,15 +149,37 @@ fn lock(path: &Path) -> Result<File, String> {
             let _ = writeln!(f, "{}", std::process::id());
             Ok(file)
         }
-        Err(_) => {
-            let pid = fs::read_to_string(path.join(LOCK_FILE)).unwrap_or_default();
-            Err(format!(
-                "data directory {} is in use by a running furrow (pid {})",
-                path.display(),
-                pid.trim()
-            ))
-        }
+        Err(_) => Err(LockError::InUse(in_use(path))),
     }
+}
+
+fn in_use(path: &Path) -> String {
+    let pid = fs::read_to_string(path.join(LOCK_FILE)).unwrap_or_default();
+    format!(
+        "data directory {} is in use by a running furrow (pid {})",
+        path.display(),
+        pid.trim()
+    )
+}
+
+/// A directory whose lock file cannot be written: the lock is taken on the
+/// file opened for reading (a lock needs no write access); without a file
+/// there is nothing to lock, and nothing can be written by anyone either.
+fn lock_read_only(path: &Path) -> Result<Option<File>, String> {
+    let Ok(file) = File::open(path.join(LOCK_FILE)) else {
+        return Ok(None);
+    };
+    match file.try_lock() {
+        Ok(()) => Ok(Some(file)),
+        Err(_) => Err(in_use(path)),
+    }
+}
+
+/// Writes and removes a small file the way saves are written.
+fn write_check(path: &Path) -> std::io::Result<()> {
+    let file = path.join(WRITE_CHECK_FILE);
+    params::store::write_atomic(&file, b"furrow write check\n")?;
+    fs::remove_file(&file)
 }
 
 fn read_profile(path: &Path) -> Result<Option<Profile>, String> {
@@ -164,6 +220,19 @@ mod tests {
             .err()
             .expect("profile mismatch");
         assert!(err.contains("belongs to"), "{err}");
+        fs::remove_dir_all(d).unwrap();
+    }
+
+    #[test]
+    fn a_directory_that_cannot_be_written_opens_read_only() {
+        let d = temp("read-only");
+        let profile = Profile::Sitl(ModelKind::Ackermann);
+        assert_eq!(DataDir::open(&d, profile).unwrap().read_only(), None);
+        // Saves go through a temporary file; its path taken, none can be made.
+        fs::create_dir(d.join(format!("{WRITE_CHECK_FILE}.tmp"))).unwrap();
+        let dir = DataDir::open(&d, profile).expect("opens, read-only");
+        assert!(dir.read_only().is_some_and(|why| !why.is_empty()));
+        drop(dir);
         fs::remove_dir_all(d).unwrap();
     }
 }

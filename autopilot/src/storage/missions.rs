@@ -244,13 +244,14 @@ mod tests {
     fn the_file_writer_can_save_plans() {
         let dir = temp_dir("writer");
         {
-            let w = crate::storage::file_writer::FileWriter::start();
-            w.write(
+            let (w, _done) = crate::storage::file_writer::FileWriter::start();
+            w.save(
+                1,
                 path(&dir, MissionType::Rally),
                 contents(&Plan::new(MissionType::Rally, Vec::new())),
             );
-            w.write(path(&dir, MissionType::Mission), contents(&mission()));
-            w.write(path(&dir, MissionType::Rally), contents(&rally()));
+            w.save(2, path(&dir, MissionType::Mission), contents(&mission()));
+            w.save(3, path(&dir, MissionType::Rally), contents(&rally()));
         }
         let (plans, notices) = load(&dir);
         assert!(notices.is_empty());

@@ -3,7 +3,8 @@
 //! - [`data_dir`]: the directory, its lock (one process at a time) and the
 //!   vehicle profile it belongs to.
 //! - [`file_writer`]: a thread that writes files atomically, coalescing
-//!   bursts, so the core tick never waits for a disk.
+//!   bursts, and reports each save once durable, so the core tick never
+//!   waits for a disk and acknowledges only what is on it.
 //! - [`missions`]: the mission, fence and rally plans (QGC WPL 110 files),
 //!   loaded at start and saved atomically.
 //! - [`session`]: a run's table: defaults, stored values, command-line

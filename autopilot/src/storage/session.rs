@@ -68,7 +68,16 @@ impl SessionParams {
     /// What to write to the data directory now: the table, except that a
     /// parameter still holding its override keeps its stored value.
     pub fn snapshot(&self, table: &ParamTable) -> Snapshot {
+        self.snapshot_with(table, &[])
+    }
+
+    /// [`SessionParams::snapshot`] of the table with `changes` (`(index,
+    /// value)`, in order) applied: changes not yet in force.
+    pub fn snapshot_with(&self, table: &ParamTable, changes: &[(u16, f64)]) -> Snapshot {
         Snapshot::of_adjusted(table, |index, value| {
+            if let Some(&(_, changed)) = changes.iter().rev().find(|(i, _)| *i == index) {
+                return changed;
+            }
             match self.overrides.iter().find(|o| o.index == index) {
                 Some(o) if o.value == value => o.stored,
                 _ => value,

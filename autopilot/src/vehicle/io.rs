@@ -91,6 +91,8 @@ pub struct Inputs {
     pub magnetic: Option<MagneticSample>,
     /// Laser scans received since the last tick.
     pub scans: Vec<ScanInput>,
+    /// Saves the edge finished (answers to [`Outputs::saves`]).
+    pub saved: Vec<super::SaveDone>,
 }
 
 /// A scan and which scanner sent it (0 = SCAN1, 1 = SCAN2).
@@ -109,6 +111,7 @@ impl Inputs {
         self.battery = None;
         self.magnetic = None;
         self.scans.clear();
+        self.saved.clear();
     }
 }
 
@@ -119,6 +122,8 @@ pub struct Outputs {
     /// Servo channel pulse widths (µs), as SERVO_OUTPUT_RAW reports them.
     pub servo_pwm_us: [u16; 16],
     pub mavlink: Vec<Outbound>,
+    /// Saves to do and report in [`Inputs::saved`] (see `Storage`).
+    pub saves: Vec<super::SaveRequest>,
 }
 
 impl Default for Outputs {
@@ -130,6 +135,7 @@ impl Default for Outputs {
             },
             servo_pwm_us: [0; 16],
             mavlink: Vec::new(),
+            saves: Vec::new(),
         }
     }
 }

@@ -71,7 +71,7 @@ impl Core {
         self.missions.protocol.set_home(home);
     }
 
-    fn mission_replies(&mut self, out: Vec<Outgoing<LinkId>>) {
+    pub(super) fn mission_replies(&mut self, out: Vec<Outgoing<LinkId>>) {
         for o in out {
             let dest = match o.dest {
                 Reply::Link(link) => Destination::Link(link),
@@ -92,6 +92,7 @@ impl Core {
                     self.send_text(MavSeverity::MAV_SEVERITY_INFO, &text);
                 }
                 MissionEvent::TransferFailed { text, .. } => self.send_text(MavSeverity::MAV_SEVERITY_WARNING, &text),
+                MissionEvent::SaveRequested { mission_type, plan } => self.plan_save_requested(mission_type, plan),
             }
         }
     }

@@ -24,7 +24,7 @@ pub struct MissionState {
     pub breach_time_ms: u32,
     /// The last MISSION_CURRENT seq sent, to send again on change.
     pub last_current_sent: Option<u16>,
-    /// Bumped whenever a plan changes (the edge persists plans then).
+    /// Bumped whenever a plan in force changes.
     pub generation: u64,
 }
 

@@ -19,6 +19,7 @@ mod modes;
 mod obstacles;
 mod param_protocol;
 pub mod params;
+mod persistence;
 mod telemetry;
 
 use std::collections::BTreeMap;
@@ -46,6 +47,7 @@ pub use failsafe::{Failsafe, FailsafeAction};
 pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, PeerId, ScanInput, UndecodableItem};
 pub use obstacles::ObstacleStatus;
 pub use params::CoreParams;
+pub use persistence::{SaveDone, SaveRequest, SaveWhat, Storage};
 
 /// After this long without a drive demand the vehicle counts as held still.
 const HELD_STILL_AFTER: Duration = Duration::from_millis(500);
@@ -106,6 +108,7 @@ pub struct Core {
     /// is nobody to tell when the process starts.
     startup_notices: Vec<(MavSeverity, String)>,
     last_boot: Option<Duration>,
+    persist: persistence::PersistState,
     now: Now,
     outbox: Vec<Outbound>,
     counters: CoreCounters,
@@ -151,6 +154,7 @@ impl Core {
             param_service: ParamService::new(),
             startup_notices: Vec::new(),
             last_boot: None,
+            persist: persistence::PersistState::default(),
             now: Now::default(),
             outbox: Vec::new(),
             counters: CoreCounters::default(),
@@ -175,6 +179,7 @@ impl Core {
         if dt_s > stall_after.as_secs_f64() {
             self.failsafes.stall = Some(Duration::from_secs_f64(dt_s));
         }
+        self.saves_done(&inputs.saved);
         for (i, spec) in TASKS.iter().enumerate() {
             if !self.sched.is_due(i, now.boot, now.wall) {
                 continue;
@@ -196,6 +201,8 @@ impl Core {
             }
             self.sched.record(i, timer.now_ns().saturating_sub(started));
         }
+        self.request_param_save();
+        out.saves.append(&mut self.persist.take_requests());
         out.mavlink.append(&mut self.outbox);
         self.sched.record_tick(timer.now_ns().saturating_sub(tick_start));
     }
@@ -207,8 +214,11 @@ impl Core {
     /// vehicle time stays the last tick's.
     pub fn service_links(&mut self, wall: Duration, inputs: &Inputs, out: &mut Outputs) {
         self.now.wall = wall;
+        self.saves_done(&inputs.saved);
         self.handle_link_events(&inputs.link_events);
         self.receive(inputs);
+        self.request_param_save();
+        out.saves.append(&mut self.persist.take_requests());
         out.mavlink.append(&mut self.outbox);
     }
 
@@ -292,13 +302,14 @@ impl Core {
         self.missions.plan(mission_type)
     }
 
-    /// Changes whenever a plan does (the edge persists plans then).
+    /// Changes whenever a plan in force does.
     pub fn plans_generation(&self) -> u64 {
         self.missions.generation
     }
 
     /// Puts a plan in force (plans loaded from the data directory at start,
-    /// files imported). The plan must be valid (`mission::validate_plan`).
+    /// files imported), without saving it. The plan must be valid
+    /// (`mission::validate_plan`).
     pub fn load_plan(&mut self, mission_type: mission::MissionType, plan: mission::Plan) {
         self.missions.replace(mission_type, plan);
         self.plan_changed(mission_type);

@@ -23,9 +23,15 @@ impl Core {
             &mut notices,
         );
         self.send_param_replies(out);
+        self.param_notices(notices);
+    }
+
+    /// Turns the service's notices into STATUSTEXT (and saves).
+    pub(super) fn param_notices(&mut self, notices: Vec<ParamNotice>) {
         for notice in notices {
             match notice {
                 ParamNotice::Changed { .. } => {}
+                ParamNotice::SaveRequested { index, value } => self.param_save_requested(index, value),
                 ParamNotice::RebootRequired { name } => self.send_text(
                     MavSeverity::MAV_SEVERITY_WARNING,
                     &format!("{name} takes effect after a restart"),
@@ -42,7 +48,7 @@ impl Core {
         self.send_param_replies(out);
     }
 
-    fn send_param_replies(&mut self, out: Vec<Outgoing<super::LinkId>>) {
+    pub(super) fn send_param_replies(&mut self, out: Vec<Outgoing<super::LinkId>>) {
         for o in out {
             let dest = match o.dest {
                 Reply::Link(link) => Destination::Link(link),
