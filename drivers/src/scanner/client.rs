@@ -304,10 +304,15 @@ fn handle_telegram(
 ) -> Handled {
     match parse_telegram(telegram) {
         Ok(ColaTelegram::ScanData(scan)) => {
-            match tx.try_send(scan.to_scan(clock())) {
-                Ok(()) => ScannerStats::bump(&stats.scans),
-                Err(mpsc::error::TrySendError::Full(_)) => ScannerStats::bump(&stats.dropped_full),
-                Err(mpsc::error::TrySendError::Closed(_)) => return Handled::ReceiverDropped,
+            // Counted before it is handed on, so whoever has received n
+            // scans sees at least n counted.
+            match tx.try_reserve() {
+                Ok(permit) => {
+                    ScannerStats::bump(&stats.scans);
+                    permit.send(scan.to_scan(clock()));
+                }
+                Err(mpsc::error::TrySendError::Full(())) => ScannerStats::bump(&stats.dropped_full),
+                Err(mpsc::error::TrySendError::Closed(())) => return Handled::ReceiverDropped,
             }
             Handled::WellFormed
         }
