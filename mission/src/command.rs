@@ -719,6 +719,31 @@ mod tests {
     }
 
     #[test]
+    fn zero_zero_is_no_position_as_in_ardupilot() {
+        let here = item(cmd::NAV_WAYPOINT, frame::GLOBAL_RELATIVE_ALT_INT, [0.0; 4], 0, 0);
+        assert_eq!(
+            interpret_mission(&here, 5),
+            Ok(MissionCommand::Waypoint {
+                position: Position::Current,
+                hold_s: 0.0
+            })
+        );
+        let rally = item(cmd::NAV_RALLY_POINT, frame::GLOBAL, [0.0; 4], 0, 0);
+        assert_eq!(
+            interpret_rally(&rally),
+            Err(MavMissionResult::MAV_MISSION_INVALID_PARAM5_X)
+        );
+        let one_cm_away = item(cmd::NAV_WAYPOINT, frame::GLOBAL, [0.0; 4], 1, 0);
+        assert!(matches!(
+            interpret_mission(&one_cm_away, 5),
+            Ok(MissionCommand::Waypoint {
+                position: Position::Global { lat_e7: 1, lon_e7: 0 },
+                ..
+            })
+        ));
+    }
+
+    #[test]
     fn non_positional_items_take_any_frame() {
         for f in [frame::MISSION, frame::GLOBAL, frame::GLOBAL_RELATIVE_ALT] {
             let speed = item(cmd::DO_CHANGE_SPEED, f, [1.0, 0.5, -1.0, 0.0], 0, 0);
