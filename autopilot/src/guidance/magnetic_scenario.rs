@@ -42,7 +42,6 @@
 //! never from its outside.
 
 use std::f64::consts::{PI, TAU};
-use std::time::Duration;
 
 use drivers::sim::{
     AckermannConfig, ActuatorDemand, GnssSimConfig, MagneticSensor, MagneticSensorConfig, MagneticTape, TapeBuilder,
@@ -189,7 +188,7 @@ pub fn run(scenario: &MagneticScenario) -> ScenarioResult {
         },
     };
 
-    let dt = Duration::from_secs_f64(1.0 / scenario.control_rate_hz.clamp(1.0, 1000.0));
+    let dt = crate::time::duration_from_secs(1.0 / scenario.control_rate_hz.clamp(1.0, 1000.0));
     let dt_s = dt.as_secs_f64();
     let geometry = CurveGeometry::new(scenario);
     let run_up_steer_rad = if scenario.run_up_on_curve {

@@ -206,18 +206,18 @@ impl Core {
         let self_driving = self.mode.self_driving() || interrupted.is_some_and(Mode::self_driving);
         match failsafe {
             Failsafe::Gcs => {
-                let timeout = Duration::from_secs_f64(f64::from(fs.gcs_timeout_s.get(t)));
+                let timeout = crate::time::duration_from_secs(f64::from(fs.gcs_timeout_s.get(t)));
                 fs.gcs_enable.get(t) > 0
                     && self
                         .last_gcs_heartbeat_wall
                         .is_some_and(|last| self.now.wall.saturating_sub(last) > timeout)
             }
             Failsafe::GnssLost => {
-                let timeout = Duration::from_secs_f64(f64::from(fs.gnss_lost_s.get(t)));
+                let timeout = crate::time::duration_from_secs(f64::from(fs.gnss_lost_s.get(t)));
                 uses_position && !self.estimator.gnss().has_fix(now, timeout)
             }
             Failsafe::HeadingLost => {
-                let timeout = Duration::from_secs_f64(f64::from(fs.heading_lost_s.get(t)));
+                let timeout = crate::time::duration_from_secs(f64::from(fs.heading_lost_s.get(t)));
                 let Some(last) = self.estimator.heading_sensor_last() else {
                     // Driving on the GNSS course: no sensor to lose.
                     return false;
@@ -273,7 +273,7 @@ impl Core {
     }
 
     fn battery_below_for(&self, since: Option<Duration>) -> bool {
-        let timer = Duration::from_secs_f64(f64::from(self.p.failsafe.batt_low_timer_s.get(&self.params)));
+        let timer = crate::time::duration_from_secs(f64::from(self.p.failsafe.batt_low_timer_s.get(&self.params)));
         since.is_some_and(|s| self.now.boot.saturating_sub(s) >= timer)
     }
 
