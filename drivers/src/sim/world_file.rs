@@ -237,7 +237,11 @@ impl Checker<'_> {
         if p.iter().all(|v| v.abs() <= MAX_MAGNITUDE) {
             Ok(p)
         } else {
-            Err(self.error(key, Some(value.span()), format!("{p:?} is not a finite point within ±100 km")))
+            Err(self.error(
+                key,
+                Some(value.span()),
+                format!("{p:?} is not a finite point within ±100 km"),
+            ))
         }
     }
 
