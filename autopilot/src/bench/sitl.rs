@@ -31,12 +31,15 @@ pub struct SitlBenchArgs {
 }
 
 pub fn run(args: &SitlBenchArgs) -> Result<(), String> {
-    if !(args.seconds.is_finite() && args.seconds > 0.0) {
-        return Err(format!("--seconds {}: must be a positive number", args.seconds));
-    }
-    if !(args.process_seconds.is_finite() && args.process_seconds > 0.0) {
+    if !(args.seconds > 0.0 && args.seconds <= 86_400.0) {
         return Err(format!(
-            "--process-seconds {}: must be a positive number",
+            "--seconds {}: must be a positive number up to a day",
+            args.seconds
+        ));
+    }
+    if !(args.process_seconds > 0.0 && args.process_seconds <= 86_400.0) {
+        return Err(format!(
+            "--process-seconds {}: must be a positive number up to a day",
             args.process_seconds
         ));
     }
