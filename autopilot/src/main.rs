@@ -156,6 +156,11 @@ fn parse_home(s: &str) -> Result<Home, String> {
     if !(-1000.0..=10000.0).contains(&v[2]) {
         return Err(format!("{s:?}: altitude {} m is out of range", v[2]));
     }
+    // -360..=360 takes every way of writing a heading; beyond that a number
+    // is a typo (and 1e30 would lose every degree to rounding).
+    if !(-360.0..=360.0).contains(&v[3]) {
+        return Err(format!("{s:?}: heading {}° must be within ±360", v[3]));
+    }
     Ok(Home {
         point: GeoPoint {
             lat_deg: v[0],
@@ -253,6 +258,10 @@ mod tests {
         assert!(parse_home("29.133,119.64,40").is_err());
         assert!(parse_home("91,0,0,0").is_err());
         assert!(parse_home("a,0,0,0").is_err());
+        let huge = parse_home("29.133,119.64,40,1e30").unwrap_err();
+        assert!(huge.contains("heading") && huge.contains("±360"), "{huge}");
+        assert!(parse_home("29.133,119.64,40,-361").is_err());
+        assert_eq!(parse_home("29.133,119.64,40,360").unwrap().heading_deg, 0.0);
         assert_eq!(parse_speedup("MAX"), Ok(Speedup::Max));
         assert_eq!(parse_speedup("50"), Ok(Speedup::Factor(50.0)));
         assert!(parse_speedup("0").is_err());

@@ -9,6 +9,11 @@
 
 use std::time::Duration;
 
+/// Float seconds from outside as a `Duration`, saturating (never panics):
+/// the one conversion every crate uses (it lives in `mission`, the lowest
+/// crate that needs it).
+pub use mission::seconds::duration_from_secs;
+
 /// The time given to one core step.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Now {

@@ -4,6 +4,8 @@
 //! The targets check properties as they go (`assert!`): a failed property is
 //! a finding, like a panic, and libFuzzer saves the input that caused it.
 
+pub mod flight;
+
 use std::time::Duration;
 
 use autopilot::link::frame::ReceivedFrame;

@@ -179,6 +179,25 @@ pub struct RallyItem {
 
 type Result<T> = std::result::Result<T, MavMissionResult>;
 
+/// Limits on what an item may ask of the vehicle: generous for any use a
+/// rover has, small enough that every value converts and adds without
+/// overflow. ArduPilot keeps waypoint hold and loiter times in 16 bits
+/// (at most 65 535 s, about 18 h), DO_JUMP repeats in 16 signed bits and
+/// a rover's WP_SPEED at most 100 m/s.
+pub mod limits {
+    /// Longest hold, loiter, delay or servo repeat period: one day.
+    pub const MAX_DURATION_S: f32 = 86_400.0;
+    /// Shortest servo repeat period: faster toggles than 100 Hz mean nothing
+    /// to a servo or relay and would flood the outputs.
+    pub const MIN_REPEAT_PERIOD_S: f32 = 0.01;
+    /// Fastest DO_CHANGE_SPEED.
+    pub const MAX_SPEED_MPS: f32 = 100.0;
+    /// Longest CONDITION_DISTANCE and largest fence circle radius: 100 km.
+    pub const MAX_DISTANCE_M: f32 = 100_000.0;
+    /// Most DO_JUMP repeats (ArduPilot's int16).
+    pub const MAX_JUMP_REPEAT: f32 = 32_767.0;
+}
+
 const INVALID_PARAM: [MavMissionResult; 4] = [
     MavMissionResult::MAV_MISSION_INVALID_PARAM1,
     MavMissionResult::MAV_MISSION_INVALID_PARAM2,
@@ -250,9 +269,19 @@ pub fn position(item: &MissionItem) -> Result<Position> {
     }
 }
 
-fn non_negative(item: &MissionItem, n: usize) -> Result<f32> {
+/// Param `n` within `range`, a finite number.
+fn within(item: &MissionItem, n: usize, range: std::ops::RangeInclusive<f32>) -> Result<f32> {
     let v = finite(item, n)?;
-    if v >= 0.0 { Ok(v) } else { Err(INVALID_PARAM[n - 1]) }
+    if range.contains(&v) {
+        Ok(v)
+    } else {
+        Err(INVALID_PARAM[n - 1])
+    }
+}
+
+/// Param `n` as a duration the vehicle can wait: 0 to a day.
+fn duration_s(item: &MissionItem, n: usize) -> Result<f32> {
+    within(item, n, 0.0..=limits::MAX_DURATION_S)
 }
 
 /// Interprets an item of the mission plan. `count` is the plan's length
@@ -267,7 +296,7 @@ pub fn interpret_mission(item: &MissionItem, count: u16) -> Result<MissionComman
             } else {
                 0.0
             };
-            if hold_s < 0.0 {
+            if !(0.0..=limits::MAX_DURATION_S).contains(&hold_s) {
                 return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
             }
             C::Waypoint {
@@ -279,12 +308,15 @@ pub fn interpret_mission(item: &MissionItem, count: u16) -> Result<MissionComman
             position: position(item)?,
         },
         cmd::NAV_LOITER_TIME => C::LoiterTime {
-            seconds: non_negative(item, 1)?,
+            seconds: duration_s(item, 1)?,
             position: position(item)?,
         },
         cmd::NAV_RETURN_TO_LAUNCH => C::ReturnToLaunch,
         cmd::NAV_DELAY => {
             let p1 = finite(item, 1)?;
+            if p1 > limits::MAX_DURATION_S {
+                return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
+            }
             if p1 >= 0.0 {
                 C::Delay {
                     seconds: Some(p1),
@@ -321,7 +353,7 @@ pub fn interpret_mission(item: &MissionItem, count: u16) -> Result<MissionComman
             }
             let speed = finite(item, 2)?;
             let speed_mps = match speed {
-                s if s > 0.0 => Some(Some(s)),
+                s if s > 0.0 && s <= limits::MAX_SPEED_MPS => Some(Some(s)),
                 -2.0 => Some(None),
                 -1.0 => None,
                 _ => return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2),
@@ -343,7 +375,7 @@ pub fn interpret_mission(item: &MissionItem, count: u16) -> Result<MissionComman
                 return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
             }
             let repeat = finite(item, 2)?;
-            if repeat < -1.0 || repeat.fract() != 0.0 {
+            if !(-1.0..=limits::MAX_JUMP_REPEAT).contains(&repeat) || repeat.fract() != 0.0 {
                 return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2);
             }
             C::Jump {
@@ -376,14 +408,8 @@ pub fn interpret_mission(item: &MissionItem, count: u16) -> Result<MissionComman
                     pwm_us: pwm as u16,
                 }
             } else {
-                let count = finite(item, 3)?;
-                if !(1.0..=65535.0).contains(&count) {
-                    return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM3);
-                }
-                let period_s = finite(item, 4)?;
-                if period_s <= 0.0 {
-                    return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM4);
-                }
+                let count = within(item, 3, 1.0..=65535.0)?;
+                let period_s = within(item, 4, limits::MIN_REPEAT_PERIOD_S..=limits::MAX_DURATION_S)?;
                 C::RepeatServo {
                     channel: channel as u8,
                     pwm_us: pwm as u16,
@@ -407,10 +433,10 @@ pub fn interpret_mission(item: &MissionItem, count: u16) -> Result<MissionComman
             }
         }
         cmd::CONDITION_DELAY => C::ConditionDelay {
-            seconds: non_negative(item, 1)?,
+            seconds: duration_s(item, 1)?,
         },
         cmd::CONDITION_DISTANCE => C::ConditionDistance {
-            metres: non_negative(item, 1)?,
+            metres: within(item, 1, 0.0..=limits::MAX_DISTANCE_M)?,
         },
         _ => return Err(MavMissionResult::MAV_MISSION_UNSUPPORTED),
     })
@@ -428,7 +454,7 @@ pub fn interpret_fence(item: &MissionItem) -> Result<FenceItem> {
     };
     let radius = |item: &MissionItem| -> Result<f32> {
         let r = finite(item, 1)?;
-        if r > 0.0 {
+        if r > 0.0 && r <= limits::MAX_DISTANCE_M {
             Ok(r)
         } else {
             Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1)
@@ -610,6 +636,111 @@ mod tests {
             ),
             MavMissionResult::MAV_MISSION_INVALID_PARAM1
         );
+    }
+
+    #[test]
+    fn durations_speeds_counts_and_distances_are_bounded() {
+        use MavMissionResult as R;
+        let mission = |c, p: [f32; 4]| interpret_mission(&item(c, frame::MISSION, p, 0, 0), 10);
+        let at = |c, p: [f32; 4]| interpret_mission(&item(c, frame::GLOBAL, p, 1, 1), 10);
+        for bad in [1e20, f32::INFINITY, f32::NEG_INFINITY, -2.0, 86_401.0] {
+            assert_eq!(
+                at(cmd::NAV_WAYPOINT, [bad, 0.0, 0.0, 0.0]),
+                Err(R::MAV_MISSION_INVALID_PARAM1)
+            );
+            assert_eq!(
+                at(cmd::NAV_LOITER_TIME, [bad, 0.0, 0.0, 0.0]),
+                Err(R::MAV_MISSION_INVALID_PARAM1)
+            );
+            assert_eq!(
+                mission(cmd::NAV_DELAY, [bad, 0.0, 0.0, 0.0]),
+                Err(R::MAV_MISSION_INVALID_PARAM1)
+            );
+            assert_eq!(
+                mission(cmd::CONDITION_DELAY, [bad, 0.0, 0.0, 0.0]),
+                Err(R::MAV_MISSION_INVALID_PARAM1)
+            );
+            assert_eq!(
+                mission(cmd::DO_REPEAT_SERVO, [9.0, 1500.0, 2.0, bad]),
+                Err(R::MAV_MISSION_INVALID_PARAM4)
+            );
+        }
+        for nan in [f32::NAN, -f32::NAN] {
+            assert_eq!(
+                at(cmd::NAV_LOITER_TIME, [nan, 0.0, 0.0, 0.0]),
+                Err(R::MAV_MISSION_INVALID_PARAM1)
+            );
+            assert_eq!(
+                mission(cmd::NAV_DELAY, [nan, 0.0, 0.0, 0.0]),
+                Err(R::MAV_MISSION_INVALID_PARAM1)
+            );
+            assert_eq!(
+                mission(cmd::CONDITION_DELAY, [nan, 0.0, 0.0, 0.0]),
+                Err(R::MAV_MISSION_INVALID_PARAM1)
+            );
+            assert_eq!(
+                mission(cmd::DO_REPEAT_SERVO, [9.0, 1500.0, 2.0, nan]),
+                Err(R::MAV_MISSION_INVALID_PARAM4)
+            );
+        }
+        // A day is allowed: generous for any rover.
+        assert!(at(cmd::NAV_LOITER_TIME, [86_400.0, 0.0, 0.0, 0.0]).is_ok());
+        assert!(mission(cmd::NAV_DELAY, [86_400.0, 0.0, 0.0, 0.0]).is_ok());
+        assert_eq!(
+            mission(cmd::DO_REPEAT_SERVO, [9.0, 1500.0, 2.0, 0.001]),
+            Err(R::MAV_MISSION_INVALID_PARAM4),
+            "faster than 100 Hz"
+        );
+        assert_eq!(
+            mission(cmd::DO_REPEAT_SERVO, [9.0, 1500.0, 1e9, 1.0]),
+            Err(R::MAV_MISSION_INVALID_PARAM3)
+        );
+        assert_eq!(
+            mission(cmd::DO_CHANGE_SPEED, [1.0, 1e20, 0.0, 0.0]),
+            Err(R::MAV_MISSION_INVALID_PARAM2)
+        );
+        assert!(mission(cmd::DO_CHANGE_SPEED, [1.0, 100.0, 0.0, 0.0]).is_ok());
+        assert_eq!(
+            mission(cmd::DO_JUMP, [1.0, 1e20, 0.0, 0.0]),
+            Err(R::MAV_MISSION_INVALID_PARAM2)
+        );
+        assert_eq!(
+            mission(cmd::CONDITION_DISTANCE, [1e20, 0.0, 0.0, 0.0]),
+            Err(R::MAV_MISSION_INVALID_PARAM1)
+        );
+        let circle = item(
+            cmd::NAV_FENCE_CIRCLE_INCLUSION,
+            frame::GLOBAL,
+            [1e20, 0.0, 0.0, 0.0],
+            1,
+            1,
+        );
+        assert_eq!(interpret_fence(&circle), Err(R::MAV_MISSION_INVALID_PARAM1));
+    }
+
+    #[test]
+    fn zero_zero_is_no_position_as_in_ardupilot() {
+        let here = item(cmd::NAV_WAYPOINT, frame::GLOBAL_RELATIVE_ALT_INT, [0.0; 4], 0, 0);
+        assert_eq!(
+            interpret_mission(&here, 5),
+            Ok(MissionCommand::Waypoint {
+                position: Position::Current,
+                hold_s: 0.0
+            })
+        );
+        let rally = item(cmd::NAV_RALLY_POINT, frame::GLOBAL, [0.0; 4], 0, 0);
+        assert_eq!(
+            interpret_rally(&rally),
+            Err(MavMissionResult::MAV_MISSION_INVALID_PARAM5_X)
+        );
+        let one_cm_away = item(cmd::NAV_WAYPOINT, frame::GLOBAL, [0.0; 4], 1, 0);
+        assert!(matches!(
+            interpret_mission(&one_cm_away, 5),
+            Ok(MissionCommand::Waypoint {
+                position: Position::Global { lat_e7: 1, lon_e7: 0 },
+                ..
+            })
+        ));
     }
 
     #[test]

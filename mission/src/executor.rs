@@ -19,6 +19,7 @@ use std::time::Duration;
 
 use crate::command::{MissionCommand, Position, interpret_mission};
 use crate::item::Plan;
+use crate::seconds::duration_from_secs;
 
 /// A leg to drive.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -101,6 +102,12 @@ struct Repeat {
     high: bool,
 }
 
+/// An item's seconds as a `Duration`. Validation bounds them to a day;
+/// saturating here too, so no value an executor is given can panic.
+fn seconds(s: f32) -> Duration {
+    duration_from_secs(f64::from(s))
+}
+
 pub struct MissionExecutor {
     commands: Vec<Option<MissionCommand>>,
     state: ExecState,
@@ -125,7 +132,7 @@ impl MissionExecutor {
     /// do not interpret (a plan is validated before it gets here) are
     /// skipped.
     pub fn new(plan: &Plan) -> MissionExecutor {
-        let count = plan.len() as u16;
+        let count = u16::try_from(plan.len()).unwrap_or(u16::MAX);
         let commands = plan
             .items()
             .iter()
@@ -159,7 +166,7 @@ impl MissionExecutor {
 
     /// Items after home (MISSION_CURRENT's `total`).
     pub fn total(&self) -> u16 {
-        self.commands.len().saturating_sub(1) as u16
+        u16::try_from(self.commands.len().saturating_sub(1)).unwrap_or(u16::MAX)
     }
 
     /// Whether there is anything to drive.
@@ -260,7 +267,7 @@ impl MissionExecutor {
             // DO items after it start now; then the next leg. The report
             // describes the finished leg, so conditions wait for the next.
             self.nav = None;
-            self.cursor = nav.seq + 1;
+            self.cursor = nav.seq.saturating_add(1);
             self.advance(now, actions);
             return;
         }
@@ -271,13 +278,13 @@ impl MissionExecutor {
     fn nav_complete(&mut self, now: Duration, report: &VehicleReport, actions: &mut Vec<Action>) -> bool {
         let Some(nav) = self.nav.as_mut() else { return false };
         let hold = match nav.command {
-            MissionCommand::Waypoint { hold_s, .. } => Some(Duration::from_secs_f32(hold_s)),
-            MissionCommand::LoiterTime { seconds, .. } => Some(Duration::from_secs_f32(seconds)),
+            MissionCommand::Waypoint { hold_s, .. } => Some(seconds(hold_s)),
+            MissionCommand::LoiterTime { seconds: s, .. } => Some(seconds(s)),
             MissionCommand::ReturnToLaunch => Some(Duration::ZERO),
             MissionCommand::LoiterUnlimited { .. } => None,
             MissionCommand::Delay { seconds: Some(s), .. } => {
                 let started = *nav.reached_at.get_or_insert(now);
-                return now.saturating_sub(started) >= Duration::from_secs_f32(s);
+                return now.saturating_sub(started) >= seconds(s);
             }
             MissionCommand::Delay {
                 until_utc_s: Some(t), ..
@@ -316,7 +323,7 @@ impl MissionExecutor {
                         }
                         seq = target;
                     } else {
-                        seq += 1;
+                        seq = seq.saturating_add(1);
                     }
                 }
                 Some(command) if command.is_nav() => {
@@ -325,9 +332,9 @@ impl MissionExecutor {
                 }
                 Some(_) => {
                     self.pending_do.push(seq);
-                    seq += 1;
+                    seq = seq.saturating_add(1);
                 }
-                None => seq += 1,
+                None => seq = seq.saturating_add(1),
             }
         }
     }
@@ -407,9 +414,9 @@ impl MissionExecutor {
     fn run_do(&mut self, now: Duration, report: &VehicleReport, actions: &mut Vec<Action>) {
         while let Some(&seq) = self.pending_do.first() {
             match self.commands[usize::from(seq)] {
-                Some(MissionCommand::ConditionDelay { seconds }) => {
+                Some(MissionCommand::ConditionDelay { seconds: s }) => {
                     let since = *self.condition_since.get_or_insert(now);
-                    if now.saturating_sub(since) < Duration::from_secs_f32(seconds) {
+                    if now.saturating_sub(since) < seconds(s) {
                         return;
                     }
                 }
@@ -440,13 +447,13 @@ impl MissionExecutor {
                 period_s,
             } => {
                 actions.push(Action::SetServo { channel, pwm_us });
-                let period = Duration::from_secs_f32(period_s / 2.0);
+                let period = seconds(period_s / 2.0);
                 self.repeat = Some(Repeat {
                     channel,
                     pwm_us,
-                    toggles_left: u32::from(count) * 2 - 1,
+                    toggles_left: u32::from(count).saturating_mul(2).saturating_sub(1),
                     period,
-                    next_at: now + period,
+                    next_at: now.saturating_add(period),
                     high: true,
                 });
             }
@@ -464,7 +471,7 @@ impl MissionExecutor {
                 pwm_us,
             });
             r.toggles_left -= 1;
-            r.next_at += r.period;
+            r.next_at = r.next_at.saturating_add(r.period);
         }
         if r.toggles_left == 0 {
             self.repeat = None;
@@ -484,7 +491,7 @@ impl MissionExecutor {
     fn peek_next_nav(&self, seq: u16) -> Option<(u16, bool)> {
         let mut reverse = self.reverse;
         let mut jumps = self.jumps_left.clone();
-        let mut s = seq + 1;
+        let mut s = seq.saturating_add(1);
         for _ in 0..100_000 {
             match *self.commands.get(usize::from(s))? {
                 Some(MissionCommand::Jump { target, repeat }) => {
@@ -495,15 +502,15 @@ impl MissionExecutor {
                         }
                         s = target;
                     } else {
-                        s += 1;
+                        s = s.saturating_add(1);
                     }
                 }
                 Some(MissionCommand::SetReverse { reverse: r }) => {
                     reverse = r;
-                    s += 1;
+                    s = s.saturating_add(1);
                 }
                 Some(c) if c.is_nav() => return Some((s, reverse != self.reverse)),
-                _ => s += 1,
+                _ => s = s.saturating_add(1),
             }
         }
         None
@@ -787,6 +794,32 @@ mod tests {
         let actions = run_to_end(&mut ex);
         assert_eq!(ex.state(), ExecState::Running);
         assert_eq!(reached(&actions), vec![1]);
+    }
+
+    #[test]
+    fn no_value_in_an_unvalidated_plan_panics() {
+        // Plan::new does not validate: the executor must survive what a
+        // damaged plan may hold (it skips the items that do not interpret).
+        let mut a = Vec::new();
+        for bad in [1e20, f32::MAX, f32::INFINITY, f32::NAN, -1.0, -0.0, 1e-30] {
+            let items = vec![
+                home(),
+                wp(1, 10, bad),
+                item(2, cmd::NAV_LOITER_TIME, [bad, 0.0, 0.0, 0.0], 10_000),
+                item(3, cmd::NAV_DELAY, [bad, 0.0, 0.0, 0.0], 0),
+                item(4, cmd::CONDITION_DELAY, [bad, 0.0, 0.0, 0.0], 0),
+                item(5, cmd::DO_REPEAT_SERVO, [9.0, 1800.0, 65_535.0, bad], 0),
+                item(6, cmd::DO_JUMP, [1.0, bad, 0.0, 0.0], 0),
+                wp(7, 20, 0.0),
+            ];
+            let mut ex = MissionExecutor::new(&plan(items));
+            ex.start(ms(0), false, &mut a);
+            for t in [1, 2, 3, u64::MAX / 4, u64::MAX / 2] {
+                ex.update(Duration::from_millis(t), &arrived(), &mut a);
+            }
+            ex.update(Duration::MAX, &arrived(), &mut a);
+        }
+        assert_eq!(seconds(1e20), Duration::MAX);
     }
 
     #[test]

@@ -5,13 +5,16 @@
 //!   plan types;
 //! - [`command`]: what an item means (typed), and the validation that gives
 //!   each bad item its precise MAV_MISSION_RESULT;
-//! - [`executor`]: runs a mission plan (AUTO mode), as actions for the vehicle.
+//! - [`executor`]: runs a mission plan (AUTO mode), as actions for the vehicle;
+//! - [`seconds`]: float seconds to a `Duration` that never panics (shared by
+//!   every crate that converts outside numbers to time).
 
 pub mod command;
 pub mod executor;
 pub mod files;
 pub mod item;
 pub mod protocol;
+pub mod seconds;
 pub mod validate;
 
 pub use command::{

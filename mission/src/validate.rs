@@ -181,7 +181,17 @@ pub fn validate_plan(mission_type: MissionType, items: Vec<MissionItem>) -> Resu
             .collect::<Result<_, _>>()?;
         check_fence_polygons(&fence)?;
     }
-    Ok(Plan::new(mission_type, items))
+    Ok(Plan::new(mission_type, items.into_iter().map(canonical_nans).collect()))
+}
+
+/// The item with every NaN made the one NaN a file stores: a NaN's sign and
+/// payload mean nothing to MAVLink, and text files keep neither, so a plan
+/// holding one would get another id after a restart.
+fn canonical_nans(mut item: MissionItem) -> MissionItem {
+    let canonical = |v: f32| if v.is_nan() { f32::NAN } else { v };
+    item.params = item.params.map(canonical);
+    item.z = canonical(item.z);
+    item
 }
 
 #[cfg(test)]
@@ -266,6 +276,19 @@ mod tests {
             validate_plan(MissionType::Fence, vec![v(0), v(1)]),
             Err((2, MavMissionResult::MAV_MISSION_INVALID_PARAM1))
         );
+    }
+
+    #[test]
+    fn nans_are_canonical_so_the_plan_id_survives_a_file() {
+        let home = item(0, cmd::NAV_WAYPOINT, frame::GLOBAL, [0.0; 4], 1, 1);
+        let odd_nan = f32::from_bits(0xffc0_1234);
+        let mut wp = item(1, cmd::NAV_WAYPOINT, frame::GLOBAL, [0.0, 0.0, 0.0, odd_nan], 2, 2);
+        wp.z = -f32::NAN;
+        let plan = validate_plan(MissionType::Mission, vec![home, wp]).unwrap();
+        let text = crate::files::wpl::render(&plan);
+        let back = validate_plan(MissionType::Mission, crate::files::wpl::parse(&text).unwrap()).unwrap();
+        assert_eq!(back.opaque_id(), plan.opaque_id());
+        assert_eq!(plan.items()[1].params[3].to_bits(), f32::NAN.to_bits());
     }
 
     #[test]

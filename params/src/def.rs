@@ -43,9 +43,11 @@ impl ParamType {
     /// The value as this type stores it: integers round to nearest, floats
     /// round to `f32`.
     pub fn quantize(self, value: f64) -> f64 {
+        // `+ 0.0` makes -0 plain 0: files and the wire keep no sign on a
+        // zero, so a -0 in force would reload as 0 and change `_HASH_CHECK`.
         match self {
-            ParamType::Real32 => f64::from(value as f32),
-            _ => value.round(),
+            ParamType::Real32 => f64::from(value as f32) + 0.0,
+            _ => value.round() + 0.0,
         }
     }
 }
@@ -191,5 +193,7 @@ mod tests {
     fn quantize_rounds_to_the_stored_type() {
         assert_eq!(ParamType::Int8.quantize(2.6), 3.0);
         assert_eq!(ParamType::Real32.quantize(0.1), f64::from(0.1f32));
+        assert_eq!(ParamType::Real32.quantize(-0.0).to_bits(), 0.0f64.to_bits());
+        assert_eq!(ParamType::Int8.quantize(-0.4).to_bits(), 0.0f64.to_bits());
     }
 }

@@ -257,6 +257,21 @@ mod tests {
     }
 
     #[test]
+    fn minus_zero_is_zero_so_the_hash_survives_a_reload() {
+        let mut t = table();
+        t.set_by_name("WP_SPEED", 3.0).unwrap();
+        assert_eq!(t.set_by_name("WP_SPEED", -0.0).map(f64::to_bits), Ok(0.0f64.to_bits()));
+        assert_eq!(t.value_of("WP_SPEED").map(f64::to_bits), Some(0.0f64.to_bits()));
+        // What a restart gives: the stored file read back into a fresh table.
+        let file = crate::store::Snapshot::of(&t).render();
+        let mut reloaded = table();
+        for e in crate::files::parse(&file, crate::files::FileFormat::MissionPlanner).unwrap() {
+            reloaded.set_by_name(&e.name, e.value).unwrap();
+        }
+        assert_eq!(crate::hash::table_hash(&reloaded), crate::hash::table_hash(&t));
+    }
+
+    #[test]
     fn integers_round_and_generation_counts_changes() {
         let mut t = table();
         let g = t.generation();

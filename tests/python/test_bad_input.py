@@ -7,7 +7,7 @@ import socket
 import threading
 import time
 
-from gcs import command, mavlink, message_rate, recv
+from gcs import command, mavlink, message_rate, mission_item, recv, upload_mission
 from pymavlink.dialects.v10 import ardupilotmega as mavlink1
 
 
@@ -143,3 +143,35 @@ def test_random_valid_frames_from_fuzzed_fields_are_survived(start_sitl):
     time.sleep(1)
     assert sitl.alive()
     assert message_rate(m, "HEARTBEAT", 3) >= 0.6
+
+
+def test_a_1e20_second_delay_is_refused_and_auto_survives(start_sitl):
+    """A NAV_DELAY of 1e20 s (or a hold, a loiter, a condition delay, a servo
+    repeat period) used to be accepted and kill the process in AUTO."""
+    sitl = start_sitl()
+    m = sitl.tcp()
+    home = mission_item(0, mavlink.MAV_CMD_NAV_WAYPOINT, 291330000, 1196400000, 40.0)
+    near = mission_item(2, mavlink.MAV_CMD_NAV_WAYPOINT, 291331000, 1196400000, 0.0)
+    cases = [
+        (mavlink.MAV_CMD_NAV_DELAY, (1e20, 0, 0, 0), mavlink.MAV_MISSION_INVALID_PARAM1),
+        (mavlink.MAV_CMD_NAV_DELAY, (float("nan"), 0, 0, 0), mavlink.MAV_MISSION_INVALID_PARAM1),
+        (mavlink.MAV_CMD_CONDITION_DELAY, (float("inf"), 0, 0, 0), mavlink.MAV_MISSION_INVALID_PARAM1),
+        (mavlink.MAV_CMD_CONDITION_DELAY, (-5.0, 0, 0, 0), mavlink.MAV_MISSION_INVALID_PARAM1),
+        (mavlink.MAV_CMD_DO_REPEAT_SERVO, (9, 1500, 2, 1e20), mavlink.MAV_MISSION_INVALID_PARAM4),
+    ]
+    for cmd, params, result in cases:
+        bad = mission_item(1, cmd, params=params)
+        ack = upload_mission(m, [home, bad, near])
+        assert ack is not None and ack.type == result, (cmd, params, ack)
+    for cmd in (mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_LOITER_TIME):
+        bad = mission_item(1, cmd, 291330500, 1196400000, 0.0, (1e20, 0, 0, 0))
+        ack = upload_mission(m, [home, bad, near])
+        assert ack is not None and ack.type == mavlink.MAV_MISSION_INVALID_PARAM1, (cmd, ack)
+    # A day is a delay a rover may use: accepted, and AUTO runs it.
+    day = mission_item(1, mavlink.MAV_CMD_NAV_DELAY, params=(86400.0, 0, 0, 0))
+    ack = upload_mission(m, [home, day, near])
+    assert ack is not None and ack.type == mavlink.MAV_MISSION_ACCEPTED
+    m.mav.command_long_send(1, 1, mavlink.MAV_CMD_DO_SET_MODE, 0, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 10, 0, 0, 0, 0, 0)
+    time.sleep(2)
+    assert sitl.alive()
+    assert message_rate(m, "HEARTBEAT", 2) >= 0.5

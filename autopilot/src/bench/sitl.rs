@@ -31,12 +31,15 @@ pub struct SitlBenchArgs {
 }
 
 pub fn run(args: &SitlBenchArgs) -> Result<(), String> {
-    if !(args.seconds.is_finite() && args.seconds > 0.0) {
-        return Err(format!("--seconds {}: must be a positive number", args.seconds));
-    }
-    if !(args.process_seconds.is_finite() && args.process_seconds > 0.0) {
+    if !(args.seconds > 0.0 && args.seconds <= 86_400.0) {
         return Err(format!(
-            "--process-seconds {}: must be a positive number",
+            "--seconds {}: must be a positive number up to a day",
+            args.seconds
+        ));
+    }
+    if !(args.process_seconds > 0.0 && args.process_seconds <= 86_400.0) {
+        return Err(format!(
+            "--process-seconds {}: must be a positive number up to a day",
             args.process_seconds
         ));
     }
@@ -175,7 +178,7 @@ fn watch(child: &mut std::process::Child, seconds: f64) -> Result<(f64, u64, u64
         newest.ok_or_else(|| "no SYSTEM_TIME".to_string())
     };
     let (t0, b0) = latest(Instant::now() + Duration::from_secs(1))?;
-    let (t1, b1) = latest(t0 + Duration::from_secs_f64(seconds))?;
+    let (t1, b1) = latest(t0 + crate::time::duration_from_secs(seconds))?;
     let ratio = f64::from(b1.wrapping_sub(b0)) / 1000.0 / (t1 - t0).as_secs_f64();
     let status = std::fs::read_to_string(format!("/proc/{}/status", child.id())).unwrap_or_default();
     let field = |name: &str| {

@@ -43,7 +43,6 @@
 //! search (back towards the side last seen, then on) takes 5–9 s.
 
 use std::f64::consts::{PI, TAU};
-use std::time::Duration;
 
 use drivers::sim::{
     AckermannConfig, ActuatorDemand, GnssSimConfig, MagneticSensor, MagneticSensorConfig, MagneticTape, TapeBuilder,
@@ -319,7 +318,7 @@ pub fn run(scenario: &MagneticScenario) -> ScenarioResult {
         },
     };
 
-    let dt = Duration::from_secs_f64(1.0 / scenario.control_rate_hz.clamp(1.0, 1000.0));
+    let dt = crate::time::duration_from_secs(1.0 / scenario.control_rate_hz.clamp(1.0, 1000.0));
     let dt_s = dt.as_secs_f64();
     let geometry = CurveGeometry::new(scenario);
     let run_up_steer_rad = if scenario.run_up_on_curve {

@@ -25,6 +25,11 @@ const REST_TIMEOUT_S: f64 = 5.0;
 /// short or past by more than half the tolerance, the vehicle creeps again,
 /// up to this many times.
 const MAX_REAPPROACHES: u32 = 3;
+/// A leg shorter than this has no direction of its own.
+const MIN_LEG_M: f64 = 1e-3;
+/// Past a stop by more than this, the vehicle drives to it again rather
+/// than back up.
+const OVERSHOOT_REPLAN_M: f64 = 2.0;
 
 /// How close a precision stop must end (`WP_STOP_TOL_MM`, `WP_STOP_TOL_DEG`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -274,6 +279,12 @@ impl Navigator {
         };
         let target = leg.target;
         if leg.path.is_none() {
+            // A leg that ends where it starts (a waypoint repeated) has no
+            // direction to drive along: drive it from where the vehicle is
+            // (found by the mission_flight fuzz target, which reversed away).
+            if leg.entry.is_none() && leg.from.distance_to(&target.point) < MIN_LEG_M {
+                leg.from = est.position;
+            }
             leg.path = Some(Self::build_path(leg, config));
         }
         let Some(path) = &leg.path else {
@@ -286,6 +297,19 @@ impl Navigator {
         let projection = path.project(&est.position, leg.piece);
         leg.piece = projection.piece;
         let remaining = path.end_m() - projection.along_m;
+        // Far past a stop (it braked too late): backing up steers with the
+        // law for driving forward along the leg and runs away (found by the
+        // mission_flight fuzz target). Drive to the stop again from here.
+        if target.stop && remaining < -OVERSHOOT_REPLAN_M && self.settling.is_none() {
+            leg.from = est.position;
+            leg.entry = None;
+            leg.path = None;
+            leg.piece = 0;
+            self.approach_s = 0.0;
+            self.tracker.reset();
+            self.speed.reset();
+            return NavDemand::default();
+        }
         let wp_dist = est.position.distance_to(&target.point);
         let has_corner = path.exit_arc_rest().is_some();
 
@@ -502,6 +526,46 @@ mod tests {
             e.position.east_m += e.speed_mps * e.yaw_rad.sin() * dt;
             e.yaw_rad = wrap_pi(e.yaw_rad + e.speed_mps * demand.steer_rad.tan() / 2.9 * dt);
         }
+    }
+
+    #[test]
+    fn far_past_a_stop_it_turns_round_instead_of_backing_away() {
+        // 30 m past the stop, 2 m off its leg, still rolling away at 3 m/s.
+        let cfg = config();
+        let mut nav = Navigator::default();
+        let mut car = Bicycle::new(30.0, 2.0, 15.0);
+        car.est.speed_mps = 3.0;
+        let point = Ned::new(0.0, 0.0);
+        nav.set_target(Ned::new(-50.0, 0.0), NavTarget::stop_at(point));
+        let dt = 0.02;
+        let mut farthest_m: f64 = 0.0;
+        for _ in 0..(120.0 / dt) as usize {
+            let d = nav.update(&car.est, &cfg, dt);
+            car.step(d, dt);
+            farthest_m = farthest_m.max(car.est.position.distance_to(&point));
+        }
+        assert!(farthest_m < 50.0, "drove {farthest_m:.1} m away");
+        assert!(car.est.position.distance_to(&point) < 0.05, "{:?}", car.est.position);
+    }
+
+    #[test]
+    fn a_repeated_waypoint_is_driven_to_not_reversed_away_from() {
+        // The vehicle is 9 m north of a stop whose leg starts where it ends
+        // (the same waypoint twice), facing it.
+        let cfg = config();
+        let mut nav = Navigator::default();
+        let mut car = Bicycle::new(9.0, 3.0, 180.0);
+        let point = Ned::new(0.0, 0.0);
+        nav.set_target(point, NavTarget::stop_at(point));
+        let dt = 0.02;
+        let mut farthest_m: f64 = 0.0;
+        for _ in 0..(60.0 / dt) as usize {
+            let d = nav.update(&car.est, &cfg, dt);
+            car.step(d, dt);
+            farthest_m = farthest_m.max(car.est.position.distance_to(&point));
+        }
+        assert!(farthest_m < 12.0, "drove {farthest_m:.1} m away");
+        assert!(car.est.position.distance_to(&point) < 0.5, "{:?}", car.est.position);
     }
 
     #[test]

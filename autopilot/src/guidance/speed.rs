@@ -116,8 +116,9 @@ pub fn scheduled_speed(
         let remaining = stop_m - inputs.along_m;
         limit(braking_limit(0.0, remaining, decel), SpeedLimit::Braking, &mut status);
         // The position loop: never below it near the stop (the heading and
-        // curvature floors do not apply), signed so an overshoot backs up.
-        let approach = config.approach_gain_per_s * remaining;
+        // curvature floors do not apply), signed so an overshoot backs up,
+        // no faster than the vehicle cruises.
+        let approach = (config.approach_gain_per_s * remaining).max(-cruise);
         if approach < status.speed_mps {
             status.speed_mps = approach;
             status.limit = SpeedLimit::Approach;
@@ -171,6 +172,13 @@ mod tests {
         assert!(
             speed(50.01, Some(50.0), &[], 0.0).speed_mps < 0.0,
             "an overshoot backs up"
+        );
+        // Found by the mission_flight fuzz target: 10 m past the stop the
+        // position loop asked for 10 m/s backwards with a 2 m/s cruise.
+        assert_eq!(
+            speed(60.0, Some(50.0), &[], 0.0).speed_mps,
+            -2.0,
+            "no faster than cruise"
         );
     }
 

@@ -325,6 +325,25 @@ mod tests {
     }
 
     #[test]
+    fn a_delay_beyond_a_day_is_refused_at_import_and_a_stored_one_is_not_run() {
+        let dir = temp("huge-delay");
+        let huge = "QGC WPL 110\n\
+                    0\t1\t0\t16\t0\t0\t0\t0\t29.1330000\t119.6400000\t40\t1\n\
+                    1\t0\t2\t93\t1e20\t0\t0\t0\t0\t0\t0\t1\n";
+        let file = dir.join("huge.waypoints");
+        fs::write(&file, huge).unwrap();
+        let e = import(&dir, &file, None).unwrap_err();
+        assert!(e.contains("line 3") && e.contains("INVALID_PARAM1"), "{e}");
+        // The same plan written straight into the data directory (an older
+        // version's file, or a damaged one): loaded as a notice, not run.
+        fs::write(missions::path(&dir, MissionType::Mission), huge).unwrap();
+        let (plans, notices) = missions::load_quietly(&dir);
+        assert!(plans.mission.is_empty());
+        assert!(notices.iter().any(|(_, n)| n.contains("INVALID_PARAM1")), "{notices:?}");
+        fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
     fn a_bad_file_changes_nothing_and_the_error_names_line_and_result() {
         let dir = temp("bad");
         import(&dir, &bench("square_40m.waypoints"), None).unwrap();

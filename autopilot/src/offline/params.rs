@@ -133,11 +133,26 @@ fn list(table: &ParamTable, changed_only: bool) -> Result<(), String> {
     Ok(())
 }
 
+/// A file as text; not UTF-8 (a binary file, a wrong encoding) says which
+/// line and byte, as a syntax error does.
+fn read_text(file: &Path) -> Result<String, String> {
+    let bytes = std::fs::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
+    String::from_utf8(bytes).map_err(|e| {
+        let good = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = good.iter().filter(|&&b| b == b'\n').count() + 1;
+        let column = good.len() - good.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1) + 1;
+        format!(
+            "{}: line {line}: byte {column} is not UTF-8 text (a binary file, or another encoding)",
+            file.display()
+        )
+    })
+}
+
 /// All or nothing: syntax errors and refused values abort; unknown and
 /// read-only parameters (from another vehicle's file, or an export that
 /// includes counters) are skipped and listed.
 fn import(dir: &Path, table: &mut ParamTable, file: &Path) -> Result<(), String> {
-    let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+    let text = read_text(file)?;
     let entries = parse(&text, FileFormat::from_path(file)).map_err(|e| format!("{}: {e}", file.display()))?;
     let mut staged = table.clone();
     let mut errors = Vec::new();
@@ -202,4 +217,20 @@ fn export(table: &ParamTable, file: &Path, format: Option<FormatArg>) -> Result<
     store::write_atomic(file, text.as_bytes()).map_err(|e| format!("{}: {e}", file.display()))?;
     println!("{}: {} parameters written", file.display(), table.len());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_binary_file_names_its_line() {
+        let file = std::env::temp_dir().join(format!("furrow-binary-{}.param", std::process::id()));
+        std::fs::write(&file, b"WP_SPEED,2\nWP_RADIUS,\xff\xfe1\n").unwrap();
+        let e = read_text(&file).unwrap_err();
+        assert!(e.contains("line 2: byte 11 is not UTF-8"), "{e}");
+        std::fs::write(&file, b"WP_SPEED,2\n").unwrap();
+        assert_eq!(read_text(&file).unwrap(), "WP_SPEED,2\n");
+        std::fs::remove_file(&file).unwrap();
+    }
 }

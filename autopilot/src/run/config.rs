@@ -860,6 +860,9 @@ impl Checker<'_> {
         if path.is_empty() {
             return Err(self.error(key, span, "empty device path"));
         }
+        if path.contains('\0') {
+            return Err(self.error(key, span, "a path cannot hold a NUL character"));
+        }
         if !path.starts_with('/') {
             return Err(self.error(
                 key,
@@ -897,6 +900,11 @@ impl Checker<'_> {
     fn relative_path(&self, key: &str, text: &Spanned<String>) -> Result<PathBuf, ConfigError> {
         if text.get_ref().is_empty() {
             return Err(self.error(key, text.span(), "empty path"));
+        }
+        // The OS takes a path as a C string: a NUL would cut it short or fail
+        // at the first file operation, long after the check said yes.
+        if text.get_ref().contains('\0') {
+            return Err(self.error(key, text.span(), "a path cannot hold a NUL character"));
         }
         Ok(self.base_dir.join(text.get_ref()))
     }
@@ -1131,6 +1139,21 @@ fn find_in_value(value: &DeValue<'_>, span: &Range<usize>, exact: bool, path: &m
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_nul_in_any_path_is_refused() {
+        let base = "[vehicle]\nframe = \"ackermann\"\n[gnss]\nserial = \"/dev/ttyUSB0\"\n";
+        let with_dir = base.replace(
+            "frame = \"ackermann\"\n",
+            "frame = \"ackermann\"\ndata_dir = \"data\\u0000x\"\n",
+        );
+        let e = parse(&with_dir, Path::new("/")).unwrap_err().to_string();
+        assert!(e.contains("NUL") && e.contains("data_dir"), "{e}");
+        let device = base.replace("/dev/ttyUSB0", "/dev/tty\\u0000USB0");
+        let e = parse(&device, Path::new("/")).unwrap_err().to_string();
+        assert!(e.contains("NUL"), "{e}");
+        assert!(parse(base, Path::new("/")).is_ok());
+    }
 
     #[test]
     fn secure_endpoints_are_kept_apart() {

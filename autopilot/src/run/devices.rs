@@ -315,7 +315,7 @@ impl Devices {
             && let Some(fix) = self.last_fix
         {
             self.next_gga = now + *gga_interval;
-            let utc = Duration::from_secs_f64(fix.utc_time_of_day_s.unwrap_or(0.0).max(0.0));
+            let utc = crate::time::duration_from_secs(fix.utc_time_of_day_s.unwrap_or(0.0).max(0.0));
             client.set_gga(gga_sentence(
                 fix.lat_deg,
                 fix.lon_deg,

@@ -25,7 +25,10 @@ pub struct StatusArgs {
 
 /// Connects, asks, prints one line per device; an error if no table came.
 pub fn run(args: &StatusArgs) -> Result<(), String> {
-    let lines = fetch(&args.tcp, Duration::from_secs_f64(args.timeout_s.clamp(0.1, 600.0)))?;
+    let lines = fetch(
+        &args.tcp,
+        crate::time::duration_from_secs(args.timeout_s.clamp(0.1, 600.0)),
+    )?;
     for line in lines {
         println!("{line}");
     }

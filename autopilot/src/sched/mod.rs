@@ -136,7 +136,7 @@ impl Scheduler {
         let spec = &TASKS[i];
         let period = match spec.rate {
             TaskRate::EveryTick => return true,
-            TaskRate::Hz(hz) => Duration::from_secs_f64(1.0 / hz),
+            TaskRate::Hz(hz) => crate::time::duration_from_secs(1.0 / hz),
         };
         let now = match spec.clock {
             TaskClock::Boot => boot,

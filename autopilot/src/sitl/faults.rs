@@ -55,7 +55,7 @@ impl Faults {
         let mut resets = Resets::default();
         let drop_s = f64::from(sim.link_drop_s.get(table));
         if drop_s > 0.0 {
-            self.link_lost_until = Some(now + Duration::from_secs_f64(drop_s));
+            self.link_lost_until = Some(now.saturating_add(crate::time::duration_from_secs(drop_s)));
             resets.link_drop = true;
         }
         let stall_ms = sim.cpu_stall_ms.get(table);

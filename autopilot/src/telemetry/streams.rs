@@ -244,7 +244,7 @@ impl LinkStreams {
             None => {
                 let group = msg.group()?;
                 let hz = self.group_rate_hz[group as usize].unwrap_or_else(|| slot_rate_hz(group));
-                (hz > 0.0).then(|| Duration::from_secs_f64(1.0 / hz))
+                (hz > 0.0).then(|| crate::time::duration_from_secs(1.0 / hz))
             }
         }
     }

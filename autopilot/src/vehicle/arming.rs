@@ -3,8 +3,6 @@
 //! every reason, not just the first. `ARMING_CHECK` selects the checks with
 //! ArduPilot's bits where the check has an ArduPilot counterpart.
 
-use std::time::Duration;
-
 use drivers::gnss::FixQuality;
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
@@ -40,7 +38,7 @@ impl Core {
         let drives_itself = !matches!(self.mode, Mode::Manual | Mode::Magnetic);
         let gnss = self.estimator.gnss();
         // A fix older than the GNSS failsafe's timeout is a lost GNSS.
-        let fix_max_age = Duration::from_secs_f64(f64::from(self.p.failsafe.gnss_lost_s.get(&self.params)));
+        let fix_max_age = crate::time::duration_from_secs(f64::from(self.p.failsafe.gnss_lost_s.get(&self.params)));
         let has_fix = gnss.has_fix(self.now.boot, fix_max_age);
         if enabled(check::POSITION_FIX) && drives_itself {
             if !has_fix {

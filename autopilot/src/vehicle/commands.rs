@@ -21,7 +21,21 @@ use crate::telemetry::streams::{MessageInterval, StreamMsg};
 /// COMPONENT_ARM_DISARM param2 that skips the checks.
 const FORCE_ARM_MAGIC: f32 = 21196.0;
 /// MAV_DO_REPOSITION_FLAGS_CHANGE_MODE.
-const REPOSITION_CHANGE_MODE: i32 = 1;
+const REPOSITION_CHANGE_MODE: u32 = 1;
+/// Highest and lowest home altitude a GCS may set (as `--home`).
+const HOME_ALT_RANGE_M: std::ops::RangeInclusive<f64> = -1000.0..=10_000.0;
+
+/// A param that must be a whole number in `0..=max` (an id, a mode, a
+/// flag set): NaN, fractions and anything beyond are refused rather than
+/// cast into something else.
+fn whole(v: f32, max: u32) -> Option<u32> {
+    (v.is_finite() && v.fract() == 0.0 && (0.0..=f64::from(max)).contains(&f64::from(v))).then_some(v as u32)
+}
+
+/// A speed a GCS may ask for: above 0 and no faster than a mission may.
+fn speed_in_range(speed_mps: f32) -> bool {
+    speed_mps > 0.0 && speed_mps <= mission::command::limits::MAX_SPEED_MPS
+}
 
 /// A position carried by a command, as it arrived.
 #[derive(Clone, Copy, Debug)]
@@ -145,11 +159,14 @@ impl Core {
                 }
             }
             MavCmd::MAV_CMD_DO_SET_MODE => {
-                let flags = MavModeFlag::from_bits_truncate(p1 as u8);
+                let (Some(flags), Some(mode)) = (whole(p1, u32::from(u8::MAX)), whole(p2, u32::MAX)) else {
+                    return MavResult::MAV_RESULT_DENIED;
+                };
+                let flags = MavModeFlag::from_bits_truncate(flags as u8);
                 if !flags.contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED) {
                     return MavResult::MAV_RESULT_DENIED;
                 }
-                self.set_mode_result(p2 as u32)
+                self.set_mode_result(mode)
             }
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => self.set_mode_result(Mode::Rtl.number()),
             MavCmd::MAV_CMD_MISSION_START => {
@@ -160,14 +177,14 @@ impl Core {
                 self.set_mode_result(Mode::Auto.number())
             }
             MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT => {
-                if !p1.is_finite() || p1 < -1.0 || p1.fract() != 0.0 {
-                    return MavResult::MAV_RESULT_DENIED;
-                }
                 // -1 keeps the current item (only resetting jump counters).
                 let seq = if p1 == -1.0 {
                     self.missions.executor.current()
                 } else {
-                    p1 as u16
+                    match whole(p1, u32::from(u16::MAX)) {
+                        Some(seq) => seq as u16,
+                        None => return MavResult::MAV_RESULT_DENIED,
+                    }
                 };
                 if self.set_mission_current(seq, p2 == 1.0) {
                     MavResult::MAV_RESULT_ACCEPTED
@@ -181,12 +198,10 @@ impl Core {
             // As ArduPilot: only a channel no function owns (SERVOn_FUNCTION
             // 0 or 1) takes a pulse from the GCS.
             MavCmd::MAV_CMD_DO_SET_SERVO => {
-                let channel = p1 as usize;
+                let channel = whole(p1, 64).map_or(0, |c| c as usize);
                 let servos = self.p.servos.config(&self.params);
                 match servos.channels.get(channel.wrapping_sub(1)) {
-                    Some(ch)
-                        if p1.fract() == 0.0 && ch.function.accepts_direct_pulse() && (0.0..=3000.0).contains(&p2) =>
-                    {
+                    Some(ch) if ch.function.accepts_direct_pulse() && (0.0..=3000.0).contains(&p2) => {
                         self.missions.servo_us[channel - 1] = p2 as u16;
                         MavResult::MAV_RESULT_ACCEPTED
                     }
@@ -194,10 +209,12 @@ impl Core {
                 }
             }
             MavCmd::MAV_CMD_DO_SET_RELAY => {
-                let relay = p1 as usize;
+                let Some(relay) = whole(p1, 15).map(|r| r as usize) else {
+                    return MavResult::MAV_RESULT_DENIED;
+                };
                 let servos = self.p.servos.config(&self.params);
                 let fitted = servos.relay_channels.get(relay).is_some_and(Option::is_some);
-                if !(fitted && p1.fract() == 0.0 && (p2 == 0.0 || p2 == 1.0)) {
+                if !(fitted && (p2 == 0.0 || p2 == 1.0)) {
                     return MavResult::MAV_RESULT_DENIED;
                 }
                 let bit = 1u16 << relay;
@@ -224,18 +241,21 @@ impl Core {
                 } else {
                     Destination::Link(inbound.link)
                 };
-                match self.build_requested(p1 as u32) {
+                let Some(id) = whole(p1, u32::MAX) else {
+                    return MavResult::MAV_RESULT_DENIED;
+                };
+                match self.build_requested(id) {
                     Some(message) => {
                         follow_up.push((response, message));
                         MavResult::MAV_RESULT_ACCEPTED
                     }
-                    None if self.can_build(p1 as u32) => MavResult::MAV_RESULT_FAILED,
+                    None if self.can_build(id) => MavResult::MAV_RESULT_FAILED,
                     None => MavResult::MAV_RESULT_UNSUPPORTED,
                 }
             }
             MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => self.set_message_interval(inbound, p1, p2),
             MavCmd::MAV_CMD_GET_MESSAGE_INTERVAL => {
-                let Some(msg) = StreamMsg::from_message_id(p1 as u32) else {
+                let Some(msg) = whole(p1, u32::MAX).and_then(StreamMsg::from_message_id) else {
                     return MavResult::MAV_RESULT_UNSUPPORTED;
                 };
                 let interval_us = self.message_interval_us(inbound, msg);
@@ -284,7 +304,10 @@ impl Core {
         if !c.is_int() {
             return MavResult::MAV_RESULT_COMMAND_INT_ONLY;
         }
-        let change_mode = (c.params[1] as i32) & REPOSITION_CHANGE_MODE != 0;
+        let Some(flags) = whole(c.params[1], u32::MAX) else {
+            return MavResult::MAV_RESULT_DENIED;
+        };
+        let change_mode = flags & REPOSITION_CHANGE_MODE != 0;
         if self.mode != Mode::Guided && !change_mode {
             return MavResult::MAV_RESULT_DENIED;
         }
@@ -293,13 +316,17 @@ impl Core {
             Ok(None) => return MavResult::MAV_RESULT_DENIED,
             Err(e) => return e,
         };
+        // Param 1: speed, -1 or NaN (or 0) keep the current one.
+        let speed = c.params[0];
+        if speed > mission::command::limits::MAX_SPEED_MPS {
+            return MavResult::MAV_RESULT_DENIED;
+        }
         if self.mode != Mode::Guided
             && let refused @ Err(_) = self.request_mode(Mode::Guided)
         {
             return mode_result(refused);
         }
-        let speed = c.params[0];
-        if speed > 0.0 && speed.is_finite() {
+        if speed_in_range(speed) {
             self.speed_override_mps = Some(f64::from(speed));
         }
         if self.navigate_to(target, None) {
@@ -320,6 +347,9 @@ impl Core {
             };
         }
         let alt = if c.z != 0.0 && c.z.is_finite() {
+            if !HOME_ALT_RANGE_M.contains(&f64::from(c.z)) {
+                return MavResult::MAV_RESULT_DENIED;
+            }
             f64::from(c.z)
         } else {
             self.estimator.gnss().alt_msl_m
@@ -342,7 +372,7 @@ impl Core {
         }
         if speed_mps == -2.0 {
             self.speed_override_mps = None;
-        } else if speed_mps > 0.0 && speed_mps.is_finite() {
+        } else if speed_in_range(speed_mps) {
             self.speed_override_mps = Some(f64::from(speed_mps));
         } else if speed_mps != -1.0 {
             return MavResult::MAV_RESULT_DENIED;
@@ -351,14 +381,15 @@ impl Core {
     }
 
     fn set_message_interval(&mut self, inbound: &Inbound, id: f32, interval_us: f32) -> MavResult {
-        let Some(msg) = StreamMsg::from_message_id(id as u32) else {
+        let Some(msg) = whole(id, u32::MAX).and_then(StreamMsg::from_message_id) else {
             return MavResult::MAV_RESULT_UNSUPPORTED;
         };
         let interval = if interval_us == 0.0 {
             None
         } else if interval_us < 0.0 {
             Some(MessageInterval::Disabled)
-        } else if interval_us.is_finite() {
+        } else if f64::from(interval_us) <= f64::from(i32::MAX) {
+            // MESSAGE_INTERVAL reports it as an i32 of µs: no longer.
             Some(MessageInterval::Every(
                 Duration::from_micros(interval_us as u64).max(Duration::from_millis(2)),
             ))

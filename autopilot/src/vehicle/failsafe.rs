@@ -286,14 +286,14 @@ impl Core {
         let now = self.now.boot;
         match failsafe {
             Failsafe::Gcs => {
-                let timeout = Duration::from_secs_f64(f64::from(fs.gcs_timeout_s.get(t)));
+                let timeout = crate::time::duration_from_secs(f64::from(fs.gcs_timeout_s.get(t)));
                 fs.gcs_enable.get(t) > 0
                     && self
                         .last_gcs_heartbeat_wall
                         .is_some_and(|last| self.now.wall.saturating_sub(last) > timeout)
             }
             Failsafe::GnssLost => {
-                let timeout = Duration::from_secs_f64(f64::from(fs.gnss_lost_s.get(t)));
+                let timeout = crate::time::duration_from_secs(f64::from(fs.gnss_lost_s.get(t)));
                 !self.estimator.gnss().has_fix(now, timeout)
             }
             Failsafe::HeadingLost => self.heading_lost_cause(),
@@ -312,7 +312,7 @@ impl Core {
     /// freeze is only caught under way, and lasts until the value moves).
     fn heading_lost_cause(&mut self) -> bool {
         let now = self.now.boot;
-        let timeout = Duration::from_secs_f64(f64::from(self.p.failsafe.heading_lost_s.get(&self.params)));
+        let timeout = crate::time::duration_from_secs(f64::from(self.p.failsafe.heading_lost_s.get(&self.params)));
         let Some(last) = self.estimator.heading_sensor_last() else {
             // Driving on the GNSS course: no sensor to lose.
             return false;
@@ -371,7 +371,7 @@ impl Core {
     }
 
     fn battery_below_for(&self, since: Option<Duration>) -> bool {
-        let timer = Duration::from_secs_f64(f64::from(self.p.failsafe.batt_low_timer_s.get(&self.params)));
+        let timer = crate::time::duration_from_secs(f64::from(self.p.failsafe.batt_low_timer_s.get(&self.params)));
         since.is_some_and(|s| self.now.boot.saturating_sub(s) >= timer)
     }
 

@@ -177,7 +177,7 @@ impl Core {
         // thread, a stopped process): the vehicle drove on unattended.
         let stall_after = Duration::from_millis(self.p.failsafe.loop_overrun_ms.get(&self.params).max(1) as u64);
         if dt_s > stall_after.as_secs_f64() {
-            self.failsafes.stall = Some(Duration::from_secs_f64(dt_s));
+            self.failsafes.stall = Some(crate::time::duration_from_secs(dt_s));
         }
         self.saves_done(&inputs.saved);
         for (i, spec) in TASKS.iter().enumerate() {
@@ -332,7 +332,7 @@ impl Core {
     /// The loop rate the caller must step at.
     pub fn loop_period(&self) -> Duration {
         let hz = self.p.system.loop_rate_hz.get(&self.params).clamp(10, 400);
-        Duration::from_secs_f64(1.0 / f64::from(hz))
+        crate::time::duration_from_secs(1.0 / f64::from(hz))
     }
 
     fn frame(&self) -> Option<LocalFrame> {

@@ -3,8 +3,8 @@
 //!
 //! Coordinates are `[north, east]` metres about home, angles in the file are
 //! degrees (`yaw_deg`). Parsing is strict: unknown keys, keys that do not
-//! belong to an entry's `kind`, non-finite numbers and impossible sizes are
-//! errors that name the key (`moving[2].speed_mps`) and its line.
+//! belong to an entry's `kind`, non-finite numbers, numbers beyond
+//! ±[`MAX_MAGNITUDE`] and impossible sizes are errors that name the key (`moving[2].speed_mps`) and its line.
 
 use std::fmt;
 use std::ops::Range;
@@ -18,6 +18,10 @@ use super::obstacles::{MovingObstacle, ObstacleWorld, Shape};
 
 /// A moving circle without `radius_m` is a person.
 pub const PERSON_RADIUS_M: f64 = 0.25;
+/// Largest magnitude of any number in a world file (metres, or degrees for
+/// a yaw): a simulated site is far smaller, and beyond it the geometry's
+/// squares and products lose every centimetre.
+pub const MAX_MAGNITUDE: f64 = 100_000.0;
 
 /// A parsed and checked world file.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -215,10 +219,11 @@ impl Checker<'_> {
 
     fn number(&self, key: String, value: &Spanned<f64>, rule: Rule) -> Result<f64, WorldFileError> {
         let v = *value.get_ref();
+        let bounded = v.abs() <= MAX_MAGNITUDE;
         let (ok, wanted) = match rule {
-            Rule::Finite => (v.is_finite(), "a finite number"),
-            Rule::Positive => (v.is_finite() && v > 0.0, "a finite number > 0"),
-            Rule::NonNegative => (v.is_finite() && v >= 0.0, "a finite number ≥ 0"),
+            Rule::Finite => (bounded, "a finite number within ±100 000"),
+            Rule::Positive => (bounded && v > 0.0, "a finite number > 0 and ≤ 100 000"),
+            Rule::NonNegative => (bounded && v >= 0.0, "a finite number ≥ 0 and ≤ 100 000"),
         };
         if ok {
             Ok(v)
@@ -229,10 +234,14 @@ impl Checker<'_> {
 
     fn point(&self, key: String, value: &Spanned<Point>) -> Result<Point, WorldFileError> {
         let p = *value.get_ref();
-        if p.iter().all(|v| v.is_finite()) {
+        if p.iter().all(|v| v.abs() <= MAX_MAGNITUDE) {
             Ok(p)
         } else {
-            Err(self.error(key, Some(value.span()), format!("{p:?} is not a finite point")))
+            Err(self.error(
+                key,
+                Some(value.span()),
+                format!("{p:?} is not a finite point within ±100 km"),
+            ))
         }
     }
 
@@ -242,8 +251,8 @@ impl Checker<'_> {
             let message = format!("needs at least {at_least} points [north, east], has {}", points.len());
             return Err(self.error(key, Some(value.span()), message));
         }
-        if let Some(i) = points.iter().position(|p| !p.iter().all(|v| v.is_finite())) {
-            let message = format!("point {i} {:?} is not finite", points[i]);
+        if let Some(i) = points.iter().position(|p| !p.iter().all(|v| v.abs() <= MAX_MAGNITUDE)) {
+            let message = format!("point {i} {:?} is not finite and within ±100 km", points[i]);
             return Err(self.error(key, Some(value.span()), message));
         }
         Ok(points.clone())
@@ -595,6 +604,24 @@ mod tests {
         assert!(seen >= 3, "{seen}");
         let yard = load_world_file(worlds_dir().join("yard.toml")).unwrap();
         assert!(yard.tape().is_some_and(|t| t.length_m() > 10.0));
+    }
+
+    #[test]
+    fn numbers_beyond_100_km_are_refused() {
+        let circle = |center: &str, radius: &str| {
+            parse_world_file(&format!(
+                "[[static]]\nkind = \"circle\"\ncenter = {center}\nradius_m = {radius}\n"
+            ))
+        };
+        assert!(circle("[1, 2]", "0.5").is_ok());
+        let e = circle("[1, 2]", "1e30").unwrap_err().to_string();
+        assert!(e.contains("radius_m") && e.contains("100 000"), "{e}");
+        let e = circle("[1e30, 2]", "0.5").unwrap_err().to_string();
+        assert!(e.contains("100 km"), "{e}");
+        let e = parse_world_file("[tape]\npoints = [[0, 0], [2e5, 0]]\nwidth_m = 0.05\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("100 km"), "{e}");
     }
 
     #[test]
