@@ -265,6 +265,10 @@ fn read_only_storage_refuses_changes_and_says_so_at_connect() {
         link: LinkId(9),
         stream_slot: 1,
     });
+    v.sim.inputs_mut().link_events.push(LinkEvent::PeerJoined {
+        link: LinkId(9),
+        peer: autopilot::vehicle::PeerId(1),
+    });
     v.step();
     assert!(texts(&v.take()).contains("read-only"));
 }

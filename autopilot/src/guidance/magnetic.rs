@@ -45,7 +45,7 @@
 //!   sensors are at y ± (d/2)·sin α, so both read it while |y| + (d/2)·|sin α|
 //!   is within the outermost probe ([`MagneticGuideConfig::approach_limit_rad`]).
 //!   The PD law settles on the approach tan α = kp·y/(kd·v), so limiting the
-//!   P term to kd·v·sin α_max limits the angle it steers to (issue 22: 0.1 m
+//!   P term to kd·v·sin α_max limits the angle it steers to (found in SITL: 0.1 m
 //!   off, full P swung the bench vehicle 10° across the tape and both sensors
 //!   lost it);
 //! - the correction's turn rate is limited to what the sensors can follow:

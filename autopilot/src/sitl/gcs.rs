@@ -23,9 +23,15 @@ pub const GCS_HEADER: MavHeader = MavHeader {
 
 /// Opens the in-process GCS link (stream slot 0).
 pub fn connect(sim: &mut Simulation) {
-    sim.inputs_mut().link_events.push(LinkEvent::Opened {
+    let events = &mut sim.inputs_mut().link_events;
+    events.push(LinkEvent::Opened {
         link: GCS_LINK,
         stream_slot: 0,
+    });
+    // As a TCP client does: the link opens with its ground station on it.
+    events.push(LinkEvent::PeerJoined {
+        link: GCS_LINK,
+        peer: crate::vehicle::PeerId(0),
     });
 }
 
