@@ -30,6 +30,7 @@ fn track(id: u32, north_m: f64, east_m: f64, vel_north_mps: f64, vel_east_mps: f
         position_sigma_m: 0.03,
         velocity_sigma_mps: 0.05,
         radius_m,
+        outline: None,
         age_s: 2.0,
         unseen_s: 0.0,
         hits: 50,

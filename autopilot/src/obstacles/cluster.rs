@@ -31,6 +31,7 @@
 //! between them had no echo. See [`cluster_points`] for the centroid
 //! correction a one-sided view of a round object needs.
 
+use super::outline::Outline;
 use std::f64::consts::FRAC_PI_4;
 
 use drivers::scanner::Scan;
@@ -162,6 +163,9 @@ pub struct Cluster {
     pub range_m: f64,
     pub bearing_rad: f64,
     pub is_structure: bool,
+    /// The object's shape fitted to its returns about `centroid` (not for
+    /// structure, which is not tracked).
+    pub outline: Option<Outline>,
     /// The beam just beyond one of its edges saw something nearer: part of
     /// the object may be hidden behind it, so its extent, radius and
     /// centroid are those of a sliver, not of the object.
@@ -321,6 +325,11 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig) -> Option<Cluster>
         range_m: sensor.distance_to(&centroid),
         bearing_rad: sensor.bearing_to(&centroid),
         is_structure,
+        outline: if is_structure {
+            None
+        } else {
+            Outline::fit(centroid, points, |p| p.position)
+        },
         occluded: false,
     })
 }

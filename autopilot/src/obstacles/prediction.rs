@@ -264,6 +264,7 @@ mod tests {
             position_sigma_m: 0.05,
             velocity_sigma_mps: 0.05,
             radius_m,
+            outline: None,
             age_s: 1.0,
             unseen_s: 0.0,
             hits: 10,

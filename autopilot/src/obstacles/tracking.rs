@@ -276,6 +276,7 @@ impl ObstacleTracker {
                     entry.track.misses = 0;
                     if !(cluster.occluded || pieces[i]) {
                         entry.track.radius_m = cluster.radius_m;
+                        entry.track.outline = cluster.outline;
                     }
                     entry.seen_t = now;
                 }
@@ -316,6 +317,7 @@ impl ObstacleTracker {
                     position_sigma_m: kf.position_sigma_m(),
                     velocity_sigma_mps: kf.velocity_sigma_mps(),
                     radius_m: cluster.radius_m,
+                    outline: cluster.outline,
                     age_s: 0.0,
                     unseen_s: 0.0,
                     hits: 1,
@@ -456,6 +458,7 @@ mod tests {
             range_m: Ned::default().distance_to(&c),
             bearing_rad: Ned::default().bearing_to(&c),
             is_structure: false,
+            outline: None,
             occluded: false,
         }
     }
