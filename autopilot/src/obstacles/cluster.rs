@@ -31,11 +31,11 @@
 //! between them had no echo. See [`cluster_points`] for the centroid
 //! correction a one-sided view of a round object needs.
 
-use super::outline::Outline;
 use std::f64::consts::FRAC_PI_4;
 
 use drivers::scanner::Scan;
 
+use super::outline::Outline;
 use super::{Pose, ScannerMount};
 use crate::geo::{Ned, wrap_pi};
 
@@ -328,7 +328,8 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig) -> Option<Cluster>
         outline: if is_structure {
             None
         } else {
-            Outline::fit(centroid, points, |p| p.position)
+            let (sin_m, cos_m) = sensor.bearing_to(&mean).sin_cos();
+            Outline::fit(centroid, points, (extent_m * cos_m, extent_m * sin_m), |p| p.position)
         },
         occluded: false,
     })

@@ -48,7 +48,7 @@
 use super::outline::Outline;
 use super::{Footprint, Pose};
 use crate::geo::{Ned, wrap_pi};
-use crate::guidance::path::LegPath;
+use crate::guidance::path::{LegPath, Piece};
 
 /// Largest motion of any outline point between two samples, m.
 pub const MAX_STEP_M: f64 = 0.1;
@@ -150,6 +150,8 @@ pub struct SweptPath {
     ds_m: f64,
     spread: f64,
     step_m: f64,
+    /// Bounding box of the reference points (north min/max, east min/max).
+    bounds: (f64, f64, f64, f64),
     front_m: f64,
     rear_m: f64,
     half_width_m: f64,
@@ -189,10 +191,36 @@ impl SweptPath {
         };
         self.step_m = self.ds_m * self.spread;
         self.samples.clear();
+        let start = match ahead {
+            PathAhead::Leg {
+                path, along_m, reverse, ..
+            } => leg_pose(path, *along_m, *reverse),
+            PathAhead::Curvature { .. } => *now,
+        };
+        let mut bounds = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        let mut walker = match ahead {
+            PathAhead::Leg { path, .. } => Some(LegWalker::new(path)),
+            PathAhead::Curvature { .. } => None,
+        };
         for i in 0..count {
             let s = i as f64 * self.ds_m;
-            self.samples.push(Sample::of(&pose_at(ahead, now, s)));
+            let sample = Sample::of(&pose_at(ahead, walker.as_mut(), now, &start, s));
+            bounds = (
+                bounds.0.min(sample.north_m),
+                bounds.1.max(sample.north_m),
+                bounds.2.min(sample.east_m),
+                bounds.3.max(sample.east_m),
+            );
+            self.samples.push(sample);
         }
+        self.bounds = bounds;
+    }
+
+    /// Whether `p` is further than `reach` from every sampled reference
+    /// point's bounding box (so from every outline by `reach − reach_m`).
+    fn far_from_bounds(&self, p: Ned, reach: f64) -> bool {
+        let (n0, n1, e0, e1) = self.bounds;
+        p.north_m < n0 - reach || p.north_m > n1 + reach || p.east_m < e0 - reach || p.east_m > e1 + reach
     }
 
     /// Path covered by the samples.
@@ -224,15 +252,17 @@ impl SweptPath {
         rect_gap(self.front_m, self.rear_m, self.half_width_m, x, y)
     }
 
-    fn shape_gap(&self, i: usize, shape: &Shape, shift: (f64, f64)) -> f64 {
+    /// The gap between the shape and the outline at sample `i`, or a lower
+    /// bound of it above `exact_below` (enough to advance by).
+    fn shape_gap(&self, i: usize, shape: &Shape, shift: (f64, f64), exact_below: f64) -> f64 {
         let sample = &self.samples[i];
         let centre = shape.centre();
         let (cn, ce) = (centre.north_m + shift.0, centre.east_m + shift.1);
+        let (x, y) = sample.body(cn, ce);
+        let disc_gap = (rect_gap(self.front_m, self.rear_m, self.half_width_m, x, y) - shape.extent_m()).max(0.0);
         match shape {
-            Shape::Disc { radius_m, .. } => {
-                let (x, y) = sample.body(cn, ce);
-                (rect_gap(self.front_m, self.rear_m, self.half_width_m, x, y) - radius_m.max(0.0)).max(0.0)
-            }
+            Shape::Disc { .. } => disc_gap,
+            Shape::Polygon { .. } if disc_gap > exact_below => disc_gap,
             Shape::Polygon { outline, .. } => {
                 let mut body = [(0.0, 0.0); super::outline::MAX_VERTICES];
                 let vertices = outline.vertices();
@@ -251,6 +281,9 @@ impl SweptPath {
     /// from (a wall beside a straight lane) is not in the way.
     pub fn point_entry_m(&self, p: Ned, margin_m: f64, max_m: f64) -> Option<f64> {
         if self.samples.is_empty() || !(p.north_m.is_finite() && p.east_m.is_finite()) {
+            return None;
+        }
+        if self.far_from_bounds(p, self.reach_m + margin_m.max(0.0) + self.step_m) {
             return None;
         }
         let gap_now = self.point_gap(0, p);
@@ -312,22 +345,13 @@ impl SweptPath {
         let rate = speed * self.spread + obstacle_mps;
         let threshold = margin_m.max(0.0) + self.slack_m() + 0.5 * MAX_STEP_M;
         let min_dt = if rate > 0.0 { MAX_STEP_M / rate } else { f64::INFINITY };
-        let extent = shape.extent_m();
-        let gap_now = self.shape_gap(0, shape, (0.0, 0.0));
+        let gap_now = self.shape_gap(0, shape, (0.0, 0.0), f64::INFINITY);
         let mut t = 0.0;
         loop {
             let index = self.index_at(speed * t);
             let shift = (velocity.0 * t, velocity.1 * t);
             let sample = &self.samples[index];
-            // Cheap bound first: centre to reference point, less both reaches.
-            let centre_gap = (centre.north_m + shift.0 - sample.north_m).hypot(centre.east_m + shift.1 - sample.east_m)
-                - self.reach_m
-                - extent;
-            let gap = if centre_gap > threshold {
-                centre_gap
-            } else {
-                self.shape_gap(index, shape, shift)
-            };
+            let gap = self.shape_gap(index, shape, shift, threshold);
             if gap <= threshold {
                 let closing = t > 0.0 || self.closing_now(shape, velocity, speed, gap_now);
                 return Some(Contact {
@@ -357,7 +381,7 @@ impl SweptPath {
         // Long enough to move on by a couple of samples.
         let dt = (2.0 * self.ds_m.max(MAX_STEP_M) / rate).max(0.05);
         let index = self.index_at(speed * dt);
-        self.shape_gap(index, shape, (velocity.0 * dt, velocity.1 * dt)) < gap_now
+        self.shape_gap(index, shape, (velocity.0 * dt, velocity.1 * dt), f64::INFINITY) < gap_now
     }
 
     fn index_at(&self, along_m: f64) -> usize {
@@ -379,18 +403,27 @@ fn leg_pose(path: &LegPath, along_m: f64, reverse: bool) -> Pose {
 }
 
 /// The vehicle's pose after `s` metres along the path ahead.
-fn pose_at(ahead: &PathAhead, now: &Pose, s: f64) -> Pose {
-    match ahead {
-        PathAhead::Leg {
-            path,
-            along_m,
-            stop_at_m,
-            reverse,
-        } => {
+/// `start`: the path's pose where the vehicle is on it (for a leg), and
+/// `walker` the leg's pieces, asked for increasing `s`.
+fn pose_at(ahead: &PathAhead, walker: Option<&mut LegWalker>, now: &Pose, start: &Pose, s: f64) -> Pose {
+    match (ahead, walker) {
+        (
+            PathAhead::Leg {
+                along_m,
+                stop_at_m,
+                reverse,
+                ..
+            },
+            Some(walker),
+        ) => {
             let at = stop_at_m.map_or(along_m + s, |end| (along_m + s).min(end.max(*along_m)));
-            let on_path = leg_pose(path, at, *reverse);
+            let (position, heading) = walker.at(at);
+            let flip = if *reverse { std::f64::consts::PI } else { 0.0 };
+            let on_path = Pose {
+                position,
+                yaw_rad: wrap_pi(heading + flip),
+            };
             // The offset of the actual pose from the path, blended out.
-            let start = leg_pose(path, *along_m, *reverse);
             let w = (1.0 - s / BLEND_M).max(0.0);
             Pose {
                 position: Ned::new(
@@ -400,7 +433,8 @@ fn pose_at(ahead: &PathAhead, now: &Pose, s: f64) -> Pose {
                 yaw_rad: wrap_pi(on_path.yaw_rad + w * wrap_pi(now.yaw_rad - start.yaw_rad)),
             }
         }
-        PathAhead::Curvature { curvature, reverse } => {
+        (PathAhead::Leg { path, along_m, .. }, None) => leg_pose(path, along_m + s, false),
+        (PathAhead::Curvature { curvature, reverse }, _) => {
             let flip = if *reverse { std::f64::consts::PI } else { 0.0 };
             let heading = now.yaw_rad + flip;
             let k = if curvature.is_finite() { *curvature } else { 0.0 };
@@ -423,11 +457,61 @@ fn pose_at(ahead: &PathAhead, now: &Pose, s: f64) -> Pose {
     }
 }
 
+/// Walks a leg's pieces for increasing distances along it: what
+/// [`LegPath::point_at`] and [`LegPath::heading_at`] give (the first piece
+/// extended backwards, the last forwards), without searching for the piece
+/// and working out a straight's direction again at every sample.
+struct LegWalker<'a> {
+    pieces: &'a [Piece],
+    index: usize,
+    start_m: f64,
+    /// The current piece when straight: its start, unit direction, heading.
+    line: Option<(Ned, (f64, f64), f64)>,
+}
+
+impl<'a> LegWalker<'a> {
+    fn new(path: &'a LegPath) -> Self {
+        let mut walker = LegWalker {
+            pieces: path.pieces(),
+            index: 0,
+            start_m: 0.0,
+            line: None,
+        };
+        walker.enter();
+        walker
+    }
+
+    fn enter(&mut self) {
+        self.line = match self.pieces.get(self.index) {
+            Some(Piece::Line(segment)) => Some((segment.start, segment.direction(), segment.bearing_rad())),
+            _ => None,
+        };
+    }
+
+    /// Position and heading of travel at `along_m` (never less than the
+    /// previous call's).
+    fn at(&mut self, along_m: f64) -> (Ned, f64) {
+        while self.index + 1 < self.pieces.len() && along_m >= self.start_m + self.pieces[self.index].length_m() {
+            self.start_m += self.pieces[self.index].length_m();
+            self.index += 1;
+            self.enter();
+        }
+        let local = along_m - self.start_m;
+        match (self.line, self.pieces.get(self.index)) {
+            (Some((start, (un, ue), heading)), _) => {
+                (Ned::new(start.north_m + un * local, start.east_m + ue * local), heading)
+            }
+            (None, Some(piece)) => (piece.point_at(local), piece.heading_at(local)),
+            (None, None) => (Ned::default(), 0.0),
+        }
+    }
+}
+
 /// Distance from a body-frame point to the rectangle (0 inside).
 fn rect_gap(front_m: f64, rear_m: f64, half_width_m: f64, x: f64, y: f64) -> f64 {
     let dx = (x - front_m).max(-rear_m - x).max(0.0);
     let dy = (y.abs() - half_width_m).max(0.0);
-    dx.hypot(dy)
+    (dx * dx + dy * dy).sqrt()
 }
 
 /// Distance between a convex polygon (body frame, either winding) and the
@@ -452,6 +536,10 @@ fn polygon_rect_gap(polygon: &[(f64, f64)], front_m: f64, rear_m: f64, half_widt
         return 0.0;
     }
     let n = polygon.len();
+    let inv = 1.0 / n as f64;
+    let mid = polygon
+        .iter()
+        .fold((0.0, 0.0), |acc, p| (acc.0 + p.0 * inv, acc.1 + p.1 * inv));
     let mut from_rect = f64::INFINITY;
     let mut separated = false;
     for i in 0..n {
@@ -465,7 +553,8 @@ fn polygon_rect_gap(polygon: &[(f64, f64)], front_m: f64, rear_m: f64, half_widt
         if !separated {
             let normal = (b.1 - a.1, a.0 - b.0);
             let side = |p: (f64, f64)| (p.0 - a.0) * normal.0 + (p.1 - a.1) * normal.1;
-            let inner: f64 = polygon.iter().map(|&p| side(p)).sum();
+            // The vertices' mean is inside a convex polygon.
+            let inner = side(mid);
             separated = if n == 2 {
                 corners.iter().all(|&c| side(c) > 0.0) || corners.iter().all(|&c| side(c) < 0.0)
             } else {
@@ -493,7 +582,8 @@ fn point_segment(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
     } else {
         0.0
     };
-    (p.0 - a.0 - t * dx).hypot(p.1 - a.1 - t * dy)
+    let (ex, ey) = (p.0 - a.0 - t * dx, p.1 - a.1 - t * dy);
+    (ex * ex + ey * ey).sqrt()
 }
 
 #[cfg(test)]

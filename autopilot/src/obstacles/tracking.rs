@@ -23,6 +23,7 @@ use nalgebra::Matrix2;
 
 use super::cluster::Cluster;
 use super::kalman::{CvKalman, chi2_gate_2dof, polar_measurement_covariance};
+use super::outline::Outline;
 use super::{Track, TrackStatus};
 use crate::geo::Ned;
 
@@ -112,6 +113,9 @@ struct Entry {
     filter_t: Duration,
     born_t: Duration,
     seen_t: Duration,
+    /// The last full view's outline and the centroid it was fitted about:
+    /// it stays where the returns were while the filtered position moves.
+    fit: Option<(Outline, Ned)>,
 }
 
 /// Every tracked object, and the next id to give.
@@ -276,7 +280,7 @@ impl ObstacleTracker {
                     entry.track.misses = 0;
                     if !(cluster.occluded || pieces[i]) {
                         entry.track.radius_m = cluster.radius_m;
-                        entry.track.outline = cluster.outline;
+                        entry.fit = cluster.outline.map(|o| (o, cluster.centroid));
                     }
                     entry.seen_t = now;
                 }
@@ -327,6 +331,7 @@ impl ObstacleTracker {
                 filter_t: now,
                 born_t: now,
                 seen_t: now,
+                fit: cluster.outline.map(|o| (o, cluster.centroid)),
             });
             status.births += 1;
         }
@@ -374,6 +379,12 @@ impl ObstacleTracker {
             track.age_s = now.saturating_sub(entry.born_t).as_secs_f64();
             track.unseen_s = unseen_s;
             track.position = entry.kf.position();
+            track.outline = entry.fit.map(|(outline, centre)| {
+                outline.shifted(
+                    centre.north_m - track.position.north_m,
+                    centre.east_m - track.position.east_m,
+                )
+            });
             (track.vel_north_mps, track.vel_east_mps) = entry.kf.velocity_mps();
             track.position_sigma_m = entry.kf.position_sigma_m();
             track.velocity_sigma_mps = entry.kf.velocity_sigma_mps();
