@@ -3,7 +3,7 @@
 //! the simulator's truth: no collision, no false stop, no stall; a family
 //! with something in the way must stop, one with everything 0.5 m or more
 //! clear must pass without a stop. Both speeds, forwards and in reverse,
-//! left and right, seeds 1 and 2 (arcs of 6 and 10 m).
+//! left and right, seeds 1 and 2 (arcs of 6 and 15 m).
 //!
 //! The tests marked `needs swept-path protection (issue 14)` fail on the
 //! core before that protection; they are to be un-ignored with it.
@@ -72,6 +72,7 @@ fn neighbours(object: Object, at: Where) {
 }
 
 #[test]
+#[ignore = "needs swept-path protection (issue 14)"]
 fn person_standing_inside_the_arc() {
     check(|f| *f == Family::InsideArc);
 }

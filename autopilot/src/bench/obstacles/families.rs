@@ -6,8 +6,8 @@
 //!
 //! Each family runs forwards and in reverse, turning left and right, at
 //! each speed and seed. The course is a mission whose corners the navigator
-//! rounds with arcs of `WP_ARC_MARGIN` × its tightest turn (the seed picks
-//! 6, 10 or 15 m); objects are placed from the empty run's truth: a gap is
+//! rounds with arcs of `WP_ARC_MARGIN` × its tightest turn (seeds 1, 2, 3
+//! give 6, 15, 10 m); objects are placed from the empty run's truth: a gap is
 //! the true distance to the outline swept along that run (negative: that
 //! far inside it).
 
@@ -18,8 +18,9 @@ use super::drive::{Course, Setup, Waypoint};
 use super::truth::{Pose, TruthLog, rectangle};
 use crate::sitl::simulation::{ModelKind, SimulationParams};
 
-/// Arc radii the seeds cycle through, m.
-const ARC_RADII_M: [f64; 3] = [6.0, 10.0, 15.0];
+/// Arc radii the seeds cycle through, m: the two ends first, so the
+/// default two seeds drive both.
+const ARC_RADII_M: [f64; 3] = [6.0, 15.0, 10.0];
 /// A person in the way stands this long after the vehicle first comes near,
 /// then walks away.
 const STAND_S: f64 = 15.0;
@@ -321,7 +322,7 @@ pub fn course(lane: Lane, variant: &Variant) -> Course {
         reverse: variant.reverse,
     };
     let waypoints = match lane {
-        Lane::Turn => vec![wp(25.0, 0.0), wp(25.0, 25.0)],
+        Lane::Turn => vec![wp(35.0, 0.0), wp(35.0, 25.0)],
         Lane::SBend => vec![wp(15.0, 0.0), wp(30.0, 15.0), wp(45.0, 15.0)],
     };
     Course {
