@@ -72,13 +72,11 @@ fn neighbours(object: Object, at: Where) {
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
 fn person_standing_inside_the_arc() {
     check(|f| *f == Family::InsideArc);
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
 fn person_standing_outside_the_arc() {
     check(|f| *f == Family::OutsideArc);
 }
@@ -102,7 +100,6 @@ fn person_beside_the_arc_exit_is_passed() {
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
 fn person_under_the_overhang_swing() {
     check(|f| *f == Family::TailSwing);
 }
@@ -114,7 +111,6 @@ fn person_walking_across_the_arc() {
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
 fn person_stepping_out_mid_turn() {
     check(|f| *f == Family::StepOut);
 }
