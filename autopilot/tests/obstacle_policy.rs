@@ -35,6 +35,7 @@ fn track(id: u32, north_m: f64, east_m: f64, vel_north_mps: f64, vel_east_mps: f
         unseen_s: 0.0,
         hits: 50,
         misses: 0,
+        still_s: 0.0,
     }
 }
 

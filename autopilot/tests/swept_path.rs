@@ -186,7 +186,6 @@ fn a_post_half_a_metre_beside_the_lane_costs_no_stop() {
 
 /// The same for an 0.8 m box whose face is 0.5 m from the outline.
 #[test]
-#[ignore = "fails: the box's track takes up to 0.8 m/s towards the lane (its centroid walks as the view of its corner changes), so it is predicted moving; see the report"]
 fn a_box_half_a_metre_beside_the_lane_costs_no_stop() {
     let boxed = Shape::Box {
         center: [20.0, HALF_WIDTH_M + 0.5 + 0.4],

@@ -85,6 +85,12 @@ pub struct Track {
     /// How many scans associated and missed in a row.
     pub hits: u32,
     pub misses: u32,
+    /// How long (s) its returns have stayed on the outline fitted when they
+    /// last left one (infinite: they never have since the track was born;
+    /// 0 without an outline). A standing object's centroid walks as the view
+    /// of it changes (a box's corner as the vehicle drives past); its
+    /// returns stay on its outline.
+    pub still_s: f64,
 }
 
 impl Track {

@@ -110,6 +110,25 @@ impl Outline {
         moved
     }
 
+    /// How far `p` (an offset from the centre, like the corners) lies
+    /// outside the polygon, m: 0 on or inside it.
+    pub fn distance_outside_m(&self, p: (f64, f64)) -> f64 {
+        let v = self.vertices();
+        match v.len() {
+            0 => f64::INFINITY,
+            1 => (p.0 - v[0].0).hypot(p.1 - v[0].1),
+            n => {
+                let inside = n >= 3 && (0..n).all(|i| cross(v[i], v[(i + 1) % n], p) >= 0.0);
+                if inside {
+                    return 0.0;
+                }
+                (0..n)
+                    .map(|i| segment_distance(v[i], v[(i + 1) % n], p))
+                    .fold(f64::INFINITY, f64::min)
+            }
+        }
+    }
+
     /// Largest distance of a corner from the centre.
     pub fn radius_m(&self) -> f64 {
         self.vertices().iter().map(|v| v.0.hypot(v.1)).fold(0.0, f64::max)
@@ -118,6 +137,18 @@ impl Outline {
 
 fn cross(o: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
     (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0)
+}
+
+/// Distance from `p` to the segment from `a` to `b`.
+fn segment_distance(a: (f64, f64), b: (f64, f64), p: (f64, f64)) -> f64 {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let len_sq = dx * dx + dy * dy;
+    let t = if len_sq > 0.0 {
+        (((p.0 - a.0) * dx + (p.1 - a.1) * dy) / len_sq).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p.0 - a.0 - t * dx).hypot(p.1 - a.1 - t * dy)
 }
 
 /// Andrew's monotone chain: the hull of `points` (sorted in place) into
@@ -215,6 +246,22 @@ mod tests {
             assert!(contains(&outline, (p.north_m, p.east_m)), "{p:?} outside");
         }
         assert!(outline.radius_m() < r * 1.036, "{}", outline.radius_m());
+    }
+
+    #[test]
+    fn distance_outside_is_zero_inside_and_to_the_nearest_face_beyond() {
+        let square = [
+            Ned::new(-0.5, -0.5),
+            Ned::new(0.5, -0.5),
+            Ned::new(0.5, 0.5),
+            Ned::new(-0.5, 0.5),
+        ];
+        let outline = Outline::fit(Ned::default(), &square, (0.0, 0.0), |p| *p).expect("outline");
+        assert_eq!(outline.distance_outside_m((0.2, -0.3)), 0.0);
+        assert_eq!(outline.distance_outside_m((0.5, 0.0)), 0.0);
+        assert!((outline.distance_outside_m((0.8, 0.1)) - 0.3).abs() < 1e-12);
+        assert!((outline.distance_outside_m((0.8, 0.9)) - 0.5).abs() < 1e-12);
+        assert!((outline.distance_outside_m((-0.5, -1.5)) - 1.0).abs() < 1e-12);
     }
 
     #[test]

@@ -269,6 +269,7 @@ mod tests {
             unseen_s: 0.0,
             hits: 10,
             misses: 0,
+            still_s: 0.0,
         }
     }
 

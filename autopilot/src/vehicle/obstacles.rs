@@ -34,6 +34,10 @@ const DETOUR_LOOKAHEAD_M: f64 = 15.0;
 /// A track slower than this counts as a static obstacle (detour candidate,
 /// and its fitted outline is its shape).
 const STATIC_SPEED_MPS: f64 = 0.2;
+/// Returns on one outline this long (s): the object stands (the nearest
+/// point of someone walking at 0.3 m/s leaves their 0.5 m outline within
+/// about a second).
+const STILL_S: f64 = 1.5;
 /// Further off its leg than this (or turned further from it), the vehicle
 /// is manoeuvring onto it: the path it drives next is its current turn.
 const ON_PATH_M: f64 = 1.0;
@@ -781,9 +785,11 @@ impl Core {
 /// twice its own velocity σ (the changing view of a box's corner as the
 /// vehicle drives up to it walks its centroid at up to 0.4 m/s with σ
 /// 0.35; someone walking is tracked at 1–1.6 m/s with σ well under 0.5).
+/// Returns that have stayed on one outline for `STILL_S` are a standing
+/// object whatever its centroid's velocity says.
 fn moving(track: &Track) -> bool {
     let speed = track.speed_mps();
-    speed >= STATIC_SPEED_MPS && speed > 2.0 * track.velocity_sigma_mps
+    speed >= STATIC_SPEED_MPS && speed > 2.0 * track.velocity_sigma_mps && track.still_s < STILL_S
 }
 
 /// A track's shape for collision prediction: a walking object is a disc of
