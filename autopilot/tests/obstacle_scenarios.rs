@@ -82,7 +82,6 @@ fn person_standing_outside_the_arc() {
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
 fn person_beside_the_arc_is_passed() {
     check(|f| *f == Family::BesideArcOutside);
 }
@@ -157,7 +156,6 @@ fn posts_inside_an_arc() {
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
 fn posts_outside_an_arc() {
     neighbours(Object::Post, Where::ArcOutside);
 }
