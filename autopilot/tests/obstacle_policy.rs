@@ -30,10 +30,12 @@ fn track(id: u32, north_m: f64, east_m: f64, vel_north_mps: f64, vel_east_mps: f
         position_sigma_m: 0.03,
         velocity_sigma_mps: 0.05,
         radius_m,
+        outline: None,
         age_s: 2.0,
         unseen_s: 0.0,
         hits: 50,
         misses: 0,
+        still_s: 0.0,
     }
 }
 
@@ -788,4 +790,104 @@ fn reset_forgets_a_held_stop() {
     policy.reset();
     let status = policy.update(&Scene::clear(0.1, 0.0).inputs(), &config);
     assert!(!status.stopped && status.events.is_empty());
+}
+
+// --- stop/go hysteresis ---------------------------------------------------
+
+fn prediction(track_id: u32, time_s: f64) -> CollisionPrediction {
+    CollisionPrediction {
+        track_id,
+        time_s,
+        place: Ned::default(),
+        distance_m: time_s,
+        relative_speed_mps: 1.0,
+        closing: true,
+    }
+}
+
+/// One stop/go cycle for track 1: driving into a predicted collision at
+/// `t_s`, standing with the way clear until it resumes. Returns the events
+/// and the time it resumed (None: it never did within 10 s).
+fn stop_and_go(
+    policy: &mut ObstaclePolicy,
+    config: &PolicyConfig,
+    t_s: f64,
+    later: Option<f64>,
+) -> (Vec<PolicyEvent>, Option<f64>) {
+    let tracks = vec![track(1, 5.0, 0.0, 0.0, 0.0, 0.3)];
+    let mut moving = Scene::clear(t_s, 1.0);
+    moving.tracks = tracks.clone();
+    moving.predictions = vec![prediction(1, 2.0)];
+    moving.predictions_at_resume = vec![prediction(1, 2.0)];
+    let mut events = policy.update(&moving.inputs(), config).events;
+    let mut t = t_s;
+    while t < t_s + 10.0 {
+        t += 0.05;
+        let mut resting = Scene::clear(t, 0.0);
+        resting.tracks = tracks.clone();
+        // Beyond the stop horizon: clear for a plain stop, not for a patient one.
+        resting.predictions_at_resume = later.map(|s| vec![prediction(1, s)]).unwrap_or_default();
+        let status = policy.update(&resting.inputs(), config);
+        events.extend(status.events);
+        if !status.stopped {
+            return (events, Some(t));
+        }
+    }
+    (events, None)
+}
+
+#[test]
+fn repeated_stops_for_one_object_turn_patient_after_the_set_number_of_cycles() {
+    let config = PolicyConfig::default();
+    assert_eq!(config.stop_cycles, 3);
+    let mut policy = ObstaclePolicy::new();
+    let mut t = 0.0;
+    for cycle in 0..3 {
+        let (events, resumed) = stop_and_go(&mut policy, &config, t, Some(5.0));
+        assert!(
+            !events.iter().any(|e| matches!(e, PolicyEvent::StopGo { .. })),
+            "cycle {cycle}: {events:?}"
+        );
+        let resumed = resumed.expect("a plain stop resumes once clear for OA_RESUME_S");
+        assert!(resumed - t >= config.resume_s);
+        // Drives on for a second, then stops for the same object again.
+        t = resumed + 1.0;
+    }
+    // The fourth stop is the third within a few seconds of a resume.
+    let (events, resumed) = stop_and_go(&mut policy, &config, t, Some(5.0));
+    assert!(
+        events
+            .iter()
+            .any(|e| matches!(e, PolicyEvent::StopGo { cycles: 3, .. })),
+        "{events:?}"
+    );
+    assert_eq!(resumed, None, "a patient stop waits while anything is predicted for it");
+    // Once nothing at all is predicted for it, it resumes after OA_RESUME_S.
+    let (_, resumed) = stop_and_go(&mut policy, &config, t + 10.0, None);
+    assert!(resumed.is_some());
+}
+
+#[test]
+fn stops_far_apart_or_with_cycles_off_never_turn_patient() {
+    for (config, gap_s) in [
+        (PolicyConfig::default(), 6.0),
+        (
+            PolicyConfig {
+                stop_cycles: 0,
+                ..PolicyConfig::default()
+            },
+            1.0,
+        ),
+    ] {
+        let mut policy = ObstaclePolicy::new();
+        let mut t = 0.0;
+        for _ in 0..6 {
+            let (events, resumed) = stop_and_go(&mut policy, &config, t, Some(5.0));
+            assert!(
+                !events.iter().any(|e| matches!(e, PolicyEvent::StopGo { .. })),
+                "{events:?}"
+            );
+            t = resumed.expect("resumes") + gap_s;
+        }
+    }
 }

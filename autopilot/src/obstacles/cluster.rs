@@ -35,6 +35,7 @@ use std::f64::consts::FRAC_PI_4;
 
 use drivers::scanner::Scan;
 
+use super::outline::Outline;
 use super::{Pose, ScannerMount};
 use crate::geo::{Ned, wrap_pi};
 
@@ -162,6 +163,9 @@ pub struct Cluster {
     pub range_m: f64,
     pub bearing_rad: f64,
     pub is_structure: bool,
+    /// The object's shape fitted to its returns about `centroid` (not for
+    /// structure, which is not tracked).
+    pub outline: Option<Outline>,
     /// The beam just beyond one of its edges saw something nearer: part of
     /// the object may be hidden behind it, so its extent, radius and
     /// centroid are those of a sliver, not of the object.
@@ -321,6 +325,12 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig) -> Option<Cluster>
         range_m: sensor.distance_to(&centroid),
         bearing_rad: sensor.bearing_to(&centroid),
         is_structure,
+        outline: if is_structure {
+            None
+        } else {
+            let (sin_m, cos_m) = sensor.bearing_to(&mean).sin_cos();
+            Outline::fit(centroid, points, (extent_m * cos_m, extent_m * sin_m), |p| p.position)
+        },
         occluded: false,
     })
 }

@@ -7,15 +7,22 @@
 //! prediction, not beside it: whatever is inside the braking distance stops
 //! the vehicle whether or not it has become a track.
 //!
-//! The protective field is a rectangle in the driving direction, starting at
-//! the bumper (the front one forwards, the rear one in reverse), as wide as
-//! the vehicle plus a lateral margin on each side, and as long as the
-//! stopping distance v·t_react + v²/(2a) + Z_G. The warning field continues
-//! it by `warning_time_s` of travel. This is an availability function in
+//! The protective field is the vehicle's outline, grown by a lateral margin,
+//! swept along the path it is about to drive ([`super::swept`]) over the
+//! stopping distance v·t_react + v²/(2a) + Z_G; the warning field continues
+//! the sweep by `warning_time_s` of travel. A return is in a field when the
+//! swept outline comes within the margin of it, nearer than the outline is
+//! now: what stays beside the body (a wall along a straight lane) is not in
+//! the way, what the inner side or the tail will swing into in a turn is.
+//! Distances are path travelled before the outline reaches the return.
+//! [`check_field`] is the straight rectangle of the same length (the sweep
+//! of a straight path), kept for callers without a path. This is an availability function in
 //! software, not the ISO 3691-4 personnel-detection safety function, which
 //! needs a safety-rated scanner wired to the brakes (reference B.4).
 
 use super::Footprint;
+use super::swept::SweptPath;
+use crate::geo::Ned;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FieldConfig {
@@ -127,6 +134,33 @@ pub fn check_field(
         } else if ahead_m <= fields.warning_length_m {
             status.warning_hits += 1;
             status.nearest_warning_m = Some(status.nearest_warning_m.map_or(ahead_m, |d| d.min(ahead_m)));
+        }
+    }
+    status
+}
+
+/// Both field sets (sized for two speeds along the same path, e.g. now
+/// and at the resume speed) for local-frame returns, in one pass.
+pub fn check_swept_fields(
+    sets: [&Fields; 2],
+    swept: &SweptPath,
+    lateral_margin_m: f64,
+    points: impl IntoIterator<Item = Ned>,
+) -> [FieldStatus; 2] {
+    let mut status = [FieldStatus::default(); 2];
+    let reach_m = sets[0].warning_length_m.max(sets[1].warning_length_m);
+    for p in points {
+        let Some(along_m) = swept.point_entry_m(p, lateral_margin_m, reach_m) else {
+            continue;
+        };
+        for (fields, status) in sets.iter().zip(status.iter_mut()) {
+            if along_m <= fields.protective_length_m {
+                status.protective_hits += 1;
+                status.nearest_protective_m = Some(status.nearest_protective_m.map_or(along_m, |d| d.min(along_m)));
+            } else if along_m <= fields.warning_length_m {
+                status.warning_hits += 1;
+                status.nearest_warning_m = Some(status.nearest_warning_m.map_or(along_m, |d| d.min(along_m)));
+            }
         }
     }
     status

@@ -7,15 +7,19 @@
 //! its inputs and time explicitly and returns a status.
 //!
 //! - [`cluster`], [`kalman`], [`tracking`]: perception (scan → tracks);
+//! - [`outline`]: the shape of what is not a walking person;
+//! - [`swept`]: the outline swept along the path ahead;
 //! - [`prediction`], [`field`], [`policy`], [`detour`]: decisions.
 
 pub mod cluster;
 pub mod detour;
 pub mod field;
 pub mod kalman;
+pub mod outline;
 pub mod params;
 pub mod policy;
 pub mod prediction;
+pub mod swept;
 pub mod tracking;
 
 use crate::geo::Ned;
@@ -72,12 +76,21 @@ pub struct Track {
     /// Half the extent of the cluster it was last fitted to: the object's
     /// size for clearance checks.
     pub radius_m: f64,
+    /// The shape of its last full view, about `position`: the true shape of
+    /// a standing object (see [`outline`]).
+    pub outline: Option<outline::Outline>,
     /// Seconds since birth, and since the last associated cluster.
     pub age_s: f64,
     pub unseen_s: f64,
     /// How many scans associated and missed in a row.
     pub hits: u32,
     pub misses: u32,
+    /// How long (s) its returns have stayed on the outline fitted when they
+    /// last left one (infinite: they never have since the track was born;
+    /// 0 without an outline). A standing object's centroid walks as the view
+    /// of it changes (a box's corner as the vehicle drives past); its
+    /// returns stay on its outline.
+    pub still_s: f64,
 }
 
 impl Track {

@@ -84,6 +84,10 @@ declare_params! {
             default: 1.0, range: 0.0, 60.0, unit: "s",
             desc: "A stop for a static obstacle lasts this long before a detour is planned",
         },
+        stop_cycles: i8 = "OA_STOP_CYCLES" => {
+            default: 3, range: 0, 50, unit: "",
+            desc: "Stop/go cycles for one object (a stop within 5 s of resuming from one) before the vehicle waits for a clear way (OA_TYPE 1: plans a detour); 0 never",
+        },
         resume_s: f32 = "OA_RESUME_S" => {
             default: 2.0, range: 0.0, 60.0, unit: "s",
             desc: "The way must be clear this long before driving on after an obstacle stop",

@@ -21,6 +21,14 @@
 //! off the held stop then waits for the operator (ISO 3691-4 4.1.14: no
 //! automatic restart), announced once.
 //!
+//! A stop for an object that follows, within `CYCLE_WINDOW_S`, a resume
+//! from a stop for the same object (the field counts as one object) is a
+//! stop/go cycle: hysteresis, not progress. After `stop_cycles` of them the
+//! held stop becomes patient: it resumes only once nothing at all is
+//! predicted for that object over the prediction horizon at the planned
+//! speed and the warning field is empty too, for `resume_s` (the core may
+//! plan a detour instead, with `OA_TYPE` 1).
+//!
 //! At rest the current-velocity inputs describe a vehicle going nowhere, so
 //! whether it may start is judged on the at-resume inputs there as well.
 
@@ -36,6 +44,10 @@ const AT_REST_MPS: f64 = 0.02;
 /// A track walking away slower than this is treated as standing: following
 /// it would be stop-and-go anyway.
 const MIN_FOLLOW_SPEED_MPS: f64 = 0.1;
+/// A stop this soon after a resume for the same object is a stop/go cycle.
+pub const CYCLE_WINDOW_S: f64 = 5.0;
+/// The protective field as the "object" of a stop/go cycle.
+const FIELD_OBJECT: u32 = u32::MAX;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PolicyConfig {
@@ -55,6 +67,9 @@ pub struct PolicyConfig {
     pub stop_horizon_s: f64,
     /// A scan older than this while wanting to move stops the vehicle.
     pub scan_timeout_s: f64,
+    /// OA_STOP_CYCLES: stop/go cycles for one object before the stop turns
+    /// patient; 0 never.
+    pub stop_cycles: u32,
 }
 
 impl Default for PolicyConfig {
@@ -68,6 +83,7 @@ impl Default for PolicyConfig {
             safe_distance_m: 0.5,
             stop_horizon_s: 3.0,
             scan_timeout_s: 0.2,
+            stop_cycles: 3,
         }
     }
 }
@@ -147,10 +163,20 @@ pub enum Verdict {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PolicyEvent {
     Stopped(StopCause),
-    Resumed { stopped_s: f64 },
+    Resumed {
+        stopped_s: f64,
+    },
     WaitingForOperator(StopCause),
-    PassingFirst { track_id: u32 },
+    PassingFirst {
+        track_id: u32,
+    },
     Slowing,
+    /// `cycles` stop/go cycles for the object of `cause`: the held stop now
+    /// waits for a clear way.
+    StopGo {
+        cycles: u32,
+        cause: StopCause,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -240,6 +266,8 @@ struct HeldStop {
     /// Clear for `resume_s` and waiting for the GCS.
     ready_for_operator: bool,
     announced_waiting: bool,
+    /// After too many stop/go cycles: resume only on a clear way.
+    patient: bool,
 }
 
 /// What one collision prediction asks for.
@@ -259,6 +287,18 @@ pub struct ObstaclePolicy {
     pending: Vec<PolicyEvent>,
     slowing: bool,
     passing_track: Option<u32>,
+    /// The object of the last resumed stop, and when it resumed.
+    last_resume: Option<(u32, f64)>,
+    cycles: u32,
+}
+
+/// The object a stop was for: a track, or the field.
+fn stop_object(cause: &StopCause) -> Option<u32> {
+    match cause {
+        StopCause::Collision { track_id, .. } => Some(*track_id),
+        StopCause::ProtectiveField { .. } => Some(FIELD_OBJECT),
+        StopCause::StaleScan { .. } => None,
+    }
 }
 
 impl ObstaclePolicy {
@@ -269,7 +309,12 @@ impl ObstaclePolicy {
     pub fn update(&mut self, inputs: &PolicyInputs, config: &PolicyConfig) -> PolicyStatus {
         let mut events = std::mem::take(&mut self.pending);
         if let Some(held) = self.held.as_mut() {
-            match resume_blocker(inputs, config) {
+            let blocker = if held.patient {
+                patient_blocker(inputs, config, stop_object(&held.cause))
+            } else {
+                resume_blocker(inputs, config)
+            };
+            match blocker {
                 Some(cause) => {
                     held.clear_since_s = None;
                     held.ready_for_operator = false;
@@ -293,6 +338,10 @@ impl ObstaclePolicy {
                     events.push(PolicyEvent::Resumed {
                         stopped_s: inputs.t_s - held.since_s,
                     });
+                    if held.patient {
+                        self.cycles = 0;
+                    }
+                    self.last_resume = stop_object(&held.cause).map(|o| (o, inputs.t_s));
                     self.held = None;
                 }
             }
@@ -312,14 +361,27 @@ impl ObstaclePolicy {
         let verdict = self.assess(inputs, config, at_rest, &mut events);
         match verdict {
             Verdict::Stop(cause) => {
+                let object = stop_object(&cause);
+                let again = self
+                    .last_resume
+                    .is_some_and(|(o, t)| Some(o) == object && inputs.t_s - t <= CYCLE_WINDOW_S);
+                self.cycles = if again { self.cycles + 1 } else { 0 };
+                let patient = config.stop_cycles > 0 && self.cycles >= config.stop_cycles;
                 self.held = Some(HeldStop {
                     since_s: inputs.t_s,
                     cause,
                     clear_since_s: None,
                     ready_for_operator: false,
                     announced_waiting: false,
+                    patient,
                 });
                 events.push(PolicyEvent::Stopped(cause));
+                if patient {
+                    events.push(PolicyEvent::StopGo {
+                        cycles: self.cycles,
+                        cause,
+                    });
+                }
                 self.slowing = false;
                 self.passing_track = None;
                 return stopped(verdict, events);
@@ -508,6 +570,27 @@ fn resume_blocker(inputs: &PolicyInputs, config: &PolicyConfig) -> Option<StopCa
         .predictions_at_resume
         .iter()
         .filter(|p| respond(p, inputs, config, false) == Response::Stop)
+        .fold(None, earliest)
+        .map(collision_cause)
+}
+
+/// The stricter resume test after too many stop/go cycles: besides the
+/// usual blockers, any warning-field return, and any prediction at all at
+/// the planned speed for the object stopped for (however far off within
+/// the prediction horizon, closing or not).
+fn patient_blocker(inputs: &PolicyInputs, config: &PolicyConfig, object: Option<u32>) -> Option<StopCause> {
+    if let Some(cause) = resume_blocker(inputs, config) {
+        return Some(cause);
+    }
+    if inputs.field_at_resume.warning_hits > 0 {
+        return Some(StopCause::ProtectiveField {
+            distance_m: inputs.field_at_resume.nearest_warning_m.unwrap_or(0.0),
+        });
+    }
+    inputs
+        .predictions_at_resume
+        .iter()
+        .filter(|p| Some(p.track_id) == object)
         .fold(None, earliest)
         .map(collision_cause)
 }

@@ -264,10 +264,12 @@ mod tests {
             position_sigma_m: 0.05,
             velocity_sigma_mps: 0.05,
             radius_m,
+            outline: None,
             age_s: 1.0,
             unseen_s: 0.0,
             hits: 10,
             misses: 0,
+            still_s: 0.0,
         }
     }
 

@@ -23,6 +23,7 @@ use nalgebra::Matrix2;
 
 use super::cluster::Cluster;
 use super::kalman::{CvKalman, chi2_gate_2dof, polar_measurement_covariance};
+use super::outline::Outline;
 use super::{Track, TrackStatus};
 use crate::geo::Ned;
 
@@ -35,6 +36,11 @@ pub const CLOCK_JUMP: Duration = Duration::from_secs(1);
 /// velocity until the objects separate. Updating one of them with the
 /// merged centroid would drag it towards the other and can swap identities.
 const MERGED_RADIUS_RATIO: f64 = 1.5;
+
+/// A full view whose nearest return lies within this (m) of an anchored
+/// outline shows the same object where it stood: its
+/// centroid moved only because the view did.
+const STILL_TOLERANCE_M: f64 = 0.1;
 
 /// No track is born this close (m) beyond the edges of an existing one.
 const BIRTH_EXCLUSION_M: f64 = 0.2;
@@ -112,6 +118,11 @@ struct Entry {
     filter_t: Duration,
     born_t: Duration,
     seen_t: Duration,
+    /// The last full view's outline and the centroid it was fitted about:
+    /// it stays where the returns were while the filtered position moves.
+    fit: Option<(Outline, Ned)>,
+    /// The outlines the returns have stayed on, and since when.
+    stillness: Stillness,
 }
 
 /// Every tracked object, and the next id to give.
@@ -276,6 +287,8 @@ impl ObstacleTracker {
                     entry.track.misses = 0;
                     if !(cluster.occluded || pieces[i]) {
                         entry.track.radius_m = cluster.radius_m;
+                        entry.fit = cluster.outline.map(|o| (o, cluster.centroid));
+                        entry.stillness.see(cluster, now);
                     }
                     entry.seen_t = now;
                 }
@@ -316,15 +329,19 @@ impl ObstacleTracker {
                     position_sigma_m: kf.position_sigma_m(),
                     velocity_sigma_mps: kf.velocity_sigma_mps(),
                     radius_m: cluster.radius_m,
+                    outline: cluster.outline,
                     age_s: 0.0,
                     unseen_s: 0.0,
                     hits: 1,
                     misses: 0,
+                    still_s: 0.0,
                 },
                 kf,
                 filter_t: now,
                 born_t: now,
                 seen_t: now,
+                fit: cluster.outline.map(|o| (o, cluster.centroid)),
+                stillness: Stillness::new(cluster),
             });
             status.births += 1;
         }
@@ -372,7 +389,14 @@ impl ObstacleTracker {
             track.age_s = now.saturating_sub(entry.born_t).as_secs_f64();
             track.unseen_s = unseen_s;
             track.position = entry.kf.position();
+            track.outline = entry.fit.map(|(outline, centre)| {
+                outline.shifted(
+                    centre.north_m - track.position.north_m,
+                    centre.east_m - track.position.east_m,
+                )
+            });
             (track.vel_north_mps, track.vel_east_mps) = entry.kf.velocity_mps();
+            track.still_s = entry.stillness.still_s(now);
             track.position_sigma_m = entry.kf.position_sigma_m();
             track.velocity_sigma_mps = entry.kf.velocity_sigma_mps();
             // A NaN σ or limit deletes.
@@ -416,6 +440,52 @@ impl ObstacleTracker {
     }
 }
 
+/// The last two outlines (local frame: outline and the centre it is about)
+/// a track's returns left their anchors for, and when they last did
+/// (`None`: never since birth). Two, because two scanners see different
+/// sides of one object: each one's returns stay on its own view's outline.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Stillness {
+    anchors: [Option<(Outline, Ned)>; 2],
+    since: Option<Duration>,
+}
+
+impl Stillness {
+    fn new(cluster: &Cluster) -> Self {
+        Stillness {
+            anchors: [cluster.outline.map(|o| (o, cluster.centroid)), None],
+            since: None,
+        }
+    }
+
+    /// A full view: the anchors stay while the cluster's nearest return
+    /// lies on one of them, else its outline becomes the first. Only the
+    /// nearest: the ends of a face move along it as the view reveals more
+    /// of it, while the nearest point of something walking leaves with it.
+    fn see(&mut self, cluster: &Cluster, now: Duration) {
+        let on = |anchor: &Option<(Outline, Ned)>| {
+            anchor.is_some_and(|(outline, centre)| {
+                let p = cluster.nearest;
+                outline.distance_outside_m((p.north_m - centre.north_m, p.east_m - centre.east_m)) <= STILL_TOLERANCE_M
+            })
+        };
+        if self.anchors.iter().any(on) {
+            return;
+        }
+        self.anchors = [cluster.outline.map(|o| (o, cluster.centroid)), self.anchors[0]];
+        self.since = Some(now);
+    }
+
+    /// Seconds on the anchors: infinite if never left, 0 without one.
+    fn still_s(&self, now: Duration) -> f64 {
+        match (self.anchors[0], self.since) {
+            (None, _) => 0.0,
+            (Some(_), None) => f64::INFINITY,
+            (Some(_), Some(since)) => now.saturating_sub(since).as_secs_f64(),
+        }
+    }
+}
+
 /// Whether `cluster` lies where `track`'s object is: within
 /// [`BIRTH_EXCLUSION_M`] beyond both their edges, so that it can be a piece
 /// of that object.
@@ -456,6 +526,7 @@ mod tests {
             range_m: Ned::default().distance_to(&c),
             bearing_rad: Ned::default().bearing_to(&c),
             is_structure: false,
+            outline: None,
             occluded: false,
         }
     }
@@ -683,6 +754,109 @@ mod tests {
         let track = tracker.tracks()[0];
         assert_eq!(track.misses, 0);
         assert_eq!(track.radius_m, before.radius_m);
+    }
+
+    /// The cluster of the returns `points` seen from `sensor`, with its
+    /// outline extended away from the sensor as the clusterer does.
+    fn seen(sensor: Ned, points: &[Ned]) -> Cluster {
+        let n = points.len() as f64;
+        let centroid = Ned::new(
+            points.iter().map(|p| p.north_m).sum::<f64>() / n,
+            points.iter().map(|p| p.east_m).sum::<f64>() / n,
+        );
+        let nearest = *points
+            .iter()
+            .min_by(|a, b| sensor.distance_to(a).total_cmp(&sensor.distance_to(b)))
+            .expect("points");
+        let (first, last) = (points[0], points[points.len() - 1]);
+        let extent_m = first.distance_to(&last);
+        let (sin_b, cos_b) = sensor.bearing_to(&centroid).sin_cos();
+        let outline = Outline::fit(centroid, points, (extent_m * cos_b, extent_m * sin_b), |p| *p);
+        Cluster {
+            centroid,
+            nearest,
+            first,
+            last,
+            extent_m,
+            radius_m: extent_m / 2.0,
+            points: points.len(),
+            range_m: sensor.distance_to(&centroid),
+            bearing_rad: sensor.bearing_to(&centroid),
+            is_structure: false,
+            outline,
+            occluded: false,
+        }
+    }
+
+    /// The faces of the 0.8 m box centred 5 m north, 2 m east that a
+    /// scanner on the north axis at `north_m` sees.
+    fn box_faces(north_m: f64) -> Vec<Ned> {
+        let (south, north, west) = (4.6, 5.4, 1.6);
+        let steps = |from: f64, to: f64| (0..=16).map(move |i| from + (to - from) * f64::from(i) / 16.0);
+        let mut points = Vec::new();
+        if north_m < south {
+            points.extend(steps(2.4, west).map(|e| Ned::new(south, e)));
+        }
+        points.extend(steps(south, north).map(|n| Ned::new(n, west)));
+        if north_m > north {
+            points.extend(steps(west, 2.4).map(|e| Ned::new(north, e)));
+        }
+        points
+    }
+
+    #[test]
+    fn a_box_seen_from_a_passing_scanner_stays_on_its_outline() {
+        let config = TrackingConfig::default();
+        let mut tracker = ObstacleTracker::new();
+        let mut fastest_mps: f64 = 0.0;
+        // Driving past at 1 m/s, scanned at 50 Hz.
+        for k in 0..500u64 {
+            let sensor = Ned::new(0.02 * k as f64, 0.0);
+            tracker.update(
+                at_ms(20 * k),
+                sensor,
+                &[seen(sensor, &box_faces(sensor.north_m))],
+                &config,
+            );
+            assert_eq!(tracker.tracks().len(), 1);
+            let track = tracker.tracks()[0];
+            fastest_mps = fastest_mps.max(track.speed_mps());
+            assert!(track.still_s > 1.0, "at {}: {track:?}", sensor.north_m);
+        }
+        // The changing view does walk the centroid: the velocity alone
+        // would call the box moving.
+        assert!(fastest_mps > 0.2, "{fastest_mps}");
+    }
+
+    #[test]
+    fn someone_walking_leaves_their_outline_within_a_second() {
+        let config = TrackingConfig::default();
+        let circle = |c: Ned| -> Vec<Ned> {
+            (0..=12)
+                .map(|i| {
+                    let a = std::f64::consts::PI * (0.5 + f64::from(i) / 12.0);
+                    Ned::new(c.north_m + 0.25 * a.cos(), c.east_m + 0.25 * a.sin())
+                })
+                .collect()
+        };
+        // Across the scanner's view at 0.5 m/s, and straight towards it.
+        for (vn, ve) in [(0.0, 0.5), (-0.5, 0.0)] {
+            let mut tracker = ObstacleTracker::new();
+            for k in 0..150u64 {
+                let t = 0.02 * k as f64;
+                let c = Ned::new(6.0 + vn * t, -1.0 + ve * t);
+                tracker.update(
+                    at_ms(20 * k),
+                    Ned::default(),
+                    &[seen(Ned::default(), &circle(c))],
+                    &config,
+                );
+                if k >= 50 {
+                    let track = tracker.tracks()[0];
+                    assert!(track.still_s < 1.0, "{k}: {track:?}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -15,9 +15,10 @@ use crate::guidance::tracker::Direction;
 use crate::modes::Mode;
 use crate::obstacles::cluster::{Cluster, ClusterConfig, ScanPoint, cluster_points, scan_points};
 use crate::obstacles::detour::{DetourConfig, DetourRefusal, plan_detour};
-use crate::obstacles::field::{FieldConfig, check_field, fields, warning_speed_limit};
+use crate::obstacles::field::{FieldConfig, check_swept_fields, fields, warning_speed_limit};
 use crate::obstacles::policy::{ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, StopCause, Verdict};
-use crate::obstacles::prediction::{CollisionPrediction, VehicleMotion, predict_collision};
+use crate::obstacles::prediction::CollisionPrediction;
+use crate::obstacles::swept::{Contact, PathAhead, Shape, SweptPath};
 use crate::obstacles::tracking::{ObstacleTracker, TrackingConfig};
 use crate::obstacles::{Footprint, Pose, ScannerMount, Track, TrackStatus};
 
@@ -30,8 +31,19 @@ const SECTOR_DEG: f64 = 5.0;
 const VIEW_TIMEOUT: Duration = Duration::from_secs(1);
 /// How far ahead a detour looks for static obstacles in the lane, m.
 const DETOUR_LOOKAHEAD_M: f64 = 15.0;
-/// A track slower than this counts as a static obstacle (detour candidate).
+/// A track slower than this counts as a static obstacle (detour candidate,
+/// and its fitted outline is its shape).
 const STATIC_SPEED_MPS: f64 = 0.2;
+/// Returns on one outline this long (s): the object stands (the nearest
+/// point of someone walking at 0.3 m/s leaves their 0.5 m outline within
+/// about a second).
+const STILL_S: f64 = 1.5;
+/// Further off its leg than this (or turned further from it), the vehicle
+/// is manoeuvring onto it: the path it drives next is its current turn.
+const ON_PATH_M: f64 = 1.0;
+const ON_PATH_RAD: f64 = 0.35;
+/// Below this speed the yaw rate says nothing about the curvature driven.
+const CURVATURE_MIN_SPEED_MPS: f64 = 0.2;
 
 /// One scanner's latest scan, reduced to what the tick needs.
 #[derive(Clone, Debug)]
@@ -93,6 +105,8 @@ pub(super) struct ObstacleState {
     views: [ScannerView; SCANNERS],
     points: Vec<ScanPoint>,
     clusters: Vec<Cluster>,
+    /// The outline swept along the path ahead, rebuilt every tick.
+    swept: SweptPath,
     status: ObstacleStatus,
     /// Since when the vehicle has been held for a static obstacle (s).
     static_stop_since: Option<f64>,
@@ -176,6 +190,7 @@ impl Core {
             safe_distance_m: f64::from(a.margin_m.get(t)),
             stop_horizon_s: f64::from(a.horizon_s.get(t)),
             scan_timeout_s: f64::from(a.scan_timeout_s.get(t)),
+            stop_cycles: u32::try_from(a.stop_cycles.get(t)).unwrap_or(0),
         }
     }
 
@@ -311,39 +326,44 @@ impl Core {
             0.0
         };
         let field_config = self.field_config();
-        let body_points = || {
-            self.obstacles
-                .views
-                .iter()
-                .filter(|v| v.t.is_some_and(|t| self.now.boot.saturating_sub(t) <= fresh_after))
-                .flat_map(|v| v.body_points.iter().copied())
-        };
         // Standing still, the field looks the way the vehicle would drive.
         let here_fields = fields(
             if speed.abs() > 0.05 { speed } else { 1e-3 * sign },
             &footprint,
             &field_config,
         );
-        let field = check_field(&here_fields, &footprint, body_points());
         let resume_fields = fields(planned_mps.abs() * sign, &footprint, &field_config);
-        let field_at_resume = check_field(&resume_fields, &footprint, body_points());
-
         let pose = Pose {
             position: estimate.position,
             yaw_rad: estimate.yaw_rad,
         };
-        let motion = |v: f64| VehicleMotion {
-            pose,
-            vel_north_mps: v * estimate.yaw_rad.cos(),
-            vel_east_mps: v * estimate.yaw_rad.sin(),
-        };
         let margin = f64::from(self.p.obstacles.avoidance.margin_m.get(&self.params));
-        let horizon = f64::from(self.p.obstacles.avoidance.horizon_s.get(&self.params)) * 2.0;
+        // The policy acts on nothing predicted beyond OA_HORIZON.
+        let horizon = f64::from(self.p.obstacles.avoidance.horizon_s.get(&self.params));
+        let sweep_m = here_fields
+            .warning_length_m
+            .max(resume_fields.warning_length_m)
+            .max(speed.abs().max(planned_mps.abs()) * horizon);
+        self.sweep_path_ahead(&pose, &footprint, sign < 0.0, sweep_m);
+        let fresh_points = self
+            .obstacles
+            .views
+            .iter()
+            .filter(|v| v.t.is_some_and(|t| self.now.boot.saturating_sub(t) <= fresh_after))
+            .flat_map(|v| v.local_points.iter().copied());
+        let [field, field_at_resume] = check_swept_fields(
+            [&here_fields, &resume_fields],
+            &self.obstacles.swept,
+            field_config.lateral_margin_m,
+            fresh_points,
+        );
+
         let passing = self.obstacles.detour.as_ref().map(|d| d.obstacle);
         let velocity_gate_mps = f64::from(self.p.obstacles.avoidance.velocity_gate_mps.get(&self.params));
         let mut predictions: Vec<CollisionPrediction> = Vec::new();
         let mut predictions_at_resume: Vec<CollisionPrediction> = Vec::new();
         if estimate.position_valid && estimate.heading_valid {
+            let vehicle_velocity = (speed * estimate.yaw_rad.cos(), speed * estimate.yaw_rad.sin());
             for track in self.obstacles.tracker.tracks() {
                 if track.status != TrackStatus::Confirmed {
                     continue;
@@ -358,22 +378,31 @@ impl Core {
                 // A velocity not yet settled (a track a few scans old, or one
                 // that has just started moving) says little: until it does,
                 // the obstacle is predicted as standing still.
-                let track = &if track.velocity_sigma_mps > velocity_gate_mps {
-                    Track {
-                        vel_north_mps: 0.0,
-                        vel_east_mps: 0.0,
-                        ..*track
-                    }
+                // A static object's velocity is the filter's noise: a few
+                // cm/s towards the lane over the horizon would bring a box
+                // beside it into the vehicle's way.
+                let settled = track.velocity_sigma_mps <= velocity_gate_mps;
+                let velocity = if settled && moving(track) {
+                    (track.vel_north_mps, track.vel_east_mps)
                 } else {
-                    *track
+                    (0.0, 0.0)
                 };
-                if let Some(p) = predict_collision(track, &motion(speed), &footprint, margin, horizon) {
-                    predictions.push(p);
+                let shape = track_shape(track, settled);
+                let swept = &self.obstacles.swept;
+                let relative_speed_mps = (velocity.0 - vehicle_velocity.0).hypot(velocity.1 - vehicle_velocity.1);
+                let to_prediction = |c: Contact| CollisionPrediction {
+                    track_id: track.id,
+                    time_s: c.time_s,
+                    place: c.place,
+                    distance_m: c.gap_now_m,
+                    relative_speed_mps,
+                    closing: c.closing,
+                };
+                if let Some(c) = swept.first_contact(&shape, velocity, speed, margin, horizon) {
+                    predictions.push(to_prediction(c));
                 }
-                if let Some(p) =
-                    predict_collision(track, &motion(planned_mps.abs() * sign), &footprint, margin, horizon)
-                {
-                    predictions_at_resume.push(p);
+                if let Some(c) = swept.first_contact(&shape, velocity, planned_mps, margin, horizon) {
+                    predictions_at_resume.push(to_prediction(c));
                 }
             }
         }
@@ -434,6 +463,45 @@ impl Core {
         verdict
     }
 
+    /// Samples the path the vehicle is about to drive: the navigator's leg
+    /// from where the vehicle is on it, or, without one (MAGNETIC, a leg not
+    /// yet started) or far from it (turning onto a new leg), the curvature
+    /// it is turning at now.
+    fn sweep_path_ahead(&mut self, pose: &Pose, footprint: &Footprint, reverse: bool, length_m: f64) {
+        let estimate = self.estimator.estimate();
+        let along_m = self.navigator.status().along_m;
+        let leg = (self.mode != Mode::Magnetic)
+            .then(|| self.navigator.path().zip(self.navigator.target()))
+            .flatten()
+            .filter(|(path, target)| {
+                let flip = if target.direction == Direction::Reverse {
+                    std::f64::consts::PI
+                } else {
+                    0.0
+                };
+                let heading_off = wrap_pi(pose.yaw_rad - path.heading_at(along_m) - flip).abs();
+                path.point_at(along_m).distance_to(&pose.position) <= ON_PATH_M && heading_off <= ON_PATH_RAD
+            });
+        let ahead = match leg {
+            Some((path, target)) => PathAhead::Leg {
+                path,
+                along_m,
+                stop_at_m: target.stop.then(|| path.end_m()),
+                reverse: target.direction == Direction::Reverse,
+            },
+            None => {
+                // Turning rate over speed; too slow to tell, straight on.
+                let curvature = if estimate.speed_mps.abs() > CURVATURE_MIN_SPEED_MPS {
+                    estimate.yaw_rate_rad_s / estimate.speed_mps.abs()
+                } else {
+                    0.0
+                };
+                PathAhead::Curvature { curvature, reverse }
+            }
+        };
+        self.obstacles.swept.build(&ahead, pose, footprint, length_m);
+    }
+
     fn report_obstacle_event(&mut self, event: &PolicyEvent) {
         match event {
             PolicyEvent::Stopped(cause) => {
@@ -458,6 +526,24 @@ impl Core {
                 );
             }
             PolicyEvent::Slowing => {}
+            PolicyEvent::StopGo { cycles, cause } => {
+                let detour = self.p.obstacles.avoidance.kind.get(&self.params) == 1;
+                let what = if detour {
+                    // Plan round it now rather than after OA_DETOUR_WAIT.
+                    self.obstacles.static_stop_since = Some(f64::NEG_INFINITY);
+                    "planning a detour"
+                } else {
+                    "waiting for clear way"
+                };
+                let object = match cause {
+                    StopCause::Collision { track_id, .. } => format!("#{track_id}"),
+                    _ => "in path".to_string(),
+                };
+                self.send_text(
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    &format!("Obstacle {object} stop/go x{cycles}: {what}"),
+                );
+            }
         }
     }
 
@@ -692,6 +778,35 @@ impl Core {
                 .map_or(self.estimator.estimate().position, |t| t.point);
             self.next_detour_leg(here);
         }
+    }
+}
+
+/// Faster than a standing object's noise: above `STATIC_SPEED_MPS` and
+/// twice its own velocity σ (the changing view of a box's corner as the
+/// vehicle drives up to it walks its centroid at up to 0.4 m/s with σ
+/// 0.35; someone walking is tracked at 1–1.6 m/s with σ well under 0.5).
+/// Returns that have stayed on one outline for `STILL_S` are a standing
+/// object whatever its centroid's velocity says.
+fn moving(track: &Track) -> bool {
+    let speed = track.speed_mps();
+    speed >= STATIC_SPEED_MPS && speed > 2.0 * track.velocity_sigma_mps && track.still_s < STILL_S
+}
+
+/// A track's shape for collision prediction: a walking object is a disc of
+/// its radius (half the width the scanner sees, which for someone walking
+/// is the width across their motion or their depth, the larger for a
+/// person); anything else keeps the outline fitted to its returns (faces,
+/// not a disc of half its extent).
+fn track_shape(track: &Track, settled: bool) -> Shape<'_> {
+    match &track.outline {
+        Some(outline) if !(settled && moving(track)) => Shape::Polygon {
+            centre: track.position,
+            outline,
+        },
+        _ => Shape::Disc {
+            centre: track.position,
+            radius_m: track.radius_m,
+        },
     }
 }
 

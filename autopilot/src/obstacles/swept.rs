@@ -1,0 +1,759 @@
+//! The area the vehicle's outline sweeps along the path it is about to
+//! drive, and what in the scene it will meet there.
+//!
+//! # Geometry
+//! The vehicle is its [`Footprint`] rectangle about the reference point
+//! (the rear axle centre), which is the point that follows the planned path;
+//! the body's heading is the path's heading (plus a half turn in reverse).
+//! Driven round an arc of radius R, the rectangle's inner side at the rear
+//! axle passes at R − w from the centre (the inner rear wheel's cut inside
+//! the path of an Ackermann vehicle), its outer front corner at
+//! √((R + w)² + front²) and its outer rear corner at √((R + w)² + rear²)
+//! (the tail swing of the rear overhang, outside the path on the side away
+//! from the turn). Nothing of this is approximated: the swept area is the
+//! union of the rectangle placed at poses along the path.
+//!
+//! # Sampling bound
+//! Poses are taken every `ds` metres of path. Between two of them the
+//! reference point moves at most `ds` and the heading turns by at most
+//! κ·ds, so any point of the outline, at most `reach` = hypot(max(front,
+//! rear), w) from the reference point, moves at most `ds·(1 + reach·κ)`;
+//! where the path starts off the vehicle's actual pose the offset is blended
+//! out over `BLEND_M`, which adds its share per metre (`spread`). `ds` is
+//! chosen so that this `step` is at most [`MAX_STEP_M`] (unless more than
+//! [`MAX_POSES`] would be needed, in which case `step` grows and is used as
+//! such). Every pose between two samples is within `ds/2` of one of them, so
+//! every point of the continuous swept area lies within `step/2` of the
+//! outline at some sample: an object more than `step/2` beyond the sampled
+//! outlines (plus the margin asked for) is clear of the real sweep, and
+//! nothing can fit between samples. Queries add `step/2` to their margin,
+//! which makes them conservative by at most that.
+//!
+//! Searching along the samples uses that bound too: an outline point moves
+//! at most `spread` per metre of path, so a point `g` beyond the margin at
+//! one sample cannot be reached in the next `g/spread` metres, and those
+//! samples are skipped (conservative advancement). Far objects cost one
+//! distance each.
+//!
+//! # Collision in time
+//! An obstacle moving at its tracked velocity against the vehicle moving
+//! along the path at a constant speed v: the gap between the obstacle's
+//! shape and the outline at the pose the vehicle has at time t shrinks at
+//! most at `v·spread + |v_obstacle|`, so time advances by the gap over that
+//! rate, and at least by [`MAX_STEP_M`] of relative motion (which can hide a
+//! dip of at most half of it, added to the margin). The first time the gap
+//! is within the margin is the collision time (seed 004 §III.C's t_c, for a
+//! turning vehicle).
+
+use super::outline::Outline;
+use super::{Footprint, Pose};
+use crate::geo::{Ned, wrap_pi};
+use crate::guidance::path::{LegPath, Piece};
+
+/// Largest motion of any outline point between two samples, m.
+pub const MAX_STEP_M: f64 = 0.1;
+/// Samples per swept path at most.
+pub const MAX_POSES: usize = 1024;
+/// Over this much path a vehicle off its path is assumed to rejoin it.
+pub const BLEND_M: f64 = 3.0;
+/// A point already this much nearer the outline ahead than it is now is
+/// approached; one that only stays where it is beside the body is not.
+const NEARER_M: f64 = 0.05;
+
+/// The path the vehicle is about to drive.
+#[derive(Clone, Copy, Debug)]
+pub enum PathAhead<'a> {
+    /// A navigator leg, from `along_m` on; a stop leg ends at `stop_at_m`.
+    Leg {
+        path: &'a LegPath,
+        along_m: f64,
+        stop_at_m: Option<f64>,
+        reverse: bool,
+    },
+    /// No planned path (or not yet): carry on at a constant curvature of the
+    /// direction of travel (1/m, positive turning right).
+    Curvature { curvature: f64, reverse: bool },
+}
+
+/// One sampled pose of the vehicle: reference point and body heading.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Sample {
+    north_m: f64,
+    east_m: f64,
+    sin_yaw: f64,
+    cos_yaw: f64,
+}
+
+impl Sample {
+    fn of(pose: &Pose) -> Sample {
+        let (sin_yaw, cos_yaw) = pose.yaw_rad.sin_cos();
+        Sample {
+            north_m: pose.position.north_m,
+            east_m: pose.position.east_m,
+            sin_yaw,
+            cos_yaw,
+        }
+    }
+
+    /// A local-frame point in this pose's body frame (x forward, y right).
+    fn body(&self, north_m: f64, east_m: f64) -> (f64, f64) {
+        let (dn, de) = (north_m - self.north_m, east_m - self.east_m);
+        (
+            dn * self.cos_yaw + de * self.sin_yaw,
+            -dn * self.sin_yaw + de * self.cos_yaw,
+        )
+    }
+}
+
+/// What an obstacle is, placed in the local frame.
+#[derive(Clone, Copy, Debug)]
+pub enum Shape<'a> {
+    Disc { centre: Ned, radius_m: f64 },
+    Polygon { centre: Ned, outline: &'a Outline },
+}
+
+impl Shape<'_> {
+    fn centre(&self) -> Ned {
+        match self {
+            Shape::Disc { centre, .. } | Shape::Polygon { centre, .. } => *centre,
+        }
+    }
+
+    /// How far the shape reaches from its centre.
+    fn extent_m(&self) -> f64 {
+        match self {
+            Shape::Disc { radius_m, .. } => radius_m.max(0.0),
+            Shape::Polygon { outline, .. } => outline.radius_m(),
+        }
+    }
+}
+
+/// Where and when an obstacle first comes within the margin of the outline.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Contact {
+    pub time_s: f64,
+    /// Path travelled by then.
+    pub along_m: f64,
+    /// Where the reference point is then.
+    pub place: Ned,
+    /// Gap between the shape and the outline now (0 when touching).
+    pub gap_now_m: f64,
+    /// The gap shrinks: contact at a later time, or within the margin now
+    /// and getting nearer.
+    pub closing: bool,
+}
+
+/// The outline swept along the path ahead, as poses every `ds_m`.
+#[derive(Clone, Debug, Default)]
+pub struct SweptPath {
+    samples: Vec<Sample>,
+    ds_m: f64,
+    spread: f64,
+    step_m: f64,
+    /// Bounding box of the reference points (north min/max, east min/max).
+    bounds: (f64, f64, f64, f64),
+    front_m: f64,
+    rear_m: f64,
+    half_width_m: f64,
+    reach_m: f64,
+}
+
+impl SweptPath {
+    /// Samples `length_m` of the path ahead from the vehicle's pose `now`
+    /// (the first sample is `now` itself). Reuses its buffers.
+    pub fn build(&mut self, ahead: &PathAhead, now: &Pose, footprint: &Footprint, length_m: f64) {
+        self.front_m = footprint.front_m.max(0.0);
+        self.rear_m = footprint.rear_m.max(0.0);
+        self.half_width_m = footprint.half_width_m.max(0.0);
+        self.reach_m = self.front_m.max(self.rear_m).hypot(self.half_width_m);
+        let length_m = if length_m.is_finite() { length_m.max(0.0) } else { 0.0 };
+        let (curvature, offset_m, offset_rad) = match ahead {
+            PathAhead::Leg {
+                path, along_m, reverse, ..
+            } => {
+                let on_path = leg_pose(path, *along_m, *reverse);
+                (
+                    path.max_curvature(),
+                    now.position.distance_to(&on_path.position),
+                    wrap_pi(now.yaw_rad - on_path.yaw_rad).abs(),
+                )
+            }
+            PathAhead::Curvature { curvature, .. } => (curvature.abs(), 0.0, 0.0),
+        };
+        let curvature = if curvature.is_finite() { curvature } else { 0.0 };
+        self.spread = 1.0 + offset_m / BLEND_M + self.reach_m * (curvature + offset_rad / BLEND_M);
+        let ideal_ds = MAX_STEP_M / self.spread;
+        let count = ((length_m / ideal_ds).ceil() as usize + 1).clamp(1, MAX_POSES);
+        self.ds_m = if count > 1 {
+            (length_m / (count - 1) as f64).min(ideal_ds)
+        } else {
+            ideal_ds
+        };
+        self.step_m = self.ds_m * self.spread;
+        self.samples.clear();
+        let start = match ahead {
+            PathAhead::Leg {
+                path, along_m, reverse, ..
+            } => leg_pose(path, *along_m, *reverse),
+            PathAhead::Curvature { .. } => *now,
+        };
+        let mut bounds = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        let mut walker = match ahead {
+            PathAhead::Leg { path, .. } => Some(LegWalker::new(path)),
+            PathAhead::Curvature { .. } => None,
+        };
+        for i in 0..count {
+            let s = i as f64 * self.ds_m;
+            let sample = Sample::of(&pose_at(ahead, walker.as_mut(), now, &start, s));
+            bounds = (
+                bounds.0.min(sample.north_m),
+                bounds.1.max(sample.north_m),
+                bounds.2.min(sample.east_m),
+                bounds.3.max(sample.east_m),
+            );
+            self.samples.push(sample);
+        }
+        self.bounds = bounds;
+    }
+
+    /// Whether `p` is further than `reach` from every sampled reference
+    /// point's bounding box (so from every outline by `reach − reach_m`).
+    fn far_from_bounds(&self, p: Ned, reach: f64) -> bool {
+        let (n0, n1, e0, e1) = self.bounds;
+        p.north_m < n0 - reach || p.north_m > n1 + reach || p.east_m < e0 - reach || p.east_m > e1 + reach
+    }
+
+    /// Path covered by the samples.
+    pub fn length_m(&self) -> f64 {
+        self.ds_m * self.samples.len().saturating_sub(1) as f64
+    }
+
+    /// The sampling slack added to every margin: half the step.
+    pub fn slack_m(&self) -> f64 {
+        0.5 * self.step_m
+    }
+
+    pub fn pose_count(&self) -> usize {
+        self.samples.len()
+    }
+
+    /// The reference point's pose at sample `i` (clamped), for reports.
+    pub fn pose(&self, i: usize) -> Option<Pose> {
+        let s = self.samples.get(i.min(self.samples.len().checked_sub(1)?))?;
+        Some(Pose {
+            position: Ned::new(s.north_m, s.east_m),
+            yaw_rad: s.sin_yaw.atan2(s.cos_yaw),
+        })
+    }
+
+    /// Distance from a local point to the outline at sample `i` (0 inside).
+    fn point_gap(&self, i: usize, p: Ned) -> f64 {
+        let (x, y) = self.samples[i].body(p.north_m, p.east_m);
+        rect_gap(self.front_m, self.rear_m, self.half_width_m, x, y)
+    }
+
+    /// The gap between the shape and the outline at sample `i`, or a lower
+    /// bound of it above `exact_below` (enough to advance by).
+    fn shape_gap(&self, i: usize, shape: &Shape, shift: (f64, f64), exact_below: f64) -> f64 {
+        let sample = &self.samples[i];
+        let centre = shape.centre();
+        let (cn, ce) = (centre.north_m + shift.0, centre.east_m + shift.1);
+        let (x, y) = sample.body(cn, ce);
+        let disc_gap = (rect_gap(self.front_m, self.rear_m, self.half_width_m, x, y) - shape.extent_m()).max(0.0);
+        match shape {
+            Shape::Disc { .. } => disc_gap,
+            Shape::Polygon { .. } if disc_gap > exact_below => disc_gap,
+            Shape::Polygon { outline, .. } => {
+                let mut body = [(0.0, 0.0); super::outline::MAX_VERTICES];
+                let vertices = outline.vertices();
+                for (b, v) in body.iter_mut().zip(vertices) {
+                    *b = sample.body(cn + v.0, ce + v.1);
+                }
+                polygon_rect_gap(&body[..vertices.len()], self.front_m, self.rear_m, self.half_width_m)
+            }
+        }
+    }
+
+    /// How far along the path the outline first comes within `margin_m` of
+    /// the point `p` *and* nearer than the outline is now, searching up to
+    /// `max_m`: the protective and warning fields ask this of every return.
+    /// `None` when it never does: a point the outline keeps its distance
+    /// from (a wall beside a straight lane) is not in the way.
+    pub fn point_entry_m(&self, p: Ned, margin_m: f64, max_m: f64) -> Option<f64> {
+        if self.samples.is_empty() || !(p.north_m.is_finite() && p.east_m.is_finite()) {
+            return None;
+        }
+        if self.far_from_bounds(p, self.reach_m + margin_m.max(0.0) + self.step_m) {
+            return None;
+        }
+        let gap_now = self.point_gap(0, p);
+        let threshold = (margin_m.max(0.0) + self.slack_m()).min(gap_now - NEARER_M);
+        if threshold <= 0.0 {
+            // Inside or against the body now: its own returns, or contact
+            // the tracks judge.
+            return None;
+        }
+        let last = self.last_index(max_m);
+        let per_sample = self.spread * self.ds_m;
+        let mut i = 0;
+        while i <= last {
+            let gap = self.point_gap(i, p);
+            if gap <= threshold {
+                return Some(i as f64 * self.ds_m);
+            }
+            i += (((gap - threshold) / per_sample).floor() as usize).max(1);
+        }
+        None
+    }
+
+    /// The last sample within `max_m` of path.
+    fn last_index(&self, max_m: f64) -> usize {
+        let n = self.samples.len() - 1;
+        if self.ds_m <= 0.0 || !max_m.is_finite() {
+            return n;
+        }
+        ((max_m.max(0.0) / self.ds_m).floor() as usize).min(n)
+    }
+
+    /// The first time within `horizon_s` the shape, moving at `velocity`
+    /// (north, east m/s), comes within `margin_m` of the outline driven
+    /// along the path at `speed_mps` (a magnitude; the path knows the
+    /// direction). Beyond the sampled length the vehicle is taken to stop
+    /// at the last sample. `None` when it does not, or for non-finite input.
+    pub fn first_contact(
+        &self,
+        shape: &Shape,
+        velocity: (f64, f64),
+        speed_mps: f64,
+        margin_m: f64,
+        horizon_s: f64,
+    ) -> Option<Contact> {
+        let centre = shape.centre();
+        let finite = [
+            centre.north_m,
+            centre.east_m,
+            velocity.0,
+            velocity.1,
+            speed_mps,
+            margin_m,
+        ];
+        if self.samples.is_empty() || finite.iter().any(|v| !v.is_finite()) || horizon_s.is_nan() {
+            return None;
+        }
+        let speed = speed_mps.abs();
+        let obstacle_mps = velocity.0.hypot(velocity.1);
+        let rate = speed * self.spread + obstacle_mps;
+        let threshold = margin_m.max(0.0) + self.slack_m() + 0.5 * MAX_STEP_M;
+        let min_dt = if rate > 0.0 { MAX_STEP_M / rate } else { f64::INFINITY };
+        let gap_now = self.shape_gap(0, shape, (0.0, 0.0), f64::INFINITY);
+        let mut t = 0.0;
+        loop {
+            let index = self.index_at(speed * t);
+            let shift = (velocity.0 * t, velocity.1 * t);
+            let sample = &self.samples[index];
+            let gap = self.shape_gap(index, shape, shift, threshold);
+            if gap <= threshold {
+                let closing = t > 0.0 || self.closing_now(shape, velocity, speed, gap_now);
+                return Some(Contact {
+                    time_s: t,
+                    along_m: index as f64 * self.ds_m,
+                    place: Ned::new(sample.north_m, sample.east_m),
+                    gap_now_m: gap_now,
+                    closing,
+                });
+            }
+            if rate <= 0.0 {
+                return None;
+            }
+            t += ((gap - threshold) / rate).max(min_dt);
+            if t > horizon_s {
+                return None;
+            }
+        }
+    }
+
+    /// Whether the gap shrinks over the next stretch of motion.
+    fn closing_now(&self, shape: &Shape, velocity: (f64, f64), speed: f64, gap_now: f64) -> bool {
+        let rate = speed * self.spread + velocity.0.hypot(velocity.1);
+        if rate <= 0.0 {
+            return false;
+        }
+        // Long enough to move on by a couple of samples.
+        let dt = (2.0 * self.ds_m.max(MAX_STEP_M) / rate).max(0.05);
+        let index = self.index_at(speed * dt);
+        self.shape_gap(index, shape, (velocity.0 * dt, velocity.1 * dt), f64::INFINITY) < gap_now
+    }
+
+    fn index_at(&self, along_m: f64) -> usize {
+        let n = self.samples.len() - 1;
+        if self.ds_m <= 0.0 {
+            return 0;
+        }
+        ((along_m / self.ds_m).round().max(0.0) as usize).min(n)
+    }
+}
+
+/// The vehicle's pose on a leg's path at `along_m`.
+fn leg_pose(path: &LegPath, along_m: f64, reverse: bool) -> Pose {
+    let flip = if reverse { std::f64::consts::PI } else { 0.0 };
+    Pose {
+        position: path.point_at(along_m),
+        yaw_rad: wrap_pi(path.heading_at(along_m) + flip),
+    }
+}
+
+/// The vehicle's pose after `s` metres along the path ahead.
+/// `start`: the path's pose where the vehicle is on it (for a leg), and
+/// `walker` the leg's pieces, asked for increasing `s`.
+fn pose_at(ahead: &PathAhead, walker: Option<&mut LegWalker>, now: &Pose, start: &Pose, s: f64) -> Pose {
+    match (ahead, walker) {
+        (
+            PathAhead::Leg {
+                along_m,
+                stop_at_m,
+                reverse,
+                ..
+            },
+            Some(walker),
+        ) => {
+            let at = stop_at_m.map_or(along_m + s, |end| (along_m + s).min(end.max(*along_m)));
+            let (position, heading) = walker.at(at);
+            let flip = if *reverse { std::f64::consts::PI } else { 0.0 };
+            let on_path = Pose {
+                position,
+                yaw_rad: wrap_pi(heading + flip),
+            };
+            // The offset of the actual pose from the path, blended out.
+            let w = (1.0 - s / BLEND_M).max(0.0);
+            Pose {
+                position: Ned::new(
+                    on_path.position.north_m + w * (now.position.north_m - start.position.north_m),
+                    on_path.position.east_m + w * (now.position.east_m - start.position.east_m),
+                ),
+                yaw_rad: wrap_pi(on_path.yaw_rad + w * wrap_pi(now.yaw_rad - start.yaw_rad)),
+            }
+        }
+        (PathAhead::Leg { path, along_m, .. }, None) => leg_pose(path, along_m + s, false),
+        (PathAhead::Curvature { curvature, reverse }, _) => {
+            let flip = if *reverse { std::f64::consts::PI } else { 0.0 };
+            let heading = now.yaw_rad + flip;
+            let k = if curvature.is_finite() { *curvature } else { 0.0 };
+            let turned = k * s;
+            // Chord of the arc (the straight limit for small turns).
+            let chord = if turned.abs() < 1e-9 {
+                s
+            } else {
+                2.0 * (0.5 * turned).sin() / k
+            };
+            let mid = heading + 0.5 * turned;
+            Pose {
+                position: Ned::new(
+                    now.position.north_m + chord * mid.cos(),
+                    now.position.east_m + chord * mid.sin(),
+                ),
+                yaw_rad: wrap_pi(now.yaw_rad + turned),
+            }
+        }
+    }
+}
+
+/// Walks a leg's pieces for increasing distances along it: what
+/// [`LegPath::point_at`] and [`LegPath::heading_at`] give (the first piece
+/// extended backwards, the last forwards), without searching for the piece
+/// and working out a straight's direction again at every sample.
+struct LegWalker<'a> {
+    pieces: &'a [Piece],
+    index: usize,
+    start_m: f64,
+    /// The current piece when straight: its start, unit direction, heading.
+    line: Option<(Ned, (f64, f64), f64)>,
+}
+
+impl<'a> LegWalker<'a> {
+    fn new(path: &'a LegPath) -> Self {
+        let mut walker = LegWalker {
+            pieces: path.pieces(),
+            index: 0,
+            start_m: 0.0,
+            line: None,
+        };
+        walker.enter();
+        walker
+    }
+
+    fn enter(&mut self) {
+        self.line = match self.pieces.get(self.index) {
+            Some(Piece::Line(segment)) => Some((segment.start, segment.direction(), segment.bearing_rad())),
+            _ => None,
+        };
+    }
+
+    /// Position and heading of travel at `along_m` (never less than the
+    /// previous call's).
+    fn at(&mut self, along_m: f64) -> (Ned, f64) {
+        while self.index + 1 < self.pieces.len() && along_m >= self.start_m + self.pieces[self.index].length_m() {
+            self.start_m += self.pieces[self.index].length_m();
+            self.index += 1;
+            self.enter();
+        }
+        let local = along_m - self.start_m;
+        match (self.line, self.pieces.get(self.index)) {
+            (Some((start, (un, ue), heading)), _) => {
+                (Ned::new(start.north_m + un * local, start.east_m + ue * local), heading)
+            }
+            (None, Some(piece)) => (piece.point_at(local), piece.heading_at(local)),
+            (None, None) => (Ned::default(), 0.0),
+        }
+    }
+}
+
+/// Distance from a body-frame point to the rectangle (0 inside).
+fn rect_gap(front_m: f64, rear_m: f64, half_width_m: f64, x: f64, y: f64) -> f64 {
+    let dx = (x - front_m).max(-rear_m - x).max(0.0);
+    let dy = (y.abs() - half_width_m).max(0.0);
+    (dx * dx + dy * dy).sqrt()
+}
+
+/// Distance between a convex polygon (body frame, either winding) and the
+/// rectangle: 0 when they overlap (no separating axis among the rectangle's
+/// two and the polygon's edge normals), else the least corner-to-edge
+/// distance either way.
+fn polygon_rect_gap(polygon: &[(f64, f64)], front_m: f64, rear_m: f64, half_width_m: f64) -> f64 {
+    if polygon.is_empty() {
+        return f64::INFINITY;
+    }
+    let corners = [
+        (front_m, half_width_m),
+        (front_m, -half_width_m),
+        (-rear_m, -half_width_m),
+        (-rear_m, half_width_m),
+    ];
+    let from_polygon = polygon
+        .iter()
+        .map(|&(x, y)| rect_gap(front_m, rear_m, half_width_m, x, y))
+        .fold(f64::INFINITY, f64::min);
+    if from_polygon == 0.0 {
+        return 0.0;
+    }
+    let n = polygon.len();
+    let inv = 1.0 / n as f64;
+    let mid = polygon
+        .iter()
+        .fold((0.0, 0.0), |acc, p| (acc.0 + p.0 * inv, acc.1 + p.1 * inv));
+    let mut from_rect = f64::INFINITY;
+    let mut separated = false;
+    for i in 0..n {
+        let (a, b) = (polygon[i], polygon[(i + 1) % n]);
+        for &c in &corners {
+            from_rect = from_rect.min(point_segment(c, a, b));
+        }
+        // Separating axis: an edge's normal with every rectangle corner
+        // strictly on the far side from the polygon (for a segment, on
+        // one side of it).
+        if !separated {
+            let normal = (b.1 - a.1, a.0 - b.0);
+            let side = |p: (f64, f64)| (p.0 - a.0) * normal.0 + (p.1 - a.1) * normal.1;
+            // The vertices' mean is inside a convex polygon.
+            let inner = side(mid);
+            separated = if n == 2 {
+                corners.iter().all(|&c| side(c) > 0.0) || corners.iter().all(|&c| side(c) < 0.0)
+            } else {
+                inner != 0.0 && corners.iter().all(|&c| side(c) * inner < 0.0)
+            };
+        }
+    }
+    // The rectangle's own axes separate whenever a polygon corner's gap is
+    // positive along x or y alone; otherwise an edge normal must.
+    let axis_separated = polygon.iter().all(|p| p.0 > front_m)
+        || polygon.iter().all(|p| p.0 < -rear_m)
+        || polygon.iter().all(|p| p.1 > half_width_m)
+        || polygon.iter().all(|p| p.1 < -half_width_m);
+    if !(axis_separated || separated) && n >= 2 {
+        return 0.0;
+    }
+    from_polygon.min(from_rect)
+}
+
+fn point_segment(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let len2 = dx * dx + dy * dy;
+    let t = if len2 > 0.0 {
+        (((p.0 - a.0) * dx + (p.1 - a.1) * dy) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let (ex, ey) = (p.0 - a.0 - t * dx, p.1 - a.1 - t * dy);
+    (ex * ex + ey * ey).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The simulator AGV's outline: 3.6 m ahead of the rear axle, 0.8 m
+    /// behind it, 2 m wide.
+    const AGV: Footprint = Footprint {
+        front_m: 3.6,
+        rear_m: 0.8,
+        half_width_m: 1.0,
+    };
+
+    fn north_at_origin() -> Pose {
+        Pose {
+            position: Ned::default(),
+            yaw_rad: 0.0,
+        }
+    }
+
+    fn arc(curvature: f64, reverse: bool, footprint: &Footprint, length_m: f64) -> SweptPath {
+        let mut swept = SweptPath::default();
+        swept.build(
+            &PathAhead::Curvature { curvature, reverse },
+            &north_at_origin(),
+            footprint,
+            length_m,
+        );
+        swept
+    }
+
+    /// A point at `radius_m` from the centre of a right turn of radius `r`
+    /// that starts at the origin heading north, `angle_rad` round it.
+    fn round_right_turn(r: f64, radius_m: f64, angle_rad: f64) -> Ned {
+        // Centre is east of the origin; the origin is at angle π (west).
+        let a = std::f64::consts::PI - angle_rad;
+        Ned::new(radius_m * a.sin(), r + radius_m * a.cos())
+    }
+
+    #[test]
+    fn samples_never_move_the_outline_further_than_the_step() {
+        for curvature in [0.0, 0.05, 1.0 / 6.0, -0.4] {
+            for reverse in [false, true] {
+                let swept = arc(curvature, reverse, &AGV, 12.0);
+                assert!(swept.step_m <= MAX_STEP_M + 1e-12);
+                assert!(swept.length_m() >= 12.0 - 1e-9);
+                let corners = [(3.6, 1.0), (3.6, -1.0), (-0.8, 1.0), (-0.8, -1.0)];
+                let world = |s: &Sample, (x, y): (f64, f64)| {
+                    (
+                        s.north_m + x * s.cos_yaw - y * s.sin_yaw,
+                        s.east_m + x * s.sin_yaw + y * s.cos_yaw,
+                    )
+                };
+                for pair in swept.samples.windows(2) {
+                    for c in corners {
+                        let (a, b) = (world(&pair[0], c), world(&pair[1], c));
+                        let moved = (a.0 - b.0).hypot(a.1 - b.1);
+                        assert!(
+                            moved <= swept.step_m + 1e-9,
+                            "κ {curvature}: {moved} > {}",
+                            swept.step_m
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn arc_inner_side_reaches_r_minus_half_width_and_no_further() {
+        // Right turn of 6 m: the inner side passes 5 m from the centre
+        // (the inner rear wheel's cut). Half-way round, a point 4.9 m from
+        // the centre is in the sweep; one at 4.8 m minus the slack is not.
+        let r = 6.0;
+        let swept = arc(1.0 / r, false, &AGV, 10.0);
+        let inside = round_right_turn(r, r - 1.0 + 0.1, 0.8);
+        let clear = round_right_turn(r, r - 1.0 - 0.2 - swept.slack_m(), 0.8);
+        assert!(swept.point_entry_m(inside, 0.0, 10.0).is_some());
+        assert!(swept.point_entry_m(clear, 0.0, 10.0).is_none());
+        // The same point beside a straight lane ahead is not in the way.
+        let straight = arc(0.0, false, &AGV, 10.0);
+        assert!(straight.point_entry_m(inside, 0.3, 10.0).is_none(), "{inside:?}");
+    }
+
+    #[test]
+    fn arc_outer_side_reaches_the_front_corner_radius() {
+        let r = 6.0;
+        let swept = arc(1.0 / r, false, &AGV, 10.0);
+        let corner_radius = ((r + 1.0) * (r + 1.0) + 3.6 * 3.6).sqrt();
+        let angle = 1.2;
+        assert!(
+            swept
+                .point_entry_m(round_right_turn(r, corner_radius - 0.05, angle), 0.0, 10.0)
+                .is_some()
+        );
+        let beyond = round_right_turn(r, corner_radius + 0.05 + swept.slack_m(), angle);
+        assert!(swept.point_entry_m(beyond, 0.0, 10.0).is_none());
+    }
+
+    #[test]
+    fn tail_swings_out_of_the_turn() {
+        // A long rear overhang: turning right, the rear swings left into a
+        // point 0.2 m left of the body beside the overhang, which a
+        // straight run leaves alone.
+        let long_tail = Footprint {
+            front_m: 1.0,
+            rear_m: 2.0,
+            half_width_m: 1.0,
+        };
+        let beside_tail = Ned::new(-1.0, -1.2);
+        let turning = arc(1.0 / 3.0, false, &long_tail, 3.0);
+        let along = turning
+            .point_entry_m(beside_tail, 0.0, 3.0)
+            .expect("the tail swings into it");
+        assert!(along < 1.5, "{along}");
+        assert!(
+            arc(0.0, false, &long_tail, 3.0)
+                .point_entry_m(beside_tail, 0.0, 3.0)
+                .is_none()
+        );
+    }
+
+    #[test]
+    fn reversing_sweeps_behind() {
+        let swept = arc(0.0, true, &AGV, 3.0);
+        let behind = Ned::new(-0.8 - 1.0, 0.0);
+        let along = swept.point_entry_m(behind, 0.0, 3.0).expect("behind the rear bumper");
+        assert!((along - 1.0).abs() <= swept.ds_m + swept.slack_m(), "{along}");
+        assert!(swept.point_entry_m(Ned::new(4.0, 0.0), 0.0, 3.0).is_none());
+        // Reversing while turning right (steering the rear to the left).
+        let turning = arc(0.25, true, &AGV, 3.0);
+        assert!(
+            turning
+                .pose(turning.pose_count())
+                .is_some_and(|p| p.position.east_m < -0.5)
+        );
+    }
+
+    #[test]
+    fn polygon_gap_matches_faces_and_corners() {
+        // A 0.8 m square 0.5 m right of the side, faces parallel.
+        let square = [(1.0, 1.5), (1.8, 1.5), (1.8, 2.3), (1.0, 2.3)];
+        assert!((polygon_rect_gap(&square, 3.6, 0.8, 1.0) - 0.5).abs() < 1e-12);
+        // A diamond whose corner points at the side from 0.3 m.
+        let diamond = [(2.0, 1.3), (2.4, 1.7), (2.0, 2.1), (1.6, 1.7)];
+        assert!((polygon_rect_gap(&diamond, 3.6, 0.8, 1.0) - 0.3).abs() < 1e-12);
+        // Overlapping without a corner inside either: a bar across the body.
+        let bar = [(1.0, -3.0), (1.2, -3.0), (1.2, 3.0), (1.0, 3.0)];
+        assert_eq!(polygon_rect_gap(&bar, 3.6, 0.8, 1.0), 0.0);
+        // Beyond the front corner, diagonally.
+        let far = [(4.6, 2.0), (5.0, 2.0), (5.0, 2.4), (4.6, 2.4)];
+        assert!((polygon_rect_gap(&far, 3.6, 0.8, 1.0) - 1.0f64.hypot(1.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_person_inside_the_turn_is_met_round_the_arc() {
+        let r = 6.0;
+        let swept = arc(1.0 / r, false, &AGV, 10.0);
+        let person = Shape::Disc {
+            centre: round_right_turn(r, r - 1.2, 1.0),
+            radius_m: 0.25,
+        };
+        let contact = swept
+            .first_contact(&person, (0.0, 0.0), 1.1, 0.3, 10.0)
+            .expect("contact");
+        assert!(contact.closing && contact.time_s > 0.5, "{contact:?}");
+        assert!((contact.time_s - contact.along_m / 1.1).abs() < 0.1, "{contact:?}");
+        // Driving straight on, the same person is beside the lane.
+        let straight = arc(0.0, false, &AGV, 10.0);
+        assert!(straight.first_contact(&person, (0.0, 0.0), 1.1, 0.3, 10.0).is_none());
+    }
+}
