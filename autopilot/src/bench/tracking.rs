@@ -1,5 +1,5 @@
 //! `furrow bench tracking`: the accuracy of the navigation core on the
-//! reference courses (`../shared/bench`, copied to `tests/data/bench`).
+//! reference courses in `tests/data/bench` (their README gives the vehicle and receiver).
 //!
 //! Each course runs in AUTO for every seed, in-process at full speed (world,
 //! simulated NMEA GNSS and heading, the real driver and the whole core), and

@@ -1,5 +1,5 @@
 //! Configuration of the simulated world; defaults are the bench vehicle and
-//! receiver of `shared/bench/README.md`.
+//! receiver of `tests/data/bench/README.md`.
 
 use crate::gnss::FixQuality;
 
@@ -205,7 +205,7 @@ pub struct WorldConfig {
 impl Default for WorldConfig {
     fn default() -> Self {
         Self {
-            // The bench course's home (shared/bench/README.md).
+            // The bench course's home (tests/data/bench/README.md).
             home: GeoPoint {
                 lat_deg: 29.1330,
                 lon_deg: 119.6400,
