@@ -8,56 +8,17 @@ import os
 
 os.environ.setdefault("MAVLINK20", "1")
 
-import threading
 import time
 
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs import command, goto, param_set, recv, wait_mode
-from test_vehicle_run import NMEA_LOG, Receiver, Vehicle, gga_position
+from test_vehicle_run import Player, Receiver, Vehicle, gga_position
 
 SILENT_S = 3.0
 HOLD = 4
 GUIDED = 15
-
-
-class PausablePlayer:
-    """Replays the NMEA log at 10 Hz (four sentences per epoch); paused, the
-    receiver is silent and the replay goes on where it stopped."""
-
-    def __init__(self, receiver):
-        self.lines = NMEA_LOG.read_bytes().splitlines(keepends=True)
-        self.receiver = receiver
-        self.index = 0
-        self.last_gga = None
-        self.sending = threading.Event()
-        self.sending.set()
-        self.done = threading.Event()
-        self.thread = threading.Thread(target=self._run, daemon=True)
-        self.thread.start()
-
-    def _run(self):
-        while not self.done.is_set() and self.index < len(self.lines):
-            if not self.sending.wait(0.05):
-                continue
-            epoch = self.lines[self.index:self.index + 4]
-            self.receiver.write(b"".join(epoch))
-            for line in epoch:
-                if line.startswith(b"$GNGGA"):
-                    self.last_gga = line.decode()
-            self.index += 4
-            time.sleep(0.1)
-
-    def pause(self):
-        self.sending.clear()
-
-    def resume(self):
-        self.sending.set()
-
-    def stop(self):
-        self.done.set()
-        self.thread.join()
 
 
 def write_config(tmp_path, gnss_link):
@@ -100,7 +61,7 @@ def texts(seen):
 
 def test_gnss_silent_in_guided_stays_a_failsafe_until_the_nmea_resumes(tmp_path):
     receiver = Receiver(tmp_path / "gnss0")
-    player = PausablePlayer(receiver)
+    player = Player(receiver)
     vehicle = Vehicle(write_config(tmp_path, tmp_path / "gnss0"), tmp_path)
     m = None
     try:

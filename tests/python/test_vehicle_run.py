@@ -85,7 +85,8 @@ class Receiver:
 
 
 class Player:
-    """Replays the NMEA log at 10 Hz (four sentences per epoch)."""
+    """Replays the NMEA log at 10 Hz (four sentences per epoch). Paused, the
+    receiver is silent; resumed, the replay goes on where it stopped."""
 
     def __init__(self, receiver):
         self.lines = NMEA_LOG.read_bytes().splitlines(keepends=True)
@@ -93,12 +94,16 @@ class Player:
         self.index = 0
         self.last_gga = None
         self.running = threading.Event()
+        self.sending = threading.Event()
         self.thread = threading.Thread(target=self._run, daemon=True)
         self.running.set()
+        self.sending.set()
         self.thread.start()
 
     def _run(self):
         while self.running.is_set() and self.index < len(self.lines):
+            if not self.sending.wait(0.05):
+                continue
             epoch = self.lines[self.index:self.index + 4]
             try:
                 self.receiver.write(b"".join(epoch))
@@ -110,6 +115,12 @@ class Player:
                     self.last_gga = line.decode()
             self.index += 4
             time.sleep(0.1)
+
+    def pause(self):
+        self.sending.clear()
+
+    def resume(self):
+        self.sending.set()
 
     def stop(self):
         self.running.clear()
