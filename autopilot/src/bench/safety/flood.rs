@@ -113,15 +113,11 @@ impl FloodCounts {
     }
 }
 
-fn course_run(exe: &Path, rate: u32, seed: u64) -> Result<CourseRun, String> {
-    let tag = if rate == 0 { "quiet" } else { "flood" };
-    let dir = std::env::temp_dir().join(format!("furrow-flood-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    // The SITL's UDP link sends to this socket, which floods it back.
-    let udp = UdpSocket::bind("127.0.0.1:0").map_err(|e| format!("udp: {e}"))?;
-    let udp_port = udp.local_addr().map_err(|e| e.to_string())?.port();
-    let args: Vec<String> = [
+/// A real-time SITL that sends its UDP telemetry to `udp_port` on loopback,
+/// with its data under `dir`.
+fn sitl_args(udp_port: u16, seed: u64, dir: &Path) -> Vec<String> {
+    let data = dir.join("data").display().to_string();
+    [
         "--speedup",
         "1",
         "--tcp-port",
@@ -131,11 +127,22 @@ fn course_run(exe: &Path, rate: u32, seed: u64) -> Result<CourseRun, String> {
         "--seed",
         &seed.to_string(),
         "--data-dir",
-        &dir.join("data").display().to_string(),
+        &data,
     ]
     .iter()
     .map(|s| s.to_string())
-    .collect();
+    .collect()
+}
+
+fn course_run(exe: &Path, rate: u32, seed: u64) -> Result<CourseRun, String> {
+    let tag = if rate == 0 { "quiet" } else { "flood" };
+    let dir = std::env::temp_dir().join(format!("furrow-flood-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    // The SITL's UDP link sends to this socket, which floods it back.
+    let udp = UdpSocket::bind("127.0.0.1:0").map_err(|e| format!("udp: {e}"))?;
+    let udp_port = udp.local_addr().map_err(|e| e.to_string())?.port();
+    let args = sitl_args(udp_port, seed, &dir);
     let sitl = SitlProcess::start(exe, &args, &dir.join("furrow.log"))?;
     let result = drive_course(&sitl, udp, rate, seed);
     let stopped = sitl.interrupt(Duration::from_secs(10));

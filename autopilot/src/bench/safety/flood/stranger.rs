@@ -18,6 +18,7 @@ use mavlink::{MavHeader, MavlinkReader, MavlinkVersion};
 use super::super::Row;
 use super::super::gcs_client::{SitlProcess, gcs_heartbeat};
 use super::super::kill::SeededRng;
+use super::sitl_args;
 
 /// Garbage datagrams per second from the stranger (issue 15's target).
 pub const STRANGER_RATE: u32 = 10_000;
@@ -56,21 +57,7 @@ pub fn run(exe: &Path, seed: u64) -> Result<Vec<Row>, String> {
     gcs.set_read_timeout(Some(Duration::from_millis(20)))
         .map_err(|e| e.to_string())?;
     let gcs_port = gcs.local_addr().map_err(|e| e.to_string())?.port();
-    let args: Vec<String> = [
-        "--speedup",
-        "1",
-        "--tcp-port",
-        "0",
-        "--udp-port",
-        &gcs_port.to_string(),
-        "--seed",
-        &seed.to_string(),
-        "--data-dir",
-        &dir.join("data").display().to_string(),
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
+    let args = sitl_args(gcs_port, seed, &dir);
     let sitl = SitlProcess::start(exe, &args, &dir.join("furrow.log"))?;
     let measured = measure(&gcs, sitl.udp_local, seed);
     let _ = sitl.interrupt(Duration::from_secs(10));
