@@ -5,24 +5,10 @@ mod common;
 
 use autopilot::modes::Mode;
 use autopilot::sitl::simulation::ModelKind;
-use common::Harness;
+use common::{Harness, item};
 use mavlink::dialects::ardupilotmega::{MavCmd, MavMessage, MavResult, MissionState};
 use mission::command::{cmd, frame};
 use mission::{ExecState, MissionItem, MissionType, Plan};
-
-fn item(seq: u16, command: u16, frame: u8, params: [f32; 4], north_m: f64, east_m: f64) -> MissionItem {
-    MissionItem {
-        seq,
-        frame,
-        command,
-        current: false,
-        autocontinue: true,
-        params,
-        x: (north_m * 1e4).round() as i32,
-        y: (east_m * 1e4).round() as i32,
-        z: 0.0,
-    }
-}
 
 fn wp(seq: u16, north_m: f64, east_m: f64, hold_s: f32) -> MissionItem {
     item(

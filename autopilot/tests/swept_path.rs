@@ -8,29 +8,15 @@ use std::time::Duration;
 use autopilot::sitl::gcs;
 use autopilot::sitl::runner::InstantTimer;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
-use common::Harness;
+use common::{Harness, item};
 use drivers::sim::{MovingObstacle, ObstacleWorld, Rectangle, Shape};
 use mission::command::{cmd, frame};
-use mission::{ExecState, MissionItem, MissionType, Plan};
+use mission::{ExecState, MissionType, Plan};
 
 /// The simulated AGV's outline (VEH_LEN_FRONT, VEH_LEN_REAR, VEH_WIDTH / 2).
 const FRONT_M: f64 = 3.6;
 const REAR_M: f64 = 0.8;
 const HALF_WIDTH_M: f64 = 1.0;
-
-fn item(seq: u16, command: u16, frame: u8, params: [f32; 4], north_m: f64, east_m: f64) -> MissionItem {
-    MissionItem {
-        seq,
-        frame,
-        command,
-        current: false,
-        autocontinue: true,
-        params,
-        x: (north_m * 1e4).round() as i32,
-        y: (east_m * 1e4).round() as i32,
-        z: 0.0,
-    }
-}
 
 /// Home, DO_CHANGE_SPEED, then drive-through waypoints (the last a stop).
 fn mission(speed_mps: f32, points: &[(f64, f64)]) -> Plan {

@@ -9,6 +9,7 @@ use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, Simul
 use autopilot::time::FrozenTimer;
 use autopilot::vehicle::Outbound;
 use mavlink::dialects::ardupilotmega::{MavCmd, MavMessage};
+use mission::MissionItem;
 
 pub struct Harness {
     pub sim: Simulation,
@@ -104,5 +105,20 @@ impl Harness {
                 _ => None,
             })
             .collect()
+    }
+}
+
+/// A mission item `north_m`, `east_m` from home (x and y in 1e-4 m).
+pub fn item(seq: u16, command: u16, frame: u8, params: [f32; 4], north_m: f64, east_m: f64) -> MissionItem {
+    MissionItem {
+        seq,
+        frame,
+        command,
+        current: false,
+        autocontinue: true,
+        params,
+        x: (north_m * 1e4).round() as i32,
+        y: (east_m * 1e4).round() as i32,
+        z: 0.0,
     }
 }
