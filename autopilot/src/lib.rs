@@ -13,9 +13,11 @@
 //! - [`fence`]: the geofence geometry.
 //! - [`telemetry`]: MAVLink messages built from the core's state, and the
 //!   per-link stream rates.
+//! - [`edge`] (edge): the runner `furrow sitl` and `furrow run` share: one
+//!   tokio runtime, the links, the data directory, the loop and its clocks.
 //! - [`link`] (edge): sockets, serial ports, framing, routing, tlog.
 //! - [`sitl`] (edge): the simulated world stepped with the core, and the
-//!   runner that paces both against the wall clock.
+//!   platform that puts it on the edge runner.
 //! - [`storage`] (edge): the data directory and parameter persistence.
 //! - [`run`] (edge): the real vehicle (`furrow run --config FILE`).
 //! - [`offline`]: tools on a data directory (`furrow params …`) and
@@ -23,6 +25,7 @@
 
 pub mod bench;
 pub mod control;
+pub mod edge;
 pub mod estimation;
 pub mod fence;
 pub mod geo;

@@ -16,8 +16,8 @@ use std::time::{Duration, Instant};
 use mavlink::MavlinkReader;
 use mavlink::dialects::ardupilotmega::MavMessage;
 
+use crate::edge::clock::InstantTimer;
 use crate::sitl::gcs;
-use crate::sitl::runner::InstantTimer;
 use crate::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
 #[derive(clap::Args, Debug)]

@@ -17,11 +17,11 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 use mission::{ExecState, MissionType, Plan};
 
 use super::plot::{self, PlotData};
+use crate::edge::clock::InstantTimer;
 use crate::geo::{GeoPoint, LocalFrame, Ned, wrap_pi};
 use crate::guidance::path::Piece;
 use crate::guidance::tracker::Direction;
 use crate::sitl::gcs;
-use crate::sitl::runner::InstantTimer;
 use crate::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
 /// The reference courses, built in so the benchmark runs from anywhere.

@@ -1,5 +1,6 @@
-//! The link runtime: a tokio runtime on its own thread running one task per
-//! link and the hub task that owns the registry and the router.
+//! The link layer at run time: one task per link and the hub task that
+//! owns the registry and the router, on the runtime the caller gives (the
+//! edge's), over sockets the caller bound ([`super::sockets`]).
 //!
 //! Inbound: link task → frames → hub (signature checked, see
 //! [`super::sign_policy`]) → routed to other links as raw bytes and, when
@@ -21,7 +22,7 @@
 
 use std::collections::BTreeMap;
 use std::io;
-use std::net::{SocketAddr, ToSocketAddrs};
+use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, AtomicU16, Ordering};
@@ -31,16 +32,17 @@ use mavlink::dialects::ardupilotmega::{MavMessage, MavMissionResult, MavResult};
 use mavlink::{MavHeader, Message};
 use tokio::io::{AsyncWrite, AsyncWriteExt};
 use tokio::net::{TcpListener, UdpSocket};
+use tokio::runtime::Handle;
 use tokio::sync::{mpsc, oneshot};
 
 use super::encode::{encode_raw_command_ack, encode_raw_mission_ack, encode_v2};
-use super::endpoint::{Endpoint, LinkEndpoint};
 use super::frame::{FrameStats, ReceivedFrame};
 use super::peers::Peers;
 use super::router::Router;
 use super::sign_policy::{Admission, DropReason, LinkSecurity, admit, makes_peer};
 use super::signing::{KeyChange, SecretKey, SigningState, TimestampSaver, Verdict};
-use super::tlog::{self, TlogRecord};
+use super::sockets::{BoundAddresses, LinkSocket, LinkSockets};
+use super::tlog::TlogRecord;
 use crate::storage::signing_key::{self, KeyFileWriter, StoredSigning};
 use crate::vehicle::{COMPONENT_ID, Destination, Inbound, LinkEvent, LinkId, Outbound, PeerId, UndecodableItem};
 
@@ -208,17 +210,10 @@ pub enum ToCore {
     UndecodableItem(UndecodableItem),
 }
 
-/// Which links to open.
+/// What the hub needs besides the sockets.
 #[derive(Clone, Debug, Default)]
-pub struct LinkConfig {
+pub struct HubConfig {
     pub sysid: u8,
-    /// The TCP server (stream slot 0): `host:port`, port 0 for any.
-    pub tcp_server: Option<String>,
-    /// The UDP link (stream slot 1): where to send until someone answers.
-    pub udp_out: Option<String>,
-    /// Extra endpoints (stream slots 2, 3, then 3 again), some secure.
-    pub extra: Vec<LinkEndpoint>,
-    pub tlog: Option<PathBuf>,
     /// Where the signing key is kept (the data directory). `None`: no key
     /// is loaded and a new one lasts until exit.
     pub signing_dir: Option<PathBuf>,
@@ -233,16 +228,6 @@ pub struct CoreChannels {
     pub outbound: mpsc::Sender<Outbound>,
 }
 
-/// Addresses actually bound (ports may have been 0).
-#[derive(Clone, Debug, Default)]
-pub struct BoundAddresses {
-    pub tcp: Option<SocketAddr>,
-    pub udp_local: Option<SocketAddr>,
-    /// The secure endpoints, in endpoint syntax with the port a listener
-    /// actually bound (`tcpin:127.0.0.1:40123`).
-    pub secure: Vec<String>,
-}
-
 /// The running link layer. Dropping it saves the signing timestamp and
 /// stops the hub.
 pub struct LinkRuntime {
@@ -250,7 +235,6 @@ pub struct LinkRuntime {
     sign_require: Arc<AtomicU8>,
     stop: Option<oneshot::Sender<()>>,
     stopped: std::sync::mpsc::Receiver<()>,
-    _thread: std::thread::JoinHandle<()>,
 }
 
 impl LinkRuntime {
@@ -293,137 +277,43 @@ fn load_signing(dir: Option<&std::path::Path>, now: Duration) -> SigningState {
     }
 }
 
-fn resolve(spec: &str) -> io::Result<SocketAddr> {
-    spec.to_socket_addrs()?
-        .next()
-        .ok_or_else(|| io::Error::new(io::ErrorKind::NotFound, format!("{spec}: no address")))
-}
-
-/// Binds every configured endpoint (so a busy port is an error now, not
-/// later) and starts the runtime thread.
-pub fn start(config: LinkConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
-    let runtime = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
+/// Starts the hub and one task per link on `runtime` (the sockets were
+/// bound by the caller). Dropping the returned [`LinkRuntime`] stops them.
+pub fn spawn(runtime: &Handle, sockets: LinkSockets, config: HubConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
     let (hub_tx, hub_rx) = mpsc::channel::<HubEvent>(1024);
     let (core_tx, core_rx) = mpsc::channel::<ToCore>(CORE_QUEUE);
     let (out_tx, out_rx) = mpsc::channel::<Outbound>(CORE_QUEUE);
-    let ids = LinkIds::default();
-    let sysid = config.sysid;
-    let mut bound = BoundAddresses::default();
     let signing = load_signing(config.signing_dir.as_deref(), wall_clock());
     let key_writer = config.signing_dir.clone().map(KeyFileWriter::start).transpose()?;
     let sign_require = Arc::new(AtomicU8::new(config.sign_require_mask));
-
-    let setup = runtime.block_on(async {
-        let mut tasks: Vec<std::pin::Pin<Box<dyn std::future::Future<Output = ()> + Send>>> = Vec::new();
-        if let Some(spec) = &config.tcp_server {
-            let listener = TcpListener::bind(resolve(spec)?).await?;
-            bound.tcp = Some(listener.local_addr()?);
-            tasks.push(Box::pin(super::tcp::serve(
-                listener,
-                LinkRole { slot: 0, secure: false },
-                ids.clone(),
-                hub_tx.clone(),
-            )));
-        }
-        if let Some(spec) = &config.udp_out {
-            let peer = resolve(spec)?;
-            let socket = UdpSocket::bind(unspecified_like(peer)).await?;
-            bound.udp_local = Some(socket.local_addr()?);
-            let name = format!("udp to {peer}");
-            tasks.push(Box::pin(super::udp::run(
-                socket,
-                Some(peer),
-                ids.next(),
-                LinkRole { slot: 1, secure: false },
-                name,
-                hub_tx.clone(),
-            )));
-        }
-        for (i, LinkEndpoint { endpoint, secure }) in config.extra.iter().enumerate() {
-            let role = LinkRole {
-                slot: (2 + i).min(3) as u8,
-                secure: *secure,
-            };
-            let mut shown = endpoint.to_string();
-            match endpoint {
-                Endpoint::UdpOut { host, port } => {
-                    let peer = resolve(&format!("{host}:{port}"))?;
-                    let socket = UdpSocket::bind(unspecified_like(peer)).await?;
-                    tasks.push(Box::pin(super::udp::run(
-                        socket,
-                        Some(peer),
-                        ids.next(),
-                        role,
-                        endpoint.to_string(),
-                        hub_tx.clone(),
-                    )));
-                }
-                Endpoint::UdpIn { host, port } => {
-                    let socket = UdpSocket::bind(resolve(&format!("{host}:{port}"))?).await?;
-                    shown = format!("udpin:{}", socket.local_addr()?);
-                    tasks.push(Box::pin(super::udp::run(
-                        socket,
-                        None,
-                        ids.next(),
-                        role,
-                        endpoint.to_string(),
-                        hub_tx.clone(),
-                    )));
-                }
-                Endpoint::TcpServer { host, port } => {
-                    let listener = TcpListener::bind(resolve(&format!("{host}:{port}"))?).await?;
-                    shown = format!("tcpin:{}", listener.local_addr()?);
-                    tasks.push(Box::pin(super::tcp::serve(listener, role, ids.clone(), hub_tx.clone())));
-                }
-                Endpoint::TcpClient { host, port } => {
-                    tasks.push(Box::pin(super::tcp::connect_forever(
-                        format!("{host}:{port}"),
-                        role,
-                        ids.clone(),
-                        hub_tx.clone(),
-                    )));
-                }
-                Endpoint::Serial { device, baud } => {
-                    super::serial::spawn(device.clone(), *baud, role, ids.clone(), hub_tx.clone());
-                }
-            }
-            if *secure {
-                bound.secure.push(shown);
-            }
-        }
-        let tlog = match &config.tlog {
-            Some(path) => {
-                let (tx, task) =
-                    tlog::open(path).map_err(|e| io::Error::new(e.kind(), format!("tlog {}: {e}", path.display())))?;
-                tasks.push(Box::pin(task));
-                Some(tx)
-            }
-            None => None,
-        };
-        Ok::<_, io::Error>((tasks, tlog))
+    let LinkSockets { links, tlog, bound } = sockets;
+    let tlog = tlog.map(|(tx, task)| {
+        runtime.spawn(task);
+        tx
     });
-    let (tasks, tlog) = setup?;
+    let ids = LinkIds::default();
+    {
+        // Sockets become tokio's inside the runtime's context.
+        let _context = runtime.enter();
+        for (socket, role) in links {
+            spawn_link(socket, role, &ids, &hub_tx)?;
+        }
+    }
     drop(hub_tx);
 
     let (stop_tx, stop_rx) = oneshot::channel();
     let (stopped_tx, stopped_rx) = std::sync::mpsc::channel();
-    let hub = Hub::new(sysid, core_tx, tlog, signing, key_writer, sign_require.clone());
-    let thread = std::thread::Builder::new().name("links".into()).spawn(move || {
-        runtime.block_on(async move {
-            for task in tasks {
-                tokio::spawn(task);
-            }
-            hub.run(hub_rx, out_rx, stop_rx).await;
-        });
+    let hub = Hub::new(config.sysid, core_tx, tlog, signing, key_writer, sign_require.clone());
+    runtime.spawn(async move {
+        hub.run(hub_rx, out_rx, stop_rx).await;
         let _ = stopped_tx.send(());
-    })?;
+    });
     Ok((
         LinkRuntime {
             bound,
             sign_require,
             stop: Some(stop_tx),
             stopped: stopped_rx,
-            _thread: thread,
         },
         CoreChannels {
             inbound: core_rx,
@@ -432,15 +322,27 @@ pub fn start(config: LinkConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
     ))
 }
 
-/// Binds loopback for a loopback peer (so nothing else on the network can
-/// inject), any address otherwise.
-fn unspecified_like(peer: SocketAddr) -> SocketAddr {
-    match peer {
-        SocketAddr::V4(a) if a.ip().is_loopback() => "127.0.0.1:0".parse().expect("literal"),
-        SocketAddr::V4(_) => "0.0.0.0:0".parse().expect("literal"),
-        SocketAddr::V6(a) if a.ip().is_loopback() => "[::1]:0".parse().expect("literal"),
-        SocketAddr::V6(_) => "[::]:0".parse().expect("literal"),
+/// Starts one link's task (a serial port: its thread).
+fn spawn_link(socket: LinkSocket, role: LinkRole, ids: &LinkIds, hub: &mpsc::Sender<HubEvent>) -> io::Result<()> {
+    match socket {
+        LinkSocket::TcpServer(listener) => {
+            listener.set_nonblocking(true)?;
+            let listener = TcpListener::from_std(listener)?;
+            tokio::spawn(super::tcp::serve(listener, role, ids.clone(), hub.clone()));
+        }
+        LinkSocket::Udp { socket, fixed, name } => {
+            socket.set_nonblocking(true)?;
+            let socket = UdpSocket::from_std(socket)?;
+            tokio::spawn(super::udp::run(socket, fixed, ids.next(), role, name, hub.clone()));
+        }
+        LinkSocket::TcpClient(address) => {
+            tokio::spawn(super::tcp::connect_forever(address, role, ids.clone(), hub.clone()));
+        }
+        LinkSocket::Serial { device, baud } => {
+            super::serial::spawn(device, baud, role, ids.clone(), hub.clone());
+        }
     }
+    Ok(())
 }
 
 /// Frames a link dropped for their signature, by reason.
@@ -978,19 +880,32 @@ mod tests {
         socket
     }
 
-    fn start_hub(
-        fixed: &StdUdpSocket,
-        sign_require_mask: u8,
-        signing_dir: Option<PathBuf>,
-    ) -> (LinkRuntime, CoreChannels) {
-        start(LinkConfig {
+    /// The hub on a runtime of its own; dropping it stops both.
+    struct Running {
+        links: LinkRuntime,
+        _runtime: tokio::runtime::Runtime,
+    }
+
+    fn start_hub(fixed: &StdUdpSocket, sign_require_mask: u8, signing_dir: Option<PathBuf>) -> (Running, CoreChannels) {
+        let runtime = crate::edge::runtime().expect("runtime");
+        let mut sockets = LinkSockets::default();
+        let udp = StdUdpSocket::bind("127.0.0.1:0").expect("bind");
+        sockets
+            .udp(udp, Some(fixed.local_addr().expect("addr")))
+            .expect("udp link");
+        let config = HubConfig {
             sysid: 1,
-            udp_out: Some(fixed.local_addr().expect("addr").to_string()),
             sign_require_mask,
             signing_dir,
-            ..LinkConfig::default()
-        })
-        .expect("links start")
+        };
+        let (links, channels) = spawn(runtime.handle(), sockets, config).expect("links start");
+        (
+            Running {
+                links,
+                _runtime: runtime,
+            },
+            channels,
+        )
     }
 
     fn frame_of(message: &MavMessage, sequence: u8) -> Vec<u8> {
@@ -1073,8 +988,8 @@ mod tests {
     #[test]
     fn every_udp_peer_gets_what_the_core_sends_to_all() {
         let fixed = gcs_socket();
-        let (runtime, mut channels) = start_hub(&fixed, 0, None);
-        let udp = runtime.bound.udp_local.expect("udp bound");
+        let (hub, mut channels) = start_hub(&fixed, 0, None);
+        let udp = hub.links.bound.udp_local.expect("udp bound");
         let (link, _) = joined(&mut channels);
         let (a, b) = (gcs_socket(), gcs_socket());
         a.send_to(&gcs_heartbeat(), udp).expect("send");
@@ -1092,8 +1007,8 @@ mod tests {
     #[test]
     fn a_strangers_datagrams_never_divert_the_telemetry() {
         let fixed = gcs_socket();
-        let (runtime, mut channels) = start_hub(&fixed, 0, None);
-        let udp = runtime.bound.udp_local.expect("udp bound");
+        let (hub, mut channels) = start_hub(&fixed, 0, None);
+        let udp = hub.links.bound.udp_local.expect("udp bound");
         joined(&mut channels);
         let gcs = gcs_socket();
         gcs.send_to(&gcs_heartbeat(), udp).expect("send");
@@ -1130,8 +1045,8 @@ mod tests {
     #[test]
     fn a_new_peer_is_reported_once_and_a_message_for_it_goes_to_it_alone() {
         let fixed = gcs_socket();
-        let (runtime, mut channels) = start_hub(&fixed, 0, None);
-        let udp = runtime.bound.udp_local.expect("udp bound");
+        let (hub, mut channels) = start_hub(&fixed, 0, None);
+        let udp = hub.links.bound.udp_local.expect("udp bound");
         let (link, fixed_peer) = joined(&mut channels);
         let (a, b) = (gcs_socket(), gcs_socket());
         a.send_to(&gcs_heartbeat(), udp).expect("send");
@@ -1187,8 +1102,8 @@ mod tests {
         let dir = KeyDir::new(KEY);
         let fixed = gcs_socket();
         // SIGN_REQUIRE bit 1: the UDP link's stream slot.
-        let (runtime, mut channels) = start_hub(&fixed, 0b10, Some(dir.0.clone()));
-        let udp = runtime.bound.udp_local.expect("udp bound");
+        let (hub, mut channels) = start_hub(&fixed, 0b10, Some(dir.0.clone()));
+        let udp = hub.links.bound.udp_local.expect("udp bound");
         joined(&mut channels);
         let stranger = gcs_socket();
         let radio_status = frame_of(&MavMessage::RADIO_STATUS(RADIO_STATUS_DATA::DEFAULT), 1);

@@ -10,10 +10,10 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 use mission::{ExecState, MissionType, Plan};
 
 use super::truth::{Judge, Limits, MOVING_MPS, Pose, STALL_S, TruthLog, rectangle};
+use crate::edge::clock::InstantTimer;
 use crate::geo::{GeoPoint, LocalFrame, Ned};
 use crate::obstacles::TrackStatus;
 use crate::sitl::gcs;
-use crate::sitl::runner::InstantTimer;
 use crate::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
 /// The simulator warms up (fix, filter) this long before arming.
