@@ -863,7 +863,9 @@ mod tests {
 
     use std::net::UdpSocket as StdUdpSocket;
 
-    use mavlink::dialects::ardupilotmega::{HEARTBEAT_DATA, MavSeverity, MavType, RADIO_STATUS_DATA, STATUSTEXT_DATA};
+    use mavlink::dialects::ardupilotmega::{
+        COMMAND_LONG_DATA, HEARTBEAT_DATA, MavCmd, MavSeverity, MavType, RADIO_STATUS_DATA, STATUSTEXT_DATA,
+    };
 
     use super::super::frame::frame_datagram;
     use super::*;
@@ -1121,5 +1123,239 @@ mod tests {
         from_core(&channels, Destination::AllLinks, text("for the signer"));
         assert!(hears(&gcs, "for the signer", WAIT));
         assert!(!hears(&stranger, "for the signer", QUIET));
+    }
+
+    fn command_long_to(target_system: u8, target_component: u8) -> MavMessage {
+        MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+            target_system,
+            target_component,
+            command: MavCmd::MAV_CMD_REQUEST_MESSAGE,
+            ..COMMAND_LONG_DATA::DEFAULT
+        })
+    }
+
+    fn heartbeat_from(system_id: u8, component_id: u8) -> Vec<u8> {
+        let header = MavHeader {
+            system_id: u32::from(system_id),
+            component_id,
+            sequence: 0,
+        };
+        encode_v2(
+            header,
+            &MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
+                ..HEARTBEAT_DATA::DEFAULT
+            }),
+        )
+    }
+
+    /// The message ids `stream` receives within `wait`.
+    fn ids_heard(stream: &mut std::net::TcpStream, wait: Duration) -> Vec<u32> {
+        use std::io::Read;
+        stream
+            .set_read_timeout(Some(Duration::from_millis(50)))
+            .expect("timeout");
+        let deadline = Instant::now() + wait;
+        let mut framer = super::super::frame::StreamFramer::new();
+        let mut ids = Vec::new();
+        let mut buf = [0u8; 4096];
+        while Instant::now() < deadline {
+            if let Ok(n) = stream.read(&mut buf) {
+                framer.push(&buf[..n], |f| ids.push(f.message_id()));
+            }
+        }
+        ids
+    }
+
+    /// The core's messages of one id within `wait`.
+    fn core_gets(channels: &mut CoreChannels, message_id: u32, wait: Duration) -> usize {
+        let deadline = Instant::now() + wait;
+        let mut count = 0;
+        while Instant::now() < deadline {
+            match channels.inbound.try_recv() {
+                Ok(ToCore::Message(m)) if m.message.message_id() == message_id => count += 1,
+                Ok(_) => {}
+                Err(_) => std::thread::sleep(Duration::from_millis(5)),
+            }
+        }
+        count
+    }
+
+    /// A UDP link to `fixed` and a TCP server on port 0, with one client.
+    fn two_links(fixed: &StdUdpSocket) -> (Running, CoreChannels, std::net::TcpStream) {
+        let runtime = crate::edge::runtime().expect("runtime");
+        let mut sockets = LinkSockets::default();
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
+        let tcp = listener.local_addr().expect("addr");
+        sockets.tcp_server(listener).expect("tcp link");
+        let udp = StdUdpSocket::bind("127.0.0.1:0").expect("bind");
+        sockets
+            .udp(udp, Some(fixed.local_addr().expect("addr")))
+            .expect("udp link");
+        let config = HubConfig {
+            sysid: 1,
+            ..HubConfig::default()
+        };
+        let (links, mut channels) = spawn(runtime.handle(), sockets, config).expect("links start");
+        joined(&mut channels);
+        let client = std::net::TcpStream::connect(tcp).expect("connect");
+        joined(&mut channels);
+        let running = Running {
+            links,
+            _runtime: runtime,
+        };
+        (running, channels, client)
+    }
+
+    #[test]
+    fn a_command_for_another_system_goes_only_to_the_link_that_heard_it() {
+        use std::io::Write;
+        const COMMAND_LONG: u32 = 76;
+        let gcs = gcs_socket();
+        let (hub, mut channels, mut companion) = two_links(&gcs);
+        let udp = hub.links.bound.udp_local.expect("udp bound");
+        // System 42 speaks on the TCP link; the router learns where it is.
+        companion.write_all(&heartbeat_from(42, 1)).expect("send");
+        std::thread::sleep(Duration::from_millis(100));
+
+        gcs.send_to(&frame_of(&command_long_to(42, 1), 1), udp).expect("send");
+        let heard = ids_heard(&mut companion, Duration::from_millis(500));
+        assert_eq!(
+            heard.iter().filter(|&&id| id == COMMAND_LONG).count(),
+            1,
+            "heard {heard:?}"
+        );
+        assert_eq!(
+            core_gets(&mut channels, COMMAND_LONG, QUIET),
+            0,
+            "not ours, not the core's"
+        );
+
+        gcs.send_to(&frame_of(&command_long_to(1, 1), 2), udp).expect("send");
+        assert_eq!(core_gets(&mut channels, COMMAND_LONG, WAIT), 1, "ours goes to the core");
+        let heard = ids_heard(&mut companion, QUIET);
+        assert!(!heard.contains(&COMMAND_LONG), "ours is not forwarded: {heard:?}");
+    }
+
+    #[test]
+    fn a_client_that_stops_reading_holds_up_neither_the_others_nor_the_core() {
+        let gcs = gcs_socket();
+        let (hub, mut channels, stalled) = two_links(&gcs);
+        let udp = hub.links.bound.udp_local.expect("udp bound");
+        socket2::SockRef::from(&stalled)
+            .set_recv_buffer_size(4096)
+            .expect("SO_RCVBUF");
+        // Far more than the kernel buffers and the link's queue hold.
+        for k in 0..3 * LINK_QUEUE {
+            from_core(&channels, Destination::AllLinks, text(&format!("flood {k}")));
+        }
+        // What the kernel kept of the flood for the UDP GCS is read first.
+        hears(&gcs, "nothing", QUIET);
+        from_core(&channels, Destination::AllLinks, text("after the flood"));
+        assert!(hears(&gcs, "after the flood", WAIT), "the UDP GCS lost its telemetry");
+        gcs.send_to(&gcs_heartbeat(), udp).expect("send");
+        assert_eq!(
+            core_gets(&mut channels, 0, WAIT),
+            1,
+            "the core lost the GCS's heartbeat"
+        );
+        drop(stalled);
+    }
+
+    /// A hub with no sockets: link events and frames are handed to it as
+    /// its link tasks would.
+    struct BareHub {
+        hub: Hub,
+        core: mpsc::Receiver<ToCore>,
+        link_queue: mpsc::Receiver<LinkFrame>,
+    }
+
+    const LINK: LinkId = LinkId(0);
+
+    impl BareHub {
+        async fn open(core_queue: usize, signing: SigningState, sign_require_mask: u8) -> BareHub {
+            let (core_tx, core) = mpsc::channel(core_queue);
+            let sign_require = Arc::new(AtomicU8::new(sign_require_mask));
+            let mut hub = Hub::new(1, core_tx, None, signing, None, sign_require);
+            let (tx, link_queue) = mpsc::channel(LINK_QUEUE);
+            let role = LinkRole { slot: 1, secure: false };
+            let (peers, name) = (PeerPolicy::FirstFrame, "test".to_string());
+            hub.on_event(HubEvent::Opened {
+                link: LINK,
+                role,
+                peers,
+                name,
+                tx,
+            })
+            .await;
+            let mut bare = BareHub { hub, core, link_queue };
+            bare.core_items();
+            bare
+        }
+
+        fn frame(&mut self, bytes: &[u8]) {
+            let mut frames = Vec::new();
+            frame_datagram(bytes, &mut FrameStats::default(), |f| frames.push(f));
+            assert_eq!(frames.len(), 1, "one valid frame");
+            for frame in frames {
+                self.hub.on_frame(LINK, frame, None);
+            }
+        }
+
+        /// Messages (not events) the core got.
+        fn core_items(&mut self) -> usize {
+            let mut n = 0;
+            while let Ok(item) = self.core.try_recv() {
+                n += usize::from(matches!(item, ToCore::Message(_)));
+            }
+            n
+        }
+
+        fn entry(&self) -> &LinkEntry {
+            self.hub.links.get(&LINK).expect("link open")
+        }
+    }
+
+    #[tokio::test]
+    async fn a_full_link_queue_drops_and_counts_and_a_full_core_queue_too() {
+        let mut bare = BareHub::open(8, SigningState::start(None, 0, wall_clock()), 0).await;
+        for k in 0..LINK_QUEUE + 100 {
+            bare.hub.on_outbound(Outbound {
+                dest: Destination::AllLinks,
+                message: text(&format!("m{k}")),
+            });
+        }
+        assert_eq!(bare.link_queue.len(), LINK_QUEUE);
+        assert_eq!(bare.entry().dropped_out, 100);
+
+        for _ in 0..20 {
+            bare.frame(&gcs_heartbeat());
+        }
+        assert_eq!(bare.core_items(), 8, "the core queue holds 8");
+        assert_eq!(bare.hub.dropped_to_core, 12);
+    }
+
+    #[tokio::test]
+    async fn frames_signing_rejects_are_counted_by_reason_and_never_reach_the_core() {
+        const KEY: [u8; 32] = [7; 32];
+        let signing = SigningState::start(Some(SecretKey::new(KEY)), 0, wall_clock());
+        // SIGN_REQUIRE bit 1: the link's stream slot.
+        let mut bare = BareHub::open(64, signing, 0b10).await;
+        let mut ours = SigningState::start(Some(SecretKey::new(KEY)), 0, wall_clock());
+        let mut strangers = SigningState::start(Some(SecretKey::new([9; 32])), 0, wall_clock());
+
+        bare.frame(&gcs_heartbeat());
+        let forged = strangers.sign(&gcs_heartbeat(), 0, wall_clock()).expect("signed");
+        bare.frame(&forged);
+        let signed = ours.sign(&gcs_heartbeat(), 0, wall_clock()).expect("signed");
+        bare.frame(&signed);
+        assert_eq!(bare.core_items(), 1, "only the signed frame");
+        bare.frame(&signed);
+        assert_eq!(bare.core_items(), 0, "a replay is dropped");
+        let drops = bare.entry().signing_drops;
+        assert_eq!(
+            (drops.unsigned, drops.bad_signature, drops.replayed, drops.out_of_window),
+            (1, 1, 1, 0)
+        );
     }
 }
