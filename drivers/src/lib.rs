@@ -1,5 +1,6 @@
 //! Furrow device drivers and the simulated world.
 //!
+//! - [`backoff`]: the reconnect wait every device and link uses.
 //! - [`gnss`]: GNSS sample types and the NMEA 0183 stream parser that the real
 //!   serial driver and SITL both feed.
 //! - [`magnetic`]: magnetic-tape guide sensor readings.
@@ -10,6 +11,7 @@
 //! Everything here is pure and deterministic: time is passed in as a
 //! [`std::time::Duration`] since start, randomness comes from a caller's seed.
 
+pub mod backoff;
 pub mod device;
 pub mod gnss;
 pub mod magnetic;

@@ -26,3 +26,10 @@ pub mod sockets;
 mod tcp;
 pub mod tlog;
 mod udp;
+
+/// The wait before a TCP client or serial link tries again: soon after a
+/// short outage, at most once a second.
+fn reconnect_backoff() -> drivers::backoff::Backoff {
+    use std::time::Duration;
+    drivers::backoff::Backoff::new(Duration::from_millis(100), Duration::from_secs(1))
+}
