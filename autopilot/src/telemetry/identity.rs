@@ -1,5 +1,5 @@
 //! HEARTBEAT, AUTOPILOT_VERSION and PROTOCOL_VERSION: how a ground station
-//! recognises Furrow as an ArduPilot Rover (DESIGN §4).
+//! recognises Furrow as an ArduPilot Rover (docs/architecture.md §MAVLink identity).
 //!
 //! PROTOCOL_VERSION is deprecated (2025-11) but QGroundControl still asks for
 //! it and falls back to MAVLink 1 when it gets no answer.

@@ -1,4 +1,4 @@
-//! An extended Kalman filter for a wheeled ground vehicle (DESIGN §5.2).
+//! An extended Kalman filter for a wheeled ground vehicle (docs/architecture.md §Estimation).
 //!
 //! Pure: no clocks, no I/O, no allocation. The caller owns time and feeds the
 //! filter explicit inputs. Cost measured by the `cost_per_step` test in
