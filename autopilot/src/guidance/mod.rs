@@ -6,5 +6,6 @@ pub mod magnetic;
 pub mod magnetic_scenario;
 pub mod navigator;
 pub mod path;
+pub mod reeds_shepp;
 pub mod speed;
 pub mod tracker;
