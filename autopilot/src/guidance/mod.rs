@@ -4,6 +4,7 @@
 
 pub mod magnetic;
 pub mod magnetic_scenario;
+pub mod manoeuvre;
 pub mod navigator;
 pub mod path;
 pub mod reeds_shepp;
