@@ -14,6 +14,8 @@
 //! - [`telemetry`]: MAVLink messages built from the core's state, and the
 //!   per-link stream rates.
 //! - [`link`] (edge): sockets, serial ports, framing, routing, tlog.
+//! - [`logging`]: onboard DataFlash logs: records built by the core,
+//!   written and served over MAVLink at the edge, read by `furrow logs`.
 //! - [`sitl`] (edge): the simulated world stepped with the core, and the
 //!   runner that paces both against the wall clock.
 //! - [`storage`] (edge): the data directory and parameter persistence.
@@ -28,6 +30,7 @@ pub mod fence;
 pub mod geo;
 pub mod guidance;
 pub mod link;
+pub mod logging;
 pub mod modes;
 pub mod obstacles;
 pub mod offline;
