@@ -23,6 +23,8 @@
 //!
 //! The edges:
 //! - [`link`]: sockets, serial ports, framing, signing, routing, tlog.
+//! - [`logging`]: onboard DataFlash logs: records built by the core,
+//!   written and served over MAVLink at the edge, read by `furrow logs`.
 //! - [`sitl`]: `furrow sitl`: the simulated world stepped with the core, and
 //!   the runner that paces both against the wall clock.
 //! - [`run`]: `furrow run --config FILE`: the real vehicle.
@@ -38,6 +40,7 @@ pub mod fence;
 pub mod geo;
 pub mod guidance;
 pub mod link;
+pub mod logging;
 pub mod modes;
 pub mod obstacles;
 pub mod offline;
