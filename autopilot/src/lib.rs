@@ -1,27 +1,39 @@
-//! Furrow's autopilot: the pure core and the edges that feed it.
+//! Furrow's autopilot: the pure core and the edges that feed it
+//! (docs/architecture.md has the map).
 //!
-//! Layout (the core first, then the edges):
+//! The core first (no I/O, time injected):
 //! - [`vehicle`]: the [`vehicle::Core`], a plain struct stepped at
-//!   `SCHED_LOOP_RATE` with injected time; it owns the parameters and every
-//!   subsystem below and does no I/O.
-//! - [`sched`]: the scheduler table (task, rate, budget) and its statistics.
+//!   `SCHED_LOOP_RATE`; it owns the parameters and every subsystem below,
+//!   handles MAVLink messages, runs the modes, arming and failsafes, and
+//!   builds telemetry.
+//! - [`time`]: the two clocks a step is given (vehicle time, wall time) and
+//!   the injected task timer.
+//! - [`sched`]: the scheduler table (task, rate, clock, budget) and its statistics.
 //! - [`geo`]: local frames from latitude/longitude.
-//! - [`estimation`]: the pose estimate from GNSS position and heading.
-//! - [`guidance`]: paths, the preview-point tracker, speed scheduling.
-//! - [`control`]: PID, speed control, actuator mixing.
-//! - [`modes`]: ArduPilot Rover's mode numbers and each mode's behaviour.
+//! - [`estimation`]: the pose estimate (EKF) from GNSS position and heading.
+//! - [`guidance`]: paths, the preview-point tracker, speed scheduling, the
+//!   navigator and the magnetic guide.
+//! - [`control`]: PID, speed control, kinematics, mixing and servo outputs.
+//! - [`obstacles`]: scans to clusters to tracks, collision prediction along
+//!   the swept path, the stop/pass/detour policy.
+//! - [`modes`]: ArduPilot Rover's mode numbers, names and properties (what
+//!   each mode does each tick is in [`vehicle`]).
 //! - [`fence`]: the geofence geometry.
-//! - [`telemetry`]: MAVLink messages built from the core's state, and the
-//!   per-link stream rates.
-//! - [`edge`] (edge): the runner `furrow sitl` and `furrow run` share: one
-//!   tokio runtime, the links, the data directory, the loop and its clocks.
-//! - [`link`] (edge): sockets, serial ports, framing, routing, tlog.
-//! - [`sitl`] (edge): the simulated world stepped with the core, and the
-//!   platform that puts it on the edge runner.
-//! - [`storage`] (edge): the data directory and parameter persistence.
-//! - [`run`] (edge): the real vehicle (`furrow run --config FILE`).
-//! - [`offline`]: tools on a data directory (`furrow params …`) and
-//!   `furrow config check`.
+//! - [`telemetry`]: identity, STATUSTEXT and the per-link stream rates.
+//!
+//! The edges:
+//! - [`edge`]: the runner `furrow sitl` and `furrow run` share: one tokio
+//!   runtime, the links, the data directory, the loop and its clocks.
+//! - [`link`]: sockets, serial ports, framing, signing, routing, tlog.
+//! - [`logging`]: onboard DataFlash logs: records built by the core,
+//!   written and served over MAVLink at the edge, read by `furrow logs`.
+//! - [`sitl`]: `furrow sitl`: the simulated world stepped with the core, as
+//!   a platform of the edge runner paced against the wall clock.
+//! - [`run`]: `furrow run --config FILE`: the real vehicle.
+//! - [`storage`]: the data directory and atomic persistence.
+//! - [`offline`]: tools on a data directory (`furrow params …`,
+//!   `furrow mission …`) and `furrow config check`.
+//! - [`bench`]: `furrow bench …`: benchmarks that print figures.
 
 pub mod bench;
 pub mod control;
@@ -31,6 +43,7 @@ pub mod fence;
 pub mod geo;
 pub mod guidance;
 pub mod link;
+pub mod logging;
 pub mod modes;
 pub mod obstacles;
 pub mod offline;

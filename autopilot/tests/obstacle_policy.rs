@@ -1,6 +1,8 @@
 //! Collision prediction, protective/warning fields and the stop/resume
-//! policy (DESIGN §5.5, seed 004 §III.C–D), exercised through their public
+//! policy (docs/architecture.md §Obstacles, seed 004 §III.C–D), exercised through their public
 //! API with scenes built from tracks, as the core builds them.
+//!
+//! Sources: docs/references.md §Seed 004.
 
 use autopilot::geo::Ned;
 use autopilot::obstacles::field::{FieldConfig, FieldStatus, check_field, fields, warning_speed_limit};

@@ -1,4 +1,4 @@
-//! What to do about obstacles (DESIGN §5.5, seed 004 §III.D): stop, slow,
+//! What to do about obstacles (docs/architecture.md §Obstacles, seed 004 §III.D): stop, slow,
 //! pass first, and when to resume.
 //!
 //! Rules, in order:
@@ -31,6 +31,8 @@
 //!
 //! At rest the current-velocity inputs describe a vehicle going nowhere, so
 //! whether it may start is judged on the at-resume inputs there as well.
+//!
+//! Sources: docs/references.md §Seed 004.
 
 use std::cmp::Ordering;
 use std::fmt;

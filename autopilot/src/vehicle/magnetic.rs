@@ -1,5 +1,7 @@
 //! MAGNETIC: following a magnetic tape with the two guide sensors (seed 002,
-//! DESIGN §5.4). It needs no position fix: the tape is the reference.
+//! docs/architecture.md §Kinematics and the magnetic guide). It needs no position fix: the tape is the reference.
+//!
+//! Sources: docs/references.md §Seed 002.
 
 use std::time::Duration;
 

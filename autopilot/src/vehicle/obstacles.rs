@@ -1,4 +1,4 @@
-//! The obstacle pipeline in the core (DESIGN §5.5): every scan becomes
+//! The obstacle pipeline in the core (docs/architecture.md §Obstacles): every scan becomes
 //! points, clusters and Kalman tracks; every tick the protective field (raw
 //! points), the collision predictions (tracks) and the policy decide whether
 //! the self-driving modes may drive on, slow, or must stop; the stops and

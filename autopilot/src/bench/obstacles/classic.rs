@@ -1,4 +1,4 @@
-//! The scenarios of DESIGN §5.5 on a straight leg north: people crossing at
+//! The scenarios of docs/architecture.md §Obstacles on a straight leg north: people crossing at
 //! several speeds and angles, head-on, walking away, stepping out from
 //! behind a parked car, a static box on the path (stop, detour), a person
 //! crossing behind a vehicle reversing into a slot, a corridor.

@@ -3,7 +3,7 @@
 //! to the real parser, the whole core), judged from the simulator's truth
 //! and the world alone, never from Furrow's own figures:
 //!
-//! - the scenarios of DESIGN §5.5 on a straight leg ([`classic`]);
+//! - the scenarios of docs/architecture.md §Obstacles on a straight leg ([`classic`]);
 //! - the families of issue 14 in turns, S-bends and beside lanes, forwards
 //!   and in reverse, left and right ([`families`]);
 //! - thousands of randomized runs ([`random`]), each replayable by its seed.
