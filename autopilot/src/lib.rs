@@ -14,6 +14,8 @@
 //! - [`telemetry`]: MAVLink messages built from the core's state, and the
 //!   per-link stream rates.
 //! - [`link`] (edge): sockets, serial ports, framing, routing, tlog.
+//! - [`ftp`]: MAVLink FTP (the protocol pure, its file I/O on a worker
+//!   thread at the edge).
 //! - [`sitl`] (edge): the simulated world stepped with the core, and the
 //!   runner that paces both against the wall clock.
 //! - [`storage`] (edge): the data directory and parameter persistence.
@@ -25,6 +27,7 @@ pub mod bench;
 pub mod control;
 pub mod estimation;
 pub mod fence;
+pub mod ftp;
 pub mod geo;
 pub mod guidance;
 pub mod link;

@@ -17,6 +17,7 @@ use params::ParamTableBuilder;
 use super::actuators::PwmActuators;
 use super::config::{self, VehicleConfig};
 use super::devices::{DeviceReport, Devices};
+use crate::ftp::service::FtpService;
 use crate::link::endpoint::{Endpoint, LinkEndpoint};
 use crate::link::hub::{self, LinkConfig, ToCore};
 use crate::sitl::runner::{InstantTimer, Persistence, drain, forward, shutdown_on_signal};
@@ -89,6 +90,7 @@ pub fn run(config_path: &Path) -> Result<(), String> {
         sign_require_mask: core.sign_require_mask(),
     })
     .map_err(|e| format!("MAVLink links: {e}"))?;
+    let ftp = FtpService::start(data_dir.path(), channels.outbound.clone());
 
     let mut devices = Devices::start(&config, origin)?;
     let period = core.loop_period();
@@ -134,6 +136,7 @@ pub fn run(config_path: &Path) -> Result<(), String> {
             boot,
             None,
         );
+        ftp.offer(&inputs.messages, &core);
         devices.poll(boot, &mut inputs);
         persistence.collect(&mut inputs);
         core.step(now, &inputs, &mut outputs, &mut timer);
@@ -166,6 +169,7 @@ pub fn run(config_path: &Path) -> Result<(), String> {
                 boot,
                 first,
             );
+            ftp.offer(&inputs.messages, &core);
             core.service_links(boot, &inputs, &mut outputs);
             inputs.link_events.clear();
             inputs.messages.clear();

@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 use mavlink::dialects::ardupilotmega::MavMessage;
 
 use super::simulation::{Simulation, SimulationConfig, SimulationParams};
+use crate::ftp::service::FtpService;
 use crate::link::endpoint::{Endpoint, LinkEndpoint};
 use crate::link::hub::{self, LinkConfig, ToCore};
 use crate::storage::data_dir::{DataDir, Profile};
@@ -161,6 +162,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         sign_require_mask: sim.core().sign_require_mask(),
     })
     .map_err(|e| format!("MAVLink links: {e}"))?;
+    let ftp = FtpService::start(data_dir.path(), channels.outbound.clone());
 
     let shutdown = shutdown_on_signal();
     let tcp = links.bound.tcp.map_or("none".into(), |a| a.to_string());
@@ -194,6 +196,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         .map_err(|e| format!("runtime: {e}"))?;
     while !shutdown.load(Ordering::Relaxed) {
         drain(&mut channels.inbound, sim.inputs_mut(), None);
+        ftp.offer(&sim.inputs().messages, sim.core());
         persistence.collect(sim.inputs_mut());
         let outputs = sim.step(start.elapsed(), &mut timer);
         let saves = std::mem::take(&mut outputs.saves);
@@ -209,6 +212,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
             let deadline = tokio::time::Instant::now() + delay;
             while let Some(first) = persistence.wait(&waiter, deadline, &mut channels.inbound, sim.inputs_mut()) {
                 drain(&mut channels.inbound, sim.inputs_mut(), first);
+                ftp.offer(&sim.inputs().messages, sim.core());
                 let outputs = sim.service_links(start.elapsed());
                 let saves = std::mem::take(&mut outputs.saves);
                 forward(outputs, &channels.outbound, &mut dropped_out);
