@@ -178,7 +178,7 @@ impl Files for DataFiles {
             Target::Root => self.list_disk(&self.root, true),
             Target::ParamDir => Ok(vec![Entry::File {
                 name: PARAM_FILE.into(),
-                size: self.param_pack[1].len() as u64,
+                size: self.param_pack[0].len() as u64,
             }]),
             Target::ParamFile { .. } => Err(FsError::NotFound),
             Target::Disk(path, _) => self.list_disk(&path, false),

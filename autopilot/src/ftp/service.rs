@@ -60,14 +60,16 @@ impl FtpService {
             let request = Payload::decode(&ftp.payload);
             let param_pack = request.as_ref().ok().and_then(|r| {
                 let path = r.path()?;
-                let opens = r.opcode == Opcode::OpenFileRO as u8 || r.opcode == Opcode::CalcFileCRC32 as u8;
+                let opens = [Opcode::OpenFileRO, Opcode::CalcFileCRC32, Opcode::ListDirectory]
+                    .iter()
+                    .any(|op| r.opcode == *op as u8);
                 let with_defaults = path.contains("withdefaults=1");
                 (opens && path.trim_start_matches('/').starts_with(PARAM_DIR))
                     .then(|| (with_defaults, param_pack::pack(core.params(), with_defaults)))
             });
             let job = Job {
                 link: m.link,
-                client: (m.header.system_id as u8, m.header.component_id as u8),
+                client: (m.header.system_id as u8, m.header.component_id),
                 request,
                 param_pack,
             };

@@ -282,3 +282,25 @@ fn files_trait_reads_past_the_end_as_empty() {
     let mut buf = [0u8; 8];
     assert_eq!(c.files.read(&mut h, 10, &mut buf).unwrap(), 0);
 }
+
+#[test]
+fn a_long_burst_stops_and_the_client_continues_where_it_ended() {
+    let mut c = Client::new("long");
+    let body: Vec<u8> = (0..100_000u32).map(|i| (i % 253) as u8).collect();
+    std::fs::write(c.dir.join("big"), &body).unwrap();
+    c.one(Opcode::OpenFileRO, 0, 0, b"big");
+    let mut got = Vec::new();
+    let mut bursts = 0;
+    while got.len() < body.len() {
+        let burst = c.send(Opcode::BurstReadFile, 0, got.len() as u32, &[]);
+        bursts += 1;
+        assert!(burst.len() <= 64, "a burst is bounded");
+        assert!(burst.last().unwrap().burst_complete);
+        for r in burst.iter().filter(|r| acked(r)) {
+            assert_eq!(r.offset as usize, got.len());
+            got.extend_from_slice(&r.data);
+        }
+    }
+    assert_eq!(got, body);
+    assert_eq!(bursts, body.len().div_ceil(64 * MAX_DATA));
+}
