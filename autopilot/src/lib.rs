@@ -25,6 +25,8 @@
 //! - [`edge`]: the runner `furrow sitl` and `furrow run` share: one tokio
 //!   runtime, the links, the data directory, the loop and its clocks.
 //! - [`link`]: sockets, serial ports, framing, signing, routing, tlog.
+//! - [`ftp`]: MAVLink FTP (the protocol pure, its file I/O on a worker
+//!   thread at the edge).
 //! - [`logging`]: onboard DataFlash logs: records built by the core,
 //!   written and served over MAVLink at the edge, read by `furrow logs`.
 //! - [`sitl`]: `furrow sitl`: the simulated world stepped with the core, as
@@ -40,6 +42,7 @@ pub mod control;
 pub mod edge;
 pub mod estimation;
 pub mod fence;
+pub mod ftp;
 pub mod geo;
 pub mod guidance;
 pub mod link;

@@ -13,6 +13,7 @@ use tokio::sync::oneshot;
 
 use super::clock::InstantTimer;
 use super::persistence::Persistence;
+use crate::ftp::service::FtpService;
 use crate::link::hub::{self, CoreChannels, HubConfig, LinkRuntime, ToCore};
 use crate::link::sockets::LinkSockets;
 use crate::vehicle::{Core, Inbound, Inputs, Outbound, Outputs, SaveRequest};
@@ -92,8 +93,10 @@ impl EdgeRunner {
             shutdown.await;
             let _ = stop_tx.send(());
         });
+        let ftp = FtpService::start(persistence.dir(), channels.outbound.clone());
         let mut edge = Edge {
             origin: self.origin,
+            ftp,
             links,
             channels,
             persistence,
@@ -113,6 +116,8 @@ impl EdgeRunner {
 /// The loop's side of the links and the data directory.
 struct Edge {
     origin: Instant,
+    /// Answers FILE_TRANSFER_PROTOCOL on a thread of its own.
+    ftp: FtpService,
     links: LinkRuntime,
     channels: CoreChannels,
     persistence: Persistence,
@@ -172,6 +177,7 @@ impl Edge {
             match item {
                 ToCore::Event(e) => platform.inputs_mut().link_events.push(e),
                 ToCore::Message(m) => {
+                    self.ftp.offer(std::slice::from_ref(&m), platform.core());
                     if !platform.answer_at_edge(&m, wall, &mut self.replies) {
                         platform.inputs_mut().messages.push(m);
                     }
