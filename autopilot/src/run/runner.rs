@@ -95,6 +95,7 @@ pub fn run(config_path: &Path) -> Result<(), String> {
     let trims = servo_trims(&core);
     let actuators = PwmActuators::start(&config.pwm, &trims, 3 * period);
 
+    let mut logger = crate::logging::edge::Logger::start(data_dir.path(), channels.outbound.clone());
     let shutdown = shutdown_on_signal();
     let tcp = links.bound.tcp.map_or("none".into(), |a| a.to_string());
     let udp = links.bound.udp_local.map_or("none".into(), |a| a.to_string());
@@ -146,6 +147,7 @@ pub fn run(config_path: &Path) -> Result<(), String> {
             }
         }
         forward(&mut outputs, &channels.outbound, &mut dropped_out);
+        logger.send(&mut outputs.log);
         persistence.save(std::mem::take(&mut outputs.saves), &core, &session);
         links.set_sign_require_mask(core.sign_require_mask());
 
@@ -172,12 +174,14 @@ pub fn run(config_path: &Path) -> Result<(), String> {
             inputs.undecodable_items.clear();
             inputs.saved.clear();
             forward(&mut outputs, &channels.outbound, &mut dropped_out);
+            logger.send(&mut outputs.log);
             persistence.save(std::mem::take(&mut outputs.saves), &core, &session);
             links.set_sign_require_mask(core.sign_require_mask());
         }
     }
     actuators.to_trim();
     persistence.finish();
+    crate::logging::edge::report(logger);
     let ticks = core.scheduler().tick_stats();
     tracing::info!(
         "stopped after {:.1} s: tick median {:.2} µs, p99 {:.2} µs, {} overruns, {} late ticks, {} watchdog trims, {} corrections dropped, {} messages dropped to links",

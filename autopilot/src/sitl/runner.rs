@@ -162,6 +162,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
     })
     .map_err(|e| format!("MAVLink links: {e}"))?;
 
+    let mut logger = crate::logging::edge::Logger::start(data_dir.path(), channels.outbound.clone());
     let shutdown = shutdown_on_signal();
     let tcp = links.bound.tcp.map_or("none".into(), |a| a.to_string());
     let udp = links.bound.udp_local.map_or("none".into(), |a| a.to_string());
@@ -198,6 +199,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         let outputs = sim.step(start.elapsed(), &mut timer);
         let saves = std::mem::take(&mut outputs.saves);
         forward(outputs, &channels.outbound, &mut dropped_out);
+        logger.send(&mut outputs.log);
         persistence.save(saves, sim.core(), &session);
         links.set_sign_require_mask(sim.core().sign_require_mask());
         if let Some(watch) = &mut world_watch {
@@ -212,12 +214,14 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
                 let outputs = sim.service_links(start.elapsed());
                 let saves = std::mem::take(&mut outputs.saves);
                 forward(outputs, &channels.outbound, &mut dropped_out);
+                logger.send(&mut outputs.log);
                 persistence.save(saves, sim.core(), &session);
                 links.set_sign_require_mask(sim.core().sign_require_mask());
             }
         }
     }
     persistence.finish();
+    crate::logging::edge::report(logger);
     let ticks = sim.core().scheduler().tick_stats();
     tracing::info!(
         "SITL stopped after {:.1} s simulated in {:.1} s: tick median {:.2} µs, p99 {:.2} µs, {} overruns, {} pacing restarts, {} messages dropped to links, {} late ticks",
