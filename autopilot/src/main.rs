@@ -26,6 +26,8 @@ enum Command {
     Sitl(SitlArgs),
     /// Read and change the stored parameters offline; import and export .param/.params files.
     Params(autopilot::offline::params::ParamsArgs),
+    /// The onboard logs (DataFlash .BIN): list a data directory's, summarise one, export CSV, plot the cross-track.
+    Logs(autopilot::offline::logs::LogsArgs),
     /// Import, export and list the stored mission, fence and rally plans offline (.waypoints, .plan).
     Mission(autopilot::offline::mission::MissionArgs),
     /// Drive a real vehicle: devices, outputs and MAVLink endpoints from a configuration file.
@@ -219,6 +221,7 @@ fn main() -> ExitCode {
         }
         Command::Params(args) => autopilot::offline::params::run(&args),
         Command::Mission(args) => autopilot::offline::mission::run(&args),
+        Command::Logs(args) => autopilot::offline::logs::run(&args),
         Command::Config { action } => autopilot::offline::config::run(&action),
         Command::Run { config } => autopilot::run::runner::run(&config),
         Command::Status(args) => autopilot::run::status::run(&args),

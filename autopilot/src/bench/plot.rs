@@ -18,8 +18,30 @@ pub enum Class {
     Other,
 }
 
+/// What the figure calls its series: the bench plots the truth, a log
+/// the vehicle's own estimate.
+#[derive(Clone, Debug)]
+pub struct Labels {
+    pub track_caption: String,
+    pub planned: String,
+    pub track: String,
+    pub error_caption: String,
+}
+
+impl Default for Labels {
+    fn default() -> Self {
+        Labels {
+            track_caption: "planned path and true track".into(),
+            planned: "planned path (straights and corner arcs)".into(),
+            track: "true track (rear axle)".into(),
+            error_caption: "lateral error of the true pose (mm) along the distance driven".into(),
+        }
+    }
+}
+
 #[derive(Default)]
 pub struct PlotData {
+    pub labels: Labels,
     /// Each leg's planned path up to its end, (east, north).
     legs: Vec<Vec<(f64, f64)>>,
     /// The true track, (east, north).
@@ -37,6 +59,11 @@ impl PlotData {
                 (p.east_m, p.north_m)
             })
             .collect();
+        self.legs.push(points);
+    }
+
+    /// A planned path given by its points (east, north).
+    pub fn add_leg_points(&mut self, points: Vec<(f64, f64)>) {
         self.legs.push(points);
     }
 
@@ -69,7 +96,7 @@ fn draw(path: &Path, title: &str, data: &PlotData) -> Result<(), Box<dyn std::er
     let half = 0.5 * (e1 - e0).max(n1 - n0) + 5.0;
     let (ec, nc) = (0.5 * (e0 + e1), 0.5 * (n0 + n1));
     let mut map = ChartBuilder::on(&map_area)
-        .caption(format!("{title}: planned path and true track"), ("sans-serif", 22))
+        .caption(format!("{title}: {}", data.labels.track_caption), ("sans-serif", 22))
         .margin(15)
         .x_label_area_size(40)
         .y_label_area_size(50)
@@ -83,12 +110,12 @@ fn draw(path: &Path, title: &str, data: &PlotData) -> Result<(), Box<dyn std::er
         let series = map.draw_series(LineSeries::new(leg.iter().copied(), BLUE.stroke_width(3)))?;
         if i == 0 {
             series
-                .label("planned path (straights and corner arcs)")
+                .label(data.labels.planned.as_str())
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(3)));
         }
     }
     map.draw_series(LineSeries::new(data.track.iter().copied(), RED.stroke_width(1)))?
-        .label("true track (rear axle)")
+        .label(data.labels.track.as_str())
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
     map.configure_series_labels()
         .position(SeriesLabelPosition::LowerRight)
@@ -107,10 +134,7 @@ fn draw(path: &Path, title: &str, data: &PlotData) -> Result<(), Box<dyn std::er
         .min(200.0)
         * 1.1;
     let mut chart = ChartBuilder::on(&error_area)
-        .caption(
-            "lateral error of the true pose (mm) along the distance driven",
-            ("sans-serif", 18),
-        )
+        .caption(data.labels.error_caption.as_str(), ("sans-serif", 18))
         .margin(15)
         .x_label_area_size(40)
         .y_label_area_size(50)

@@ -14,6 +14,7 @@ use tokio::sync::oneshot;
 use super::clock::InstantTimer;
 use super::persistence::Persistence;
 use crate::ftp::service::FtpService;
+use crate::logging::edge::Logger;
 use crate::link::hub::{self, CoreChannels, HubConfig, LinkRuntime, ToCore};
 use crate::link::sockets::LinkSockets;
 use crate::vehicle::{Core, Inbound, Inputs, Outbound, Outputs, SaveRequest};
@@ -94,8 +95,10 @@ impl EdgeRunner {
             let _ = stop_tx.send(());
         });
         let ftp = FtpService::start(persistence.dir(), channels.outbound.clone());
+        let logger = Logger::start(persistence.dir(), channels.outbound.clone());
         let mut edge = Edge {
             origin: self.origin,
+            logger,
             ftp,
             links,
             channels,
@@ -107,8 +110,10 @@ impl EdgeRunner {
         self.runtime.block_on(edge.drive(platform, stop));
         platform.stop(edge.wall(), edge.dropped_to_links);
         edge.persistence.finish();
+        let Edge { links, logger, .. } = edge;
+        crate::logging::edge::report(logger);
         // The hub saves the signing timestamp as it stops.
-        drop(edge);
+        drop(links);
         Ok(())
     }
 }
@@ -118,6 +123,8 @@ struct Edge {
     origin: Instant,
     /// Answers FILE_TRANSFER_PROTOCOL on a thread of its own.
     ftp: FtpService,
+    /// Writes the core's onboard log records off the core's thread.
+    logger: Logger,
     links: LinkRuntime,
     channels: CoreChannels,
     persistence: Persistence,
@@ -199,6 +206,7 @@ impl Edge {
             }
             self.send_to_links(out);
         }
+        self.logger.send(&mut outputs.log);
         std::mem::take(&mut outputs.saves)
     }
 

@@ -2,5 +2,6 @@
 //! runs on it.
 
 pub mod config;
+pub mod logs;
 pub mod mission;
 pub mod params;

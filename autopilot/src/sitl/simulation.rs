@@ -201,6 +201,9 @@ impl Simulation {
     /// since start (what GCS-facing timers use). Returns this step's outputs
     /// (their MAVLink messages accumulate until the caller drains them).
     pub fn step(&mut self, wall: Duration, timer: &mut dyn TaskTimer) -> &mut Outputs {
+        // The log's commands are this call's alone (a caller that wants
+        // them takes them after each call).
+        self.outputs.log.clear();
         let period = self.core.loop_period();
         let actuators = self.faults.actuate(self.outputs.actuators, self.core.is_armed());
         self.world.step(period, &actuators);
@@ -293,6 +296,7 @@ impl Simulation {
     /// Between steps: the core answers the link traffic queued in the inputs
     /// at once (link events and messages); sensors wait for the next step.
     pub fn service_links(&mut self, wall: Duration) -> &mut Outputs {
+        self.outputs.log.clear();
         let now = self.world.time();
         if self.faults.core_stalled(now) {
             return &mut self.outputs;

@@ -229,6 +229,7 @@ impl Core {
     /// The achieved stop error, as the estimate has it once the vehicle
     /// rests: what an integrator checks a docking against.
     fn report_stop(&mut self, report: &StopReport) {
+        self.log_stop_report(report);
         let which = report.seq.map_or(String::new(), |seq| format!(" #{seq}"));
         let verdict = if report.within_tolerance {
             "in tolerance"

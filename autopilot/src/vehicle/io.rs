@@ -124,6 +124,9 @@ pub struct Outputs {
     pub mavlink: Vec<Outbound>,
     /// Saves to do and report in [`Inputs::saved`] (see `Storage`).
     pub saves: Vec<super::SaveRequest>,
+    /// For the onboard log's writer (records, files to open and close,
+    /// ground stations' LOG_* requests).
+    pub log: Vec<crate::logging::LogCommand>,
 }
 
 impl Default for Outputs {
@@ -136,6 +139,7 @@ impl Default for Outputs {
             servo_pwm_us: [0; 16],
             mavlink: Vec::new(),
             saves: Vec::new(),
+            log: Vec::new(),
         }
     }
 }

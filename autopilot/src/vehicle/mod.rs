@@ -17,6 +17,7 @@ mod mission_protocol;
 mod mission_state;
 mod modes;
 mod obstacles;
+mod onboard_log;
 mod param_protocol;
 pub mod params;
 mod persistence;
@@ -109,6 +110,7 @@ pub struct Core {
     startup_notices: Vec<(MavSeverity, String)>,
     last_boot: Option<Duration>,
     persist: persistence::PersistState,
+    onboard_log: onboard_log::LogState,
     now: Now,
     outbox: Vec<Outbound>,
     counters: CoreCounters,
@@ -155,6 +157,7 @@ impl Core {
             startup_notices: Vec::new(),
             last_boot: None,
             persist: persistence::PersistState::default(),
+            onboard_log: onboard_log::LogState::default(),
             now: Now::default(),
             outbox: Vec::new(),
             counters: CoreCounters::default(),
@@ -201,9 +204,11 @@ impl Core {
             }
             self.sched.record(i, timer.now_ns().saturating_sub(started));
         }
+        self.log_tick(inputs.gnss.len());
         self.request_param_save();
         out.saves.append(&mut self.persist.take_requests());
         out.mavlink.append(&mut self.outbox);
+        out.log.append(&mut self.onboard_log.take_commands());
         self.sched.record_tick(timer.now_ns().saturating_sub(tick_start));
     }
 
@@ -220,6 +225,7 @@ impl Core {
         self.request_param_save();
         out.saves.append(&mut self.persist.take_requests());
         out.mavlink.append(&mut self.outbox);
+        out.log.append(&mut self.onboard_log.take_commands());
     }
 
     fn receive(&mut self, inputs: &Inputs) {
@@ -441,6 +447,7 @@ impl Core {
 
     /// Broadcasts a STATUSTEXT (chunked when longer than 50 characters).
     fn send_text(&mut self, severity: MavSeverity, text: &str) {
+        self.log_text(text);
         for chunk in statustext(severity, text, &mut self.statustext_id) {
             self.send(Destination::AllLinks, MavMessage::STATUSTEXT(chunk));
         }

@@ -340,7 +340,7 @@ impl Core {
     /// How much a heading in the local frame must turn to be a true heading
     /// at the vehicle (meridian convergence, plant-grid rotation): MAVLink
     /// headings are true.
-    fn true_heading_offset_rad(&self) -> f64 {
+    pub(super) fn true_heading_offset_rad(&self) -> f64 {
         let e = self.estimator.estimate();
         match self.frame() {
             Some(frame) => {
