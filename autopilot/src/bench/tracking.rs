@@ -38,6 +38,9 @@ const BUILT_IN: [(&str, &str); 2] = [
 
 /// Straights count from this far after a turn ends (bench README).
 const AFTER_TURN_M: f64 = 3.0;
+/// A stop's settling time runs from the vehicle first coming this close to
+/// the point (true pose) to the stop report.
+const SETTLE_WINDOW_M: f64 = 0.03;
 
 #[derive(clap::Args, Debug)]
 pub struct TrackingBenchArgs {
@@ -65,6 +68,25 @@ pub struct TrackingBenchArgs {
     /// gain does to the figures.
     #[arg(long = "param", value_parser = parse_param)]
     pub params: Vec<(String, f64)>,
+    /// Vehicle models to run each course with (repeatable). Default: both.
+    #[arg(long = "model", value_enum)]
+    pub models: Vec<BenchModel>,
+}
+
+/// `--model` of the tracking bench.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BenchModel {
+    Ackermann,
+    Differential,
+}
+
+impl BenchModel {
+    fn kind(self) -> ModelKind {
+        match self {
+            BenchModel::Ackermann => ModelKind::Ackermann,
+            BenchModel::Differential => ModelKind::Differential,
+        }
+    }
 }
 
 pub(crate) fn parse_param(text: &str) -> Result<(String, f64), String> {
@@ -100,6 +122,10 @@ pub struct StopRecord {
     /// How far the estimate was from the truth then.
     pub estimate_error_m: f64,
     pub estimate_yaw_error_rad: f64,
+    /// From first coming within [`SETTLE_WINDOW_M`] of the point (truth) to
+    /// the report; None if it never came that close.
+    pub settle_s: Option<f64>,
+    pub direction: Direction,
 }
 
 /// One run of one course with one seed.
@@ -110,6 +136,12 @@ pub struct RunRecord {
     pub trace: Vec<String>,
     pub straight_m: Vec<f64>,
     pub arc_m: Vec<f64>,
+    /// The same samples as `straight_m`/`arc_m`, split by the direction the
+    /// leg is driven in.
+    pub forward_straight_m: Vec<f64>,
+    pub reverse_straight_m: Vec<f64>,
+    pub forward_arc_m: Vec<f64>,
+    pub reverse_arc_m: Vec<f64>,
     pub stops: Vec<StopRecord>,
     pub plot: PlotData,
     pub core_tick_overruns: u64,
@@ -130,8 +162,13 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
     let (noise_mm, walk_mm) = (value("SIM_GPS_NOISE") * 1000.0, value("SIM_GPS_WALK") * 1000.0);
     let (rate_hz, heading_deg) = (value("SIM_GPS_RATE"), value("SIM_HDG_NOISE"));
     std::fs::create_dir_all(&args.out_dir).map_err(|e| format!("{}: {e}", args.out_dir.display()))?;
+    let models = if args.models.is_empty() {
+        vec![BenchModel::Ackermann, BenchModel::Differential]
+    } else {
+        args.models.clone()
+    };
     println!(
-        "furrow bench tracking: seeds 1..={}, Ackermann bench vehicle, RTK GNSS σ {noise_mm:.1} mm white + \
+        "furrow bench tracking: seeds 1..={}, bench vehicle {models:?}, RTK GNSS σ {noise_mm:.1} mm white + \
          {walk_mm:.1} mm walk (τ 60 s) per axis at {rate_hz:.0} Hz, dual-antenna heading σ {heading_deg:.3}°; \
          errors are of the true pose",
         args.seeds
@@ -144,7 +181,7 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
         "noise floor: the walk alone puts a perfectly estimated-and-controlled stop within 10 mm in {:.1} % of cases",
         100.0 * ceiling
     );
-    for course in &courses {
+    for (course, model) in courses.iter().flat_map(|c| models.iter().map(move |m| (c, *m))) {
         let started = std::time::Instant::now();
         let runs: Vec<RunRecord> = (1..=args.seeds)
             .map(|seed| {
@@ -152,6 +189,7 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
                     course,
                     &RunOptions {
                         seed,
+                        model: model.kind(),
                         heading_deg: args.heading_deg,
                         timeout_s: args.timeout_s,
                         keep_plot: seed == 1,
@@ -161,12 +199,20 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
                 )
             })
             .collect();
+        println!();
+        println!("# {:?}", model.kind());
         report(course, &runs, started.elapsed());
-        let svg = args.out_dir.join(format!("tracking-{}.svg", course.name));
+        report_directions(&runs);
+        report_settling(&runs);
+        let name = match model {
+            BenchModel::Ackermann => course.name.clone(),
+            BenchModel::Differential => format!("{}-differential", course.name),
+        };
+        let svg = args.out_dir.join(format!("tracking-{name}.svg"));
         plot::write_svg(&svg, &format!("{} (seed 1)", course.name), &runs[0].plot)?;
         println!("  plot: {}", svg.display());
         if args.trace {
-            let csv = args.out_dir.join(format!("tracking-{}.csv", course.name));
+            let csv = args.out_dir.join(format!("tracking-{name}.csv"));
             let mut text = String::from(TRACE_HEADER);
             for line in &runs[0].trace {
                 text.push_str(line);
@@ -229,6 +275,7 @@ const TRACE_HEADER: &str = "t_s,seq,piece,class,true_xtrack_mm,est_xtrack_mm,est
 
 struct RunOptions<'a> {
     seed: u64,
+    model: ModelKind,
     heading_deg: f64,
     timeout_s: f64,
     keep_plot: bool,
@@ -239,6 +286,7 @@ struct RunOptions<'a> {
 fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
     let RunOptions {
         seed,
+        model,
         heading_deg,
         timeout_s,
         keep_plot,
@@ -248,7 +296,7 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
     let config = SimulationConfig {
         home: course.home,
         home_heading_deg: heading_deg,
-        model: ModelKind::Ackermann,
+        model,
         seed,
         ..SimulationConfig::default()
     };
@@ -276,6 +324,7 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
     let mut odometer_m = 0.0;
     let mut turn_end_odometer_m = 0.0;
     let mut last_heading: Option<f64> = None;
+    let mut within_since_s: Option<f64> = None;
     let mut ticks = 0u64;
     while sim.time().as_secs_f64() - start_s < timeout_s {
         let outputs = sim.step(Duration::ZERO, &mut timer);
@@ -316,6 +365,7 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
         if leg != Some(key) {
             leg = Some(key);
             piece = 0;
+            within_since_s = None;
             // A leg that starts with a change of heading and no arc is a
             // turn too (a corner too tight for an arc).
             let start_heading = path.heading_at(0.0);
@@ -338,13 +388,24 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
         }
         // Only while the vehicle drives the leg (not resting at a stop).
         let moving = truth.speed_mps.abs() > 0.01;
+        let reverse = target.direction == Direction::Reverse;
         let class = if !moving {
             plot::Class::Other
         } else if on_arc {
             record.arc_m.push(error);
+            if reverse {
+                record.reverse_arc_m.push(error);
+            } else {
+                record.forward_arc_m.push(error);
+            }
             plot::Class::Arc
         } else if odometer_m - turn_end_odometer_m >= AFTER_TURN_M {
             record.straight_m.push(error);
+            if reverse {
+                record.reverse_straight_m.push(error);
+            } else {
+                record.forward_straight_m.push(error);
+            }
             plot::Class::Straight
         } else {
             plot::Class::Other
@@ -377,6 +438,10 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
             record.plot.add_sample(position, odometer_m, error, class);
         }
 
+        let to_go_m = (path.end_m() - projection.along_m).hypot(error);
+        if target.stop && to_go_m <= SETTLE_WINDOW_M && within_since_s.is_none() {
+            within_since_s = Some(sim.time().as_secs_f64());
+        }
         for text in texts.iter().filter(|t| t.starts_with("Stop")) {
             let (reported_mm, reported_yaw_deg) = parse_reported(text).unwrap_or((f64::NAN, f64::NAN));
             let flip = if target.direction == Direction::Reverse {
@@ -395,6 +460,8 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
                 reported_yaw_deg,
                 estimate_error_m: core.estimator().estimate().position.distance_to(&position),
                 estimate_yaw_error_rad: wrap_pi(core.estimator().estimate().yaw_rad - yaw),
+                settle_s: within_since_s.map(|t| sim.time().as_secs_f64() - t),
+                direction: target.direction,
             });
         }
         if core.mission_state() == ExecState::Complete && core.navigator().target().is_none() {
@@ -559,6 +626,62 @@ fn report(course: &Course, runs: &[RunRecord], wall: Duration) {
     }
     let overruns: u64 = runs.iter().map(|r| r.core_tick_overruns).sum();
     println!("core tick overruns: {overruns}");
+}
+
+/// Cross-track error by the direction each leg is driven in (the main table
+/// mixes both).
+fn report_directions(runs: &[RunRecord]) {
+    println!();
+    println!("| lateral error by direction (true pose) | samples | RMS mm | p95 mm | p99 mm | max mm |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    type Pick = fn(&RunRecord) -> &Vec<f64>;
+    let rows: [(&str, Pick); 4] = [
+        ("straights forward", |r| &r.forward_straight_m),
+        ("straights reverse", |r| &r.reverse_straight_m),
+        ("arcs forward", |r| &r.forward_arc_m),
+        ("arcs reverse", |r| &r.reverse_arc_m),
+    ];
+    for (label, pick) in rows {
+        let errors: Vec<f64> = runs.iter().flat_map(|r| pick(r).iter().copied()).collect();
+        match error_figures(errors.iter().copied()) {
+            Some((rms, p95, p99, max)) => println!(
+                "| {label} | {} | {rms:.1} | {p95:.1} | {p99:.1} | {max:.1} |",
+                errors.len()
+            ),
+            None => println!("| {label} | 0 | – | – | – | – |"),
+        }
+    }
+}
+
+/// How long stops take to settle: from first coming within 30 mm of the
+/// point (true pose) to the stop report, by direction of the approach.
+fn report_settling(runs: &[RunRecord]) {
+    println!();
+    println!(
+        "| stop settling (within 30 mm → report) | stops | median s | p95 s | max s | worst stop | never within 30 mm |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|");
+    for (label, direction) in [("forward", Direction::Forward), ("reverse", Direction::Reverse)] {
+        let stops: Vec<&StopRecord> = runs
+            .iter()
+            .flat_map(|r| r.stops.iter())
+            .filter(|s| s.direction == direction)
+            .collect();
+        let never = stops.iter().filter(|s| s.settle_s.is_none()).count();
+        let mut times: Vec<(f64, u16)> = stops.iter().filter_map(|s| s.settle_s.map(|t| (t, s.seq))).collect();
+        times.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let Some(&(max_s, worst_seq)) = times.last() else {
+            println!("| {label} | {} | – | – | – | – | {never} |", stops.len());
+            continue;
+        };
+        let seconds: Vec<f64> = times.iter().map(|t| t.0).collect();
+        println!(
+            "| {label} | {} | {:.1} | {:.1} | {max_s:.1} | #{worst_seq} | {never} |",
+            stops.len(),
+            quantile(&seconds, 0.5),
+            quantile(&seconds, 0.95),
+        );
+    }
 }
 
 #[cfg(test)]

@@ -247,6 +247,9 @@ impl Core {
             MavSeverity::MAV_SEVERITY_WARNING
         };
         self.send_text(severity, &text);
+        if let Some(truth) = self.true_stop_text(report) {
+            self.send_text(MavSeverity::MAV_SEVERITY_INFO, &truth);
+        }
     }
 
     fn manual_demand(&self) -> Demand {

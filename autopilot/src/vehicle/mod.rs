@@ -21,6 +21,7 @@ mod onboard_log;
 mod param_protocol;
 pub mod params;
 mod persistence;
+mod sim_truth;
 mod telemetry;
 
 use std::collections::BTreeMap;
@@ -45,7 +46,9 @@ use crate::time::{Now, TaskTimer};
 
 pub use drive::DriveState;
 pub use failsafe::{Failsafe, FailsafeAction};
-pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, PeerId, ScanInput, UndecodableItem};
+pub use io::{
+    Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, PeerId, ScanInput, SimTruth, UndecodableItem,
+};
 pub use obstacles::ObstacleStatus;
 pub use params::CoreParams;
 pub use persistence::{SaveDone, SaveRequest, SaveWhat, Storage};
@@ -95,6 +98,8 @@ pub struct Core {
     missions: mission_state::MissionState,
     battery: Option<BatterySample>,
     magnetic_sample: Option<MagneticSample>,
+    /// The simulator's true pose of this tick (SITL only).
+    sim_truth: Option<SimTruth>,
     magnetic: magnetic::MagneticState,
     obstacles: obstacles::ObstacleState,
     failsafes: failsafe::FailsafeState,
@@ -146,6 +151,7 @@ impl Core {
             missions: mission_state::MissionState::new(mission::Plans::default()),
             battery: None,
             magnetic_sample: None,
+            sim_truth: None,
             magnetic: magnetic::MagneticState::default(),
             obstacles: obstacles::ObstacleState::default(),
             failsafes: failsafe::FailsafeState::default(),
@@ -392,6 +398,7 @@ impl Core {
         if let Some(m) = inputs.magnetic {
             self.magnetic_sample = Some(m);
         }
+        self.sim_truth = inputs.sim_truth;
         self.read_scans(&inputs.scans);
         if self.home.is_none() && self.estimator.estimate().position_valid {
             self.set_home_to_current(false);
