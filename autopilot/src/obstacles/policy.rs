@@ -31,6 +31,13 @@
 //!
 //! At rest the current-velocity inputs describe a vehicle going nowhere, so
 //! whether it may start is judged on the at-resume inputs there as well.
+//! Starting (from rest, or resuming a held stop) is refused besides while
+//! any object is within the margin of the outline now, closing or not,
+//! confirmed, coasting or just lost from view (a prediction at time 0 for
+//! a track that is not tentative): someone standing against the side, or
+//! one who walked into the scanners' blind zone beside the body, is driven
+//! into by the first metre of a turn, and a gap that "is not closing" at
+//! rest says nothing about the motion about to begin.
 
 use std::cmp::Ordering;
 use std::fmt;
@@ -449,6 +456,9 @@ impl ObstaclePolicy {
         if let Some(cause) = field_stop(&[field]) {
             return Verdict::Stop(cause);
         }
+        if at_rest && let Some(prediction) = start_blocker(inputs) {
+            return Verdict::Stop(collision_cause(prediction));
+        }
 
         let mut stop: Option<&CollisionPrediction> = None;
         let mut passes: Vec<&CollisionPrediction> = Vec::new();
@@ -566,12 +576,33 @@ fn resume_blocker(inputs: &PolicyInputs, config: &PolicyConfig) -> Option<StopCa
     if let Some(cause) = field_stop(&[inputs.field, inputs.field_at_resume]) {
         return Some(cause);
     }
+    if let Some(prediction) = start_blocker(inputs) {
+        return Some(collision_cause(prediction));
+    }
     inputs
         .predictions_at_resume
         .iter()
         .filter(|p| respond(p, inputs, config, false) == Response::Stop)
         .fold(None, earliest)
         .map(collision_cause)
+}
+
+/// An object within the margin of the outline now (a prediction at time 0
+/// for a track that is not tentative, or no longer in the list): the
+/// vehicle may not start.
+fn start_blocker<'p>(inputs: &PolicyInputs<'p>) -> Option<&'p CollisionPrediction> {
+    inputs
+        .predictions_at_resume
+        .iter()
+        .filter(|p| p.time_s <= 0.0)
+        .filter(|p| {
+            inputs
+                .tracks
+                .iter()
+                .find(|t| t.id == p.track_id)
+                .is_none_or(|t| t.status != TrackStatus::Tentative)
+        })
+        .fold(None, earliest)
 }
 
 /// The stricter resume test after too many stop/go cycles: besides the

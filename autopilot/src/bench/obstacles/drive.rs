@@ -59,6 +59,8 @@ pub struct Setup {
     /// Something stays on the course for good (no detour): the run ends
     /// after a while at rest instead of completing.
     pub blocked_by_design: bool,
+    /// Print the true pose and clearance every 0.2 s (`--replay --verbose`).
+    pub trace: bool,
 }
 
 /// One run's figures, all from the truth.
@@ -229,7 +231,16 @@ pub fn drive_with(
             break;
         }
         judge.follow(&pose);
-        for text in texts.iter().filter(|t| t.starts_with("Obstacle stop")) {
+        for text in texts
+            .iter()
+            .filter(|t| t.starts_with("Obstacle") && !t.starts_with("Obstacle stop:"))
+        {
+            result.events.push(format!(
+                "t {:.2} {text} at {:.2},{:.2} v {:.2}",
+                pose.t_s, pose.north_m, pose.east_m, pose.speed_mps
+            ));
+        }
+        for text in texts.iter().filter(|t| t.starts_with("Obstacle stop:")) {
             result.stops += 1;
             let nearest_m = judge.nearest_m(&world, t_world, &pose);
             let blocked = limits.within_margin(nearest_m);
@@ -248,6 +259,22 @@ pub fn drive_with(
         }
         let rect = rectangle(&outline, &pose);
         let clearance_m = world.clearance_m(&rect, t_world);
+        if setup.trace && (pose.t_s * 50.0).round() as i64 % 10 == 0 {
+            println!(
+                "  t {:.2} at {:.3},{:.3} yaw {:.1}° v {:.4} clearance {:.3} m{}",
+                pose.t_s,
+                pose.north_m,
+                pose.east_m,
+                pose.yaw_rad.to_degrees(),
+                pose.speed_mps,
+                clearance_m,
+                if sim.core().obstacle_status().stopped {
+                    " (obstacle stop)"
+                } else {
+                    ""
+                }
+            );
+        }
         let moving = pose.speed_mps.abs() > MOVING_MPS;
         if moving {
             result.min_clearance_m = result.min_clearance_m.min(clearance_m);
