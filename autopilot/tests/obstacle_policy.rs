@@ -5,8 +5,8 @@
 use autopilot::geo::Ned;
 use autopilot::obstacles::field::{FieldConfig, FieldStatus, check_field, fields, warning_speed_limit};
 use autopilot::obstacles::policy::{
-    ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, StopCause, Verdict, distance_gained_m, pass_first_holds,
-    pass_first_requirement,
+    DECIDE_LEAD_S, ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, StopCause, Verdict, distance_gained_m,
+    pass_first_holds, pass_first_requirement,
 };
 use autopilot::obstacles::prediction::{CollisionPrediction, VehicleMotion, predict_collision};
 use autopilot::obstacles::{Footprint, Pose, Track, TrackStatus};
@@ -702,10 +702,15 @@ fn warning_hits_slow_the_vehicle() {
 /// A person crossing from the left who reaches the vehicle's lane 2.5 s
 /// from now, 0.3 m ahead of where the front bumper would touch it at 0.8 m/s.
 fn crossing_scene(t_s: f64) -> Scene {
+    crossing_scene_in(t_s, 2.5)
+}
+
+/// The same crossing, reaching the lane `reach_s` from now.
+fn crossing_scene_in(t_s: f64, reach_s: f64) -> Scene {
     let person = track(
         9,
-        0.8 * 2.5 + FOOTPRINT.front_m + 0.25 + 0.3,
-        -(0.3 + 0.25 + 2.5),
+        0.8 * reach_s + FOOTPRINT.front_m + 0.25 + 0.3,
+        -(0.3 + 0.25 + reach_s),
         0.0,
         1.0,
         0.25,
@@ -731,8 +736,16 @@ fn pass_first_off_stops_for_a_crossing_person() {
         time_s.is_some_and(|t| t < 3.0),
         "the person meets the front corner: {time_s:?}"
     );
+    // Further off than stopping from 0.8 m/s (0.95 s) plus the decision
+    // lead: hold the speed and look again.
     let mut policy = ObstaclePolicy::new();
     let status = policy.update(&scene.inputs(), &pass_config(false, 1.5));
+    assert_eq!(status.verdict, Verdict::Slow { limit_mps: 0.8 });
+    // Still coming a second later: stop, with the lead to spare.
+    let nearer = crossing_scene_in(1.0, 1.5);
+    let time_s = nearer.predictions.first().map_or(f64::NAN, |p| p.time_s);
+    assert!(time_s <= 0.15 + 0.8 + DECIDE_LEAD_S, "{time_s}");
+    let status = policy.update(&nearer.inputs(), &pass_config(false, 1.5));
     assert!(matches!(
         status.verdict,
         Verdict::Stop(StopCause::Collision { track_id: 9, .. })

@@ -14,6 +14,15 @@
 //! 4. Points in the warning field: slow to the speed that keeps them out of
 //!    the protective field.
 //!
+//! Without `pass_first` (which decides on the first prediction), a
+//! collision predicted further off than the vehicle needs to stop
+//! (`reaction_s` + v/`decel_mps2`) plus [`DECIDE_LEAD_S`] does not stop it
+//! yet: it holds its speed (no acceleration) and decides again next tick,
+//! with a track velocity that has had longer to settle. The stop, if it is
+//! still needed, comes with at least that lead; the tracker's velocity
+//! error over the last second of a 3 s horizon (a few tenths of a metre)
+//! would otherwise stop it for people about to pass clear of it.
+//!
 //! A stop is held until the way has been clear *as if already moving at the
 //! planned speed* (`field_at_resume`, `predictions_at_resume`) continuously
 //! for `resume_s`: judging it at standstill would always find it clear and
@@ -55,6 +64,9 @@ const MIN_FOLLOW_SPEED_MPS: f64 = 0.1;
 pub const CYCLE_WINDOW_S: f64 = 5.0;
 /// The protective field as the "object" of a stop/go cycle.
 const FIELD_OBJECT: u32 = u32::MAX;
+/// A moving vehicle stops for a predicted collision no later than this
+/// long before it would need to (s).
+pub const DECIDE_LEAD_S: f64 = 1.0;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PolicyConfig {
@@ -77,6 +89,9 @@ pub struct PolicyConfig {
     /// OA_STOP_CYCLES: stop/go cycles for one object before the stop turns
     /// patient; 0 never.
     pub stop_cycles: u32,
+    /// OA_REACT_TIME and OA_DECEL: the time to stop from a speed.
+    pub reaction_s: f64,
+    pub decel_mps2: f64,
 }
 
 impl Default for PolicyConfig {
@@ -91,6 +106,8 @@ impl Default for PolicyConfig {
             stop_horizon_s: 3.0,
             scan_timeout_s: 0.2,
             stop_cycles: 3,
+            reaction_s: 0.15,
+            decel_mps2: 1.0,
         }
     }
 }
@@ -281,7 +298,11 @@ struct HeldStop {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Response {
     Ignore,
-    Follow { limit_mps: f64 },
+    Follow {
+        limit_mps: f64,
+    },
+    /// Too far off to stop for yet: hold the current speed.
+    Hold,
     PassFirst,
     Stop,
 }
@@ -464,11 +485,25 @@ impl ObstaclePolicy {
         let mut passes: Vec<&CollisionPrediction> = Vec::new();
         let mut slow_mps = inputs.warning_limit_mps.map(|l| l.max(0.0));
         let allow_pass = config.pass_first && !at_rest;
+        // Pass-first (seed 004) decides on the first prediction.
+        let defer = !at_rest && !config.pass_first;
         for prediction in predictions {
-            match respond(prediction, inputs, config, allow_pass) {
+            let response = match respond(prediction, inputs, config, allow_pass) {
+                Response::Stop
+                    if defer && prediction.time_s > stopping_time_s(inputs.speed_mps, config) + DECIDE_LEAD_S =>
+                {
+                    Response::Hold
+                }
+                response => response,
+            };
+            match response {
                 Response::Ignore => {}
                 Response::Stop => stop = earliest(stop, prediction),
                 Response::Follow { limit_mps } => slow_mps = Some(slow_mps.map_or(limit_mps, |s| s.min(limit_mps))),
+                Response::Hold => {
+                    let limit_mps = inputs.speed_mps.abs();
+                    slow_mps = Some(slow_mps.map_or(limit_mps, |s| s.min(limit_mps)));
+                }
                 Response::PassFirst => passes.push(prediction),
             }
         }
@@ -529,6 +564,16 @@ impl ObstaclePolicy {
             self.passing_track = None;
         }
         Verdict::Go
+    }
+}
+
+/// Reaction and braking time from `speed_mps` (infinite without a usable
+/// deceleration: then nothing is put off).
+fn stopping_time_s(speed_mps: f64, config: &PolicyConfig) -> f64 {
+    if config.decel_mps2 > 0.0 {
+        config.reaction_s.max(0.0) + speed_mps.abs() / config.decel_mps2
+    } else {
+        f64::INFINITY
     }
 }
 

@@ -228,6 +228,8 @@ impl Core {
             stop_horizon_s: f64::from(a.horizon_s.get(t)),
             scan_timeout_s: f64::from(a.scan_timeout_s.get(t)),
             stop_cycles: u32::try_from(a.stop_cycles.get(t)).unwrap_or(0),
+            reaction_s: f64::from(a.reaction_s.get(t)),
+            decel_mps2: f64::from(a.decel_mps2.get(t)),
         }
     }
 
