@@ -218,8 +218,15 @@ pub fn replay(seed: u64, params: &[(String, f64)], trace: bool) -> Result<(), St
         println!("{event}");
     }
     println!(
-        "completed {:?} s (empty {:?} s), collisions {}, stops {}, false stops {}, stalls {}, min clearance {:.3} m",
-        r.completion_s, log.completion_s, r.collisions, r.stops, r.false_stops, r.stalls, r.min_clearance_m
+        "completed {:?} s (empty {:?} s), collisions {} ({} unavoidable), stops {}, false stops {}, stalls {}, min clearance {:.3} m",
+        r.completion_s,
+        log.completion_s,
+        r.collisions,
+        r.unavoidable,
+        r.stops,
+        r.false_stops,
+        r.stalls,
+        r.min_clearance_m
     );
     Ok(())
 }
