@@ -150,7 +150,6 @@ fn posts_beside_a_straight_lane() {
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
 fn posts_inside_an_arc() {
     neighbours(Object::Post, Where::ArcInside);
 }
