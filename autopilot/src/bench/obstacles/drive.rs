@@ -9,7 +9,7 @@ use drivers::sim::{ObstacleWorld, VehicleOutline};
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mission::{ExecState, MissionType, Plan};
 
-use super::truth::{Judge, Limits, MOVING_MPS, Pose, STALL_S, TruthLog, rectangle};
+use super::truth::{Judge, Limits, MOVING_MPS, Pose, STALL_S, TruthLog, on_its_line_s, rectangle};
 use crate::edge::clock::InstantTimer;
 use crate::geo::{GeoPoint, LocalFrame, Ned};
 use crate::obstacles::TrackStatus;
@@ -59,6 +59,8 @@ pub struct Setup {
     /// Something stays on the course for good (no detour): the run ends
     /// after a while at rest instead of completing.
     pub blocked_by_design: bool,
+    /// Print the true pose and clearance every 0.2 s (`--replay --verbose`).
+    pub trace: bool,
 }
 
 /// One run's figures, all from the truth.
@@ -66,6 +68,9 @@ pub struct Setup {
 pub struct RunResult {
     pub completion_s: Option<f64>,
     pub collisions: u32,
+    /// Of the collisions, those the vehicle could not have stopped for
+    /// (see [`super::truth`]).
+    pub unavoidable: u32,
     /// Smallest gap between the outline and an object while moving.
     pub min_clearance_m: f64,
     pub stops: u32,
@@ -219,17 +224,29 @@ pub fn drive_with(
     let mut braking: Option<(Pose, bool)> = None;
     let mut rest = RestWatch::default();
     let mut kf_recorded: Vec<u32> = Vec::new();
+    // The true speed at every tick, to judge collisions by.
+    let mut speeds: Vec<(f64, f64)> = Vec::new();
     let timeout_s = course_log.completion_s.unwrap_or(120.0) + OVERTIME_S;
     loop {
         let texts = statustexts(sim.step(Duration::ZERO, &mut timer));
         let pose = true_pose(&sim);
         let t_world = pose.t_s;
+        speeds.push((t_world, pose.speed_mps));
         if t_world - start_s > timeout_s {
             result.events.push(format!("t {t_world:.1} cut off"));
             break;
         }
         judge.follow(&pose);
-        for text in texts.iter().filter(|t| t.starts_with("Obstacle stop")) {
+        for text in texts
+            .iter()
+            .filter(|t| t.starts_with("Obstacle") && !t.starts_with("Obstacle stop:"))
+        {
+            result.events.push(format!(
+                "t {:.2} {text} at {:.2},{:.2} v {:.2}",
+                pose.t_s, pose.north_m, pose.east_m, pose.speed_mps
+            ));
+        }
+        for text in texts.iter().filter(|t| t.starts_with("Obstacle stop:")) {
             result.stops += 1;
             let nearest_m = judge.nearest_m(&world, t_world, &pose);
             let blocked = limits.within_margin(nearest_m);
@@ -248,6 +265,22 @@ pub fn drive_with(
         }
         let rect = rectangle(&outline, &pose);
         let clearance_m = world.clearance_m(&rect, t_world);
+        if setup.trace && (pose.t_s * 50.0).round() as i64 % 10 == 0 {
+            println!(
+                "  t {:.2} at {:.3},{:.3} yaw {:.1}° v {:.4} clearance {:.3} m{}",
+                pose.t_s,
+                pose.north_m,
+                pose.east_m,
+                pose.yaw_rad.to_degrees(),
+                pose.speed_mps,
+                clearance_m,
+                if sim.core().obstacle_status().stopped {
+                    " (obstacle stop)"
+                } else {
+                    ""
+                }
+            );
+        }
         let moving = pose.speed_mps.abs() > MOVING_MPS;
         if moving {
             result.min_clearance_m = result.min_clearance_m.min(clearance_m);
@@ -255,13 +288,18 @@ pub fn drive_with(
         let contact = moving && clearance_m <= 0.0;
         if contact && !in_contact {
             result.collisions += 1;
+            let why = unavoidable(&world, &rect, t_world, &speeds, &limits);
+            if why.is_some() {
+                result.unavoidable += 1;
+            }
             result.events.push(format!(
-                "t {:.2} COLLISION at {:.2},{:.2} yaw {:.1}° v {:.2}",
+                "t {:.2} COLLISION at {:.2},{:.2} yaw {:.1}° v {:.2}{}",
                 pose.t_s,
                 pose.north_m,
                 pose.east_m,
                 pose.yaw_rad.to_degrees(),
-                pose.speed_mps
+                pose.speed_mps,
+                why.unwrap_or_default()
             ));
         }
         in_contact = contact;
@@ -301,6 +339,41 @@ pub fn drive_with(
         .map(|(with, without)| with - without);
     result.malformed_scans = sim.malformed_scans();
     Ok(result)
+}
+
+/// Why a collision starting now was unavoidable (the object touching the
+/// outline had been on its line for less than the stopping time), or
+/// `None` when the vehicle could have stopped for it.
+fn unavoidable(
+    world: &ObstacleWorld,
+    rect: &drivers::sim::Rectangle,
+    t_s: f64,
+    speeds: &[(f64, f64)],
+    limits: &Limits,
+) -> Option<String> {
+    let touching = world.movers.iter().enumerate().filter(|(_, m)| {
+        m.shape_at(t_s)
+            .is_some_and(|shape| shape.distance_to_rectangle_m(rect) <= 0.0)
+    });
+    let statics_touch = world.statics.iter().any(|s| s.distance_to_rectangle_m(rect) <= 0.0);
+    let mut why = None;
+    for (index, mover) in touching {
+        let line_s = on_its_line_s(mover, t_s);
+        let since_s = t_s - line_s;
+        let speed_then = speeds
+            .iter()
+            .rev()
+            .find(|(t, _)| *t <= since_s)
+            .map_or(0.0, |(_, v)| *v);
+        let stopping_s = limits.stopping_s(speed_then);
+        if line_s >= stopping_s {
+            return None;
+        }
+        why = Some(format!(
+            " (unavoidable: mover {index} on its line {line_s:.2} s < stopping time {stopping_s:.2} s)"
+        ));
+    }
+    if statics_touch { None } else { why }
 }
 
 /// Watches the vehicle at rest: how long, and how long with the way clear.

@@ -55,7 +55,8 @@ pub struct ObstacleBenchArgs {
     /// Randomized runs (seeds 1..=N); 0 for none.
     #[arg(long, default_value_t = 5000)]
     pub random: u64,
-    /// Run randomized seed SEED alone and print what happened.
+    /// Run randomized seed SEED alone and print what happened (with
+    /// `--verbose`, the true pose every 0.2 s too).
     #[arg(long)]
     pub replay: Option<u64>,
     /// Worker threads (default: the machine's cores).
@@ -240,7 +241,7 @@ pub fn run(args: &ObstacleBenchArgs) -> Result<(), String> {
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
     if let Some(seed) = args.replay {
-        return random::replay(seed, &args.params);
+        return random::replay(seed, &args.params, args.verbose);
     }
     println!("# furrow bench obstacles");
     println!();

@@ -171,7 +171,8 @@ pub fn run_many(runs: u64, params: &[(String, f64)], threads: usize) -> Result<V
 }
 
 /// `--replay SEED`: the course, the people and every event of one run.
-pub fn replay(seed: u64, params: &[(String, f64)]) -> Result<(), String> {
+/// With `trace`, the true pose and clearance every 0.2 s as well.
+pub fn replay(seed: u64, params: &[(String, f64)], trace: bool) -> Result<(), String> {
     let c = course(course_of(seed));
     println!("# furrow bench obstacles --replay {seed}");
     println!();
@@ -198,7 +199,7 @@ pub fn replay(seed: u64, params: &[(String, f64)]) -> Result<(), String> {
     let log = super::drive::drive_empty(&c, course_of(seed) + 1, params)?;
     let sim = super::drive::build_sim(&c, course_of(seed) + 1, params)?;
     let (outline, limits) = super::drive::outline_and_limits(&sim);
-    let (setup, feasible) = people(seed, &log, &outline, &limits);
+    let (mut setup, feasible) = people(seed, &log, &outline, &limits);
     for m in &setup.world.movers {
         println!(
             "person: path {:?} at {:.2} m/s from t {:.2} s",
@@ -211,14 +212,21 @@ pub fn replay(seed: u64, params: &[(String, f64)]) -> Result<(), String> {
         );
     }
     println!("timing {}", if feasible { "feasible" } else { "infeasible" });
-    let outcome = run(seed, params, Some(&log))?;
-    for event in &outcome.result.events {
+    setup.trace = trace;
+    let r = super::drive::drive_with(&c, course_of(seed) + 1, params, &setup, &log)?;
+    for event in &r.events {
         println!("{event}");
     }
-    let r = &outcome.result;
     println!(
-        "completed {:?} s (empty {:?} s), collisions {}, stops {}, false stops {}, stalls {}, min clearance {:.3} m",
-        r.completion_s, log.completion_s, r.collisions, r.stops, r.false_stops, r.stalls, r.min_clearance_m
+        "completed {:?} s (empty {:?} s), collisions {} ({} unavoidable), stops {}, false stops {}, stalls {}, min clearance {:.3} m",
+        r.completion_s,
+        log.completion_s,
+        r.collisions,
+        r.unavoidable,
+        r.stops,
+        r.false_stops,
+        r.stalls,
+        r.min_clearance_m
     );
     Ok(())
 }

@@ -9,6 +9,7 @@ pub struct Tally {
     pub runs: usize,
     pub completed: usize,
     pub collisions: u32,
+    pub unavoidable: u32,
     pub false_stops: u32,
     pub stalls: u32,
     pub stops: u32,
@@ -34,6 +35,7 @@ impl Tally {
         self.runs += 1;
         self.completed += usize::from(r.completion_s.is_some());
         self.collisions += r.collisions;
+        self.unavoidable += r.unavoidable;
         self.false_stops += r.false_stops;
         self.stalls += r.stalls;
         self.stops += r.stops;
@@ -48,6 +50,11 @@ impl Tally {
         self.time_lost_s.extend(r.time_lost_s);
         self.kf_error_mps.extend(r.kf_velocity_error_mps.iter().copied());
         self.malformed_scans += r.malformed_scans;
+    }
+
+    /// Collisions, with the unavoidable ones among them.
+    fn collisions_text(&self) -> String {
+        format!("{} ({})", self.collisions, self.unavoidable)
     }
 
     fn lost_text(&self) -> String {
@@ -77,15 +84,15 @@ fn fmt(v: Option<f64>) -> String {
     v.map_or("–".to_string(), |v| format!("{v:.2}"))
 }
 
-/// How bad a run was, for picking the worst: collisions, then stalls, then
-/// false stops, then the smallest clearance.
+/// How bad a run was, for picking the worst: avoidable collisions, then
+/// stalls, then false stops, then the smallest clearance.
 fn badness(r: &super::RunResult) -> (u32, u32, u32, f64) {
     let clearance = if r.min_clearance_m.is_finite() {
         -r.min_clearance_m
     } else {
         f64::NEG_INFINITY
     };
-    (r.collisions, r.stalls, r.false_stops, clearance)
+    (r.collisions - r.unavoidable, r.stalls, r.false_stops, clearance)
 }
 
 fn worse(a: &super::RunResult, b: &super::RunResult) -> std::cmp::Ordering {
@@ -96,7 +103,7 @@ fn worse(a: &super::RunResult, b: &super::RunResult) -> std::cmp::Ordering {
 /// One row per scenario (a classic one per speed).
 pub fn scenario_table(scenarios: &[Scenario], outcomes: &[Outcome], verbose: bool) {
     println!(
-        "| scenario | runs | completed | collisions | false stops | stalls | stops | as required | min clearance m | clearance at rest m (min) | stop distance m (max) | time lost s (median / max) | KF |v| err after 1 s m/s (mean / max) | worst run |"
+        "| scenario | runs | completed | collisions (unavoidable) | false stops | stalls | stops | as required | min clearance m | clearance at rest m (min) | stop distance m (max) | time lost s (median / max) | KF |v| err after 1 s m/s (mean / max) | worst run |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---|");
     let mut total = Tally::default();
@@ -158,7 +165,7 @@ pub fn scenario_table(scenarios: &[Scenario], outcomes: &[Outcome], verbose: boo
                 tally.completed,
                 tally.runs,
                 if blocked { " (blocked by design)" } else { "" },
-                tally.collisions,
+                tally.collisions_text(),
                 tally.false_stops,
                 tally.stalls,
                 tally.stops,
@@ -177,8 +184,8 @@ pub fn scenario_table(scenarios: &[Scenario], outcomes: &[Outcome], verbose: boo
     }
     println!();
     println!(
-        "Scenario total: {} runs, {} collisions, {} false stops, {} stalls.",
-        total.runs, total.collisions, total.false_stops, total.stalls
+        "Scenario total: {} runs, {} collisions ({} unavoidable), {} false stops, {} stalls.",
+        total.runs, total.collisions, total.unavoidable, total.false_stops, total.stalls
     );
 }
 
@@ -186,7 +193,7 @@ pub fn scenario_table(scenarios: &[Scenario], outcomes: &[Outcome], verbose: boo
 /// worst run with its seed.
 pub fn random_table(outcomes: &[RandomOutcome], verbose: bool) {
     println!(
-        "| randomized | runs | completed | collisions | false stops | stalls | stops | min clearance m | time lost s (median / max) | worst run |"
+        "| randomized | runs | completed | collisions (unavoidable) | false stops | stalls | stops | min clearance m | time lost s (median / max) | worst run |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---|");
     for (label, feasible) in [("feasible timings", true), ("infeasible timings", false)] {
@@ -203,9 +210,10 @@ pub fn random_table(outcomes: &[RandomOutcome], verbose: bool) {
             .max_by(|a, b| worse(&a.result, &b.result))
             .map_or("–".to_string(), |o| {
                 format!(
-                    "seed {} ({} collisions, {} stalls, {} false stops, min clearance {})",
+                    "seed {} ({} collisions ({} unavoidable), {} stalls, {} false stops, min clearance {})",
                     o.seed,
                     o.result.collisions,
+                    o.result.unavoidable,
                     o.result.stalls,
                     o.result.false_stops,
                     fmt(Some(o.result.min_clearance_m).filter(|c| c.is_finite()))
@@ -216,7 +224,7 @@ pub fn random_table(outcomes: &[RandomOutcome], verbose: bool) {
             tally.runs,
             tally.completed,
             tally.runs,
-            tally.collisions,
+            tally.collisions_text(),
             tally.false_stops,
             tally.stalls,
             tally.stops,
@@ -225,5 +233,8 @@ pub fn random_table(outcomes: &[RandomOutcome], verbose: bool) {
         );
     }
     println!();
+    println!(
+        "Collisions (unavoidable): all collisions while moving, and in brackets those with an object on its straight line for less than the vehicle's stopping time (stepping out, turning or appearing too late to stop for)."
+    );
     println!("Replay a run with `furrow bench obstacles --replay SEED`.");
 }

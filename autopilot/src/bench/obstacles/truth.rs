@@ -30,8 +30,14 @@
 //!   person walking into a vehicle at rest is not one.
 //! - A **stall** is the vehicle at rest for more than 30 s, mission not
 //!   complete, with the way not blocked for all that time.
+//! - A collision is **unavoidable** when the object had been on the
+//!   straight line it hit the vehicle from (same true velocity, standing
+//!   included) for less than the vehicle's stopping time
+//!   (`OA_REACT_TIME` + |v|/`OA_DECEL`, v the true speed when that line
+//!   began): it stepped out, turned or appeared faster than the vehicle
+//!   can stop. Every other collision counts against the vehicle.
 
-use drivers::sim::{ObstacleWorld, Rectangle, Shape, VehicleOutline};
+use drivers::sim::{MovingObstacle, ObstacleWorld, Rectangle, Shape, VehicleOutline};
 
 /// Below this speed the vehicle is at rest (a collision needs more).
 pub const MOVING_MPS: f64 = 0.01;
@@ -43,6 +49,28 @@ pub const STALL_S: f64 = 30.0;
 pub const ON_THE_MARGIN_M: f64 = 0.005;
 /// Objects are moved along their velocity in steps of at most this far.
 const OBJECT_STEP_M: f64 = 0.05;
+/// How finely, and how far back, a mover's straight line is traced.
+const LINE_STEP_S: f64 = 0.02;
+const LINE_LOOKBACK_S: f64 = 60.0;
+
+/// How long before `t_s` the mover had been on its present straight line:
+/// the same velocity (standing counts), without vanishing.
+pub fn on_its_line_s(mover: &MovingObstacle, t_s: f64) -> f64 {
+    let Some((_, velocity)) = mover.state_at(t_s) else {
+        return 0.0;
+    };
+    let mut back_s = 0.0;
+    while back_s < LINE_LOOKBACK_S {
+        let same = mover
+            .state_at(t_s - back_s - LINE_STEP_S)
+            .is_some_and(|(_, v)| (v[0] - velocity[0]).abs() < 1e-9 && (v[1] - velocity[1]).abs() < 1e-9);
+        if !same {
+            break;
+        }
+        back_s += LINE_STEP_S;
+    }
+    back_s
+}
 
 /// One true pose of the vehicle's reference point (rear axle centre).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -126,6 +154,11 @@ impl Limits {
     /// Whether a gap to the swept outline is within `OA_MARGIN`.
     pub fn within_margin(&self, gap_m: f64) -> bool {
         gap_m <= self.margin_m + ON_THE_MARGIN_M
+    }
+
+    /// Reaction and braking time from speed `v`.
+    pub fn stopping_s(&self, speed_mps: f64) -> f64 {
+        self.reaction_s + speed_mps.abs() / self.decel_mps2
     }
 
     /// Reference-point travel the swept outline covers from speed `v`.
@@ -234,7 +267,6 @@ impl<'a> Judge<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use drivers::sim::MovingObstacle;
 
     fn straight_course(speed_mps: f64) -> TruthLog {
         let poses = (0..=2000)
@@ -335,5 +367,28 @@ mod tests {
             judge.follow(p);
         }
         assert!(judge.cursor > 900, "cursor {}", judge.cursor);
+    }
+
+    #[test]
+    fn a_walker_is_on_its_line_since_it_last_turned_or_started() {
+        let walker = MovingObstacle {
+            name: "p".into(),
+            shape: Shape::Circle {
+                center: [0.0, 0.0],
+                radius_m: 0.25,
+            },
+            path: vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0]],
+            speed_mps: 1.0,
+            start_s: 5.0,
+            looped: false,
+            vanish_at_end: true,
+        };
+        // Standing from the start until 5 s.
+        assert!((on_its_line_s(&walker, 4.0) - 4.0).abs() < 0.03);
+        // Walking: the first leg from 5 s (10 m to 15 s), the second from 15 s.
+        assert!((on_its_line_s(&walker, 8.0) - 3.0).abs() < 0.03);
+        assert!((on_its_line_s(&walker, 16.5) - 1.5).abs() < 0.03);
+        // Gone at 25 s.
+        assert_eq!(on_its_line_s(&walker, 26.0), 0.0);
     }
 }
