@@ -29,9 +29,7 @@
 //! - [`storage`]: the data directory and atomic persistence.
 //! - [`offline`]: tools on a data directory (`furrow params …`,
 //!   `furrow mission …`) and `furrow config check`.
-//! - [`bench`]: `furrow bench …`: benchmarks that print figures.
 
-pub mod bench;
 pub mod control;
 pub mod estimation;
 pub mod fence;

@@ -6,8 +6,8 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use crate::geo::Ned;
-use crate::guidance::path::LegPath;
+use autopilot::geo::Ned;
+use autopilot::guidance::path::LegPath;
 
 /// Which part of the course a sample belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -173,7 +173,7 @@ pub fn run_many(runs: u64, params: &[(String, f64)], threads: usize) -> Result<V
 /// `--replay SEED`: the course, the people and every event of one run.
 pub fn replay(seed: u64, params: &[(String, f64)]) -> Result<(), String> {
     let c = course(course_of(seed));
-    println!("# furrow bench obstacles --replay {seed}");
+    println!("# furrow-bench obstacles --replay {seed}");
     println!();
     println!(
         "course {} (seed {}): {:.2} m/s, {}, waypoints {:?}",

@@ -225,5 +225,5 @@ pub fn random_table(outcomes: &[RandomOutcome], verbose: bool) {
         );
     }
     println!();
-    println!("Replay a run with `furrow bench obstacles --replay SEED`.");
+    println!("Replay a run with `furrow-bench obstacles --replay SEED`.");
 }
