@@ -17,7 +17,7 @@
 //! - [`obstacles`]: scans to clusters to tracks, collision prediction along
 //!   the swept path, the stop/pass/detour policy.
 //! - [`modes`]: ArduPilot Rover's mode numbers, names and properties (what
-//!   each mode does each tick is in [`vehicle`]).
+//!   each mode does each tick is in `vehicle/modes/`, one file per mode).
 //! - [`fence`]: the geofence geometry.
 //! - [`telemetry`]: identity, STATUSTEXT and the per-link stream rates.
 //!

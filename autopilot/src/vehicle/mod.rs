@@ -4,14 +4,12 @@
 //! caller hands it this tick's inputs and takes its outputs.
 
 mod arming;
-mod auto;
 mod commands;
 mod drive;
 mod estimation;
 mod failsafe;
 mod geofence;
 mod io;
-mod magnetic;
 mod messages;
 mod mission_protocol;
 mod mission_state;
@@ -94,7 +92,7 @@ pub struct Core {
     missions: mission_state::MissionState,
     battery: Option<BatterySample>,
     magnetic_sample: Option<MagneticSample>,
-    magnetic: magnetic::MagneticState,
+    magnetic: modes::magnetic::MagneticState,
     obstacles: obstacles::ObstacleState,
     failsafes: failsafe::FailsafeState,
     /// Since when the drive demand has been neutral.
@@ -144,7 +142,7 @@ impl Core {
             missions: mission_state::MissionState::new(mission::Plans::default()),
             battery: None,
             magnetic_sample: None,
-            magnetic: magnetic::MagneticState::default(),
+            magnetic: modes::magnetic::MagneticState::default(),
             obstacles: obstacles::ObstacleState::default(),
             failsafes: failsafe::FailsafeState::default(),
             neutral_since: None,
