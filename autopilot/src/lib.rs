@@ -27,6 +27,7 @@
 //!   the runner that paces both against the wall clock.
 //! - [`run`]: `furrow run --config FILE`: the real vehicle.
 //! - [`storage`]: the data directory and atomic persistence.
+//! - [`logging`]: the stderr log every binary writes.
 //! - [`offline`]: tools on a data directory (`furrow params …`,
 //!   `furrow mission …`) and `furrow config check`.
 
@@ -36,6 +37,7 @@ pub mod fence;
 pub mod geo;
 pub mod guidance;
 pub mod link;
+pub mod logging;
 pub mod modes;
 pub mod obstacles;
 pub mod offline;

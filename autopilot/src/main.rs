@@ -163,11 +163,7 @@ fn utc_now_us() -> i64 {
 }
 
 fn main() -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .init();
+    autopilot::logging::init_stderr();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Sitl(args) => {

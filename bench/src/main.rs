@@ -32,11 +32,7 @@ enum BenchCommand {
 }
 
 fn main() -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .init();
+    autopilot::logging::init_stderr();
     let result = match Cli::parse().which {
         BenchCommand::Sitl(args) => furrow_bench::sitl::run(&args),
         BenchCommand::Tracking(args) => furrow_bench::tracking::run(&args),
