@@ -72,6 +72,9 @@ impl Core {
         self.apply_mission_actions(actions);
     }
 
+    /// The vehicle's side of each executor action. Long because it is one
+    /// flat arm per `Action` variant, each short; splitting it would hide
+    /// the list of what a mission can do.
     fn apply_mission_actions(&mut self, actions: Vec<Action>) {
         for action in actions {
             match action {
