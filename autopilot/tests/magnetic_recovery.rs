@@ -1,7 +1,7 @@
 //! Issue 22: MAGNETIC's guide gets back on the tape from the starts of "Path
 //! tracking of a wheeled AGV with double magnetic guide" (tilted right of
 //! the tape, tilted left of it, off it), on the paper's robot and on the
-//! bench AGV, in the simulated scenario (`furrow bench magnetic` runs the
+//! bench AGV, in the simulated scenario (`furrow-bench magnetic` runs the
 //! whole grid). Re-acquired: both sensors' true offsets within 10 mm from
 //! then to the end of the run.
 

@@ -14,9 +14,9 @@ use tokio::sync::oneshot;
 use super::clock::InstantTimer;
 use super::persistence::Persistence;
 use crate::ftp::service::FtpService;
-use crate::logging::edge::Logger;
 use crate::link::hub::{self, CoreChannels, HubConfig, LinkRuntime, ToCore};
 use crate::link::sockets::LinkSockets;
+use crate::logging::edge::Logger;
 use crate::vehicle::{Core, Inbound, Inputs, Outbound, Outputs, SaveRequest};
 
 /// The core with the devices around it: a simulated world, or a real

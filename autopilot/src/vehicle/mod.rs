@@ -4,14 +4,12 @@
 //! caller hands it this tick's inputs and takes its outputs.
 
 mod arming;
-mod auto;
 mod commands;
 mod drive;
 mod estimation;
 mod failsafe;
 mod geofence;
 mod io;
-mod magnetic;
 mod messages;
 mod mission_protocol;
 mod mission_state;
@@ -100,7 +98,7 @@ pub struct Core {
     magnetic_sample: Option<MagneticSample>,
     /// The simulator's true pose of this tick (SITL only).
     sim_truth: Option<SimTruth>,
-    magnetic: magnetic::MagneticState,
+    magnetic: modes::magnetic::MagneticState,
     obstacles: obstacles::ObstacleState,
     failsafes: failsafe::FailsafeState,
     /// Since when the drive demand has been neutral.
@@ -152,7 +150,7 @@ impl Core {
             battery: None,
             magnetic_sample: None,
             sim_truth: None,
-            magnetic: magnetic::MagneticState::default(),
+            magnetic: modes::magnetic::MagneticState::default(),
             obstacles: obstacles::ObstacleState::default(),
             failsafes: failsafe::FailsafeState::default(),
             neutral_since: None,

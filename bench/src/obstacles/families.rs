@@ -16,7 +16,7 @@ use drivers::sim::{Shape, VehicleOutline};
 use super::classic::{PERSON_RADIUS_M, person};
 use super::drive::{Course, Setup, Waypoint};
 use super::truth::{Pose, TruthLog, rectangle};
-use crate::sitl::simulation::{ModelKind, SimulationParams};
+use autopilot::sitl::simulation::{ModelKind, SimulationParams};
 
 /// Arc radii the seeds cycle through, m: the two ends first, so the
 /// default two seeds drive both.
@@ -469,7 +469,7 @@ impl Turn {
 }
 
 fn wrap(a: f64) -> f64 {
-    crate::geo::wrap_pi(a)
+    autopilot::geo::wrap_pi(a)
 }
 
 /// Places shapes at a true gap from the empty run's swept outline.

@@ -1,4 +1,4 @@
-//! `furrow bench obstacles`: obstacle scenarios driven in AUTO in-process at
+//! `furrow-bench obstacles`: obstacle scenarios driven in AUTO in-process at
 //! full speed (world with its obstacles, simulated scanners speaking CoLa-A
 //! to the real parser, the whole core), judged from the simulator's truth
 //! and the world alone, never from Furrow's own figures:
@@ -39,7 +39,7 @@ pub use drive::{Course, RunResult, Setup};
 pub use families::{Family, Lane, Variant};
 pub use truth::TruthLog;
 
-use crate::sitl::simulation::{ModelKind, SimulationParams};
+use autopilot::sitl::simulation::{ModelKind, SimulationParams};
 
 #[derive(clap::Args, Debug)]
 pub struct ObstacleBenchArgs {
@@ -243,7 +243,7 @@ pub fn run(args: &ObstacleBenchArgs) -> Result<(), String> {
     if let Some(seed) = args.replay {
         return random::replay(seed, &args.params, args.verbose);
     }
-    println!("# furrow bench obstacles");
+    println!("# furrow-bench obstacles");
     println!();
     let wall = Instant::now();
     if args.seeds > 0 {

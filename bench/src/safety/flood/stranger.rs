@@ -223,13 +223,13 @@ mod tests {
     #[test]
     fn garbage_is_never_a_frame_the_link_would_take() {
         let mut rng = SeededRng::new(3);
-        let mut stats = crate::link::frame::FrameStats::default();
+        let mut stats = autopilot::link::frame::FrameStats::default();
         let mut frames = 0;
         let mut lengths = [0usize; 3];
         for _ in 0..10_000 {
             let datagram = garbage(&mut rng);
             lengths[datagram.len().min(2)] += 1;
-            crate::link::frame::frame_datagram(&datagram, &mut stats, |_| frames += 1);
+            autopilot::link::frame::frame_datagram(&datagram, &mut stats, |_| frames += 1);
         }
         assert_eq!(frames, 0);
         assert!(lengths.iter().all(|&n| n > 500), "{lengths:?}");

@@ -12,12 +12,12 @@ use mavlink::dialects::ardupilotmega::{MavCmd, MavMessage, MavState};
 use mission::{ExecState, MissionType, Plan};
 
 use super::Row;
-use crate::bench::tracking::load_courses;
-use crate::modes::Mode;
-use crate::sitl::gcs;
-use crate::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
-use crate::time::FrozenTimer;
-use crate::vehicle::{Core, Failsafe};
+use crate::tracking::load_courses;
+use autopilot::modes::Mode;
+use autopilot::sitl::gcs;
+use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
+use autopilot::time::FrozenTimer;
+use autopilot::vehicle::{Core, Failsafe};
 
 /// A failsafe must be cleared this soon after its fault ends.
 const CLEAR_WITHIN_S: f64 = 1.0;
@@ -306,7 +306,7 @@ impl Drive {
     }
 }
 
-fn run_scenario(s: &Scenario, course: &crate::bench::tracking::Course, seed: u64) -> Result<Row, String> {
+fn run_scenario(s: &Scenario, course: &crate::tracking::Course, seed: u64) -> Result<Row, String> {
     let config = SimulationConfig {
         home: course.home,
         model: ModelKind::Ackermann,

@@ -1,4 +1,4 @@
-//! Issue 14's scenario families run through `furrow bench obstacles`'s own
+//! Issue 14's scenario families run through `furrow-bench obstacles`'s own
 //! functions (in-process, the whole core, simulated scanners), judged from
 //! the simulator's truth: no collision, no false stop, no stall; a family
 //! with something in the way must stop, one with everything 0.5 m or more
@@ -8,8 +8,8 @@
 //! The tests marked `needs swept-path protection (issue 14)` fail on the
 //! core before that protection; they are to be un-ignored with it.
 
-use autopilot::bench::obstacles::random::{self, RUNS_PER_COURSE};
-use autopilot::bench::obstacles::{self, Family, Outcome, Scenario};
+use furrow_bench::obstacles::random::{self, RUNS_PER_COURSE};
+use furrow_bench::obstacles::{self, Family, Outcome, Scenario};
 
 const SEEDS: u64 = 2;
 const SPEEDS_MPS: [f64; 2] = [1.0, 2.0];

@@ -30,7 +30,7 @@ use params::{ParamTable, ParamType};
 
 use super::Row;
 use super::gcs_client::{GcsClient, SitlProcess};
-use crate::sitl::simulation::{ModelKind, SimulationParams};
+use autopilot::sitl::simulation::{ModelKind, SimulationParams};
 
 /// Parameters changed together in one burst.
 const BURST_PARAMS: usize = 20;

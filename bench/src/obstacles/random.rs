@@ -174,7 +174,7 @@ pub fn run_many(runs: u64, params: &[(String, f64)], threads: usize) -> Result<V
 /// With `trace`, the true pose and clearance every 0.2 s as well.
 pub fn replay(seed: u64, params: &[(String, f64)], trace: bool) -> Result<(), String> {
     let c = course(course_of(seed));
-    println!("# furrow bench obstacles --replay {seed}");
+    println!("# furrow-bench obstacles --replay {seed}");
     println!();
     println!(
         "course {} (seed {}): {:.2} m/s, {}, waypoints {:?}",

@@ -35,7 +35,7 @@ use super::gcs_client::{GcsClient, MODE_AUTO, SitlProcess, VEHICLE, gcs_heartbea
 use super::kill::SeededRng;
 
 /// The bench AGV course (tests/data/bench), built in.
-const COURSE: &str = include_str!("../../../../tests/data/bench/agv_course.waypoints");
+const COURSE: &str = include_str!("../../../tests/data/bench/agv_course.waypoints");
 /// Simulated seconds of the course compared (from AUTO).
 const SEGMENT: Duration = Duration::from_secs(80);
 /// Cross-track p99 may differ by this much, or by [`XTRACK_TOLERANCE_REL`].

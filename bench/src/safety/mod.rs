@@ -1,4 +1,4 @@
-//! `furrow bench safety`: each injected fault and the failsafe that must
+//! `furrow-bench safety`: each injected fault and the failsafe that must
 //! answer it, SIGKILL during mission uploads and parameter saves, and a
 //! MAVLink flood while the AGV course runs. One table; a row that misses
 //! its expectation is marked FAIL and the command exits non-zero.
@@ -49,7 +49,7 @@ pub fn run(args: &SafetyBenchArgs) -> Result<(), String> {
     }
     let exe = match &args.furrow {
         Some(path) => path.clone(),
-        None => std::env::current_exe().map_err(|e| format!("own executable: {e}"))?,
+        None => crate::furrow_exe()?,
     };
     let mut rows = Vec::new();
     if wants("faults") {

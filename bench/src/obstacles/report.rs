@@ -236,5 +236,5 @@ pub fn random_table(outcomes: &[RandomOutcome], verbose: bool) {
     println!(
         "Collisions (unavoidable): all collisions while moving, and in brackets those with an object on its straight line for less than the vehicle's stopping time (stepping out, turning or appearing too late to stop for)."
     );
-    println!("Replay a run with `furrow bench obstacles --replay SEED`.");
+    println!("Replay a run with `furrow-bench obstacles --replay SEED`.");
 }

@@ -261,7 +261,7 @@ impl GcsClient {
     /// COMMAND_LONG and its COMMAND_ACK's result.
     pub fn command(&mut self, command: MavCmd, params: [f32; 7]) -> Result<MavResult, String> {
         // The vehicle is 1/1 (VEHICLE), as the in-process GCS addresses it.
-        self.send(&crate::sitl::gcs::command_long(command, params))?;
+        self.send(&autopilot::sitl::gcs::command_long(command, params))?;
         self.expect(&format!("COMMAND_ACK for {command:?}"), |m| match m {
             MavMessage::COMMAND_ACK(a) if a.command == command => Some(a.result),
             _ => None,
@@ -387,7 +387,7 @@ impl GcsClient {
     }
 }
 
-pub use crate::sitl::gcs::heartbeat as gcs_heartbeat;
+pub use autopilot::sitl::gcs::heartbeat as gcs_heartbeat;
 
 pub fn param_set_message(name: &str, value: f32) -> MavMessage {
     MavMessage::PARAM_SET(PARAM_SET_DATA {

@@ -1,4 +1,4 @@
-//! `furrow bench sitl`: how fast SITL runs with nothing pacing it, how long a
+//! `furrow-bench sitl`: how fast SITL runs with nothing pacing it, how long a
 //! core tick takes, and how much memory `furrow sitl` holds.
 //!
 //! Two measurements:
@@ -16,9 +16,9 @@ use std::time::{Duration, Instant};
 use mavlink::MavlinkReader;
 use mavlink::dialects::ardupilotmega::MavMessage;
 
-use crate::edge::clock::InstantTimer;
-use crate::sitl::gcs;
-use crate::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
+use autopilot::edge::clock::InstantTimer;
+use autopilot::sitl::gcs;
+use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
 #[derive(clap::Args, Debug)]
 pub struct SitlBenchArgs {
@@ -105,7 +105,7 @@ fn in_process(seconds: f64) {
 }
 
 fn real_process(seconds: f64) -> Result<(), String> {
-    let exe = std::env::current_exe().map_err(|e| format!("own executable: {e}"))?;
+    let exe = crate::furrow_exe()?;
     let data = std::env::temp_dir().join(format!("furrow-bench-{}", std::process::id()));
     let mut child = Command::new(exe)
         .args([
@@ -178,7 +178,7 @@ fn watch(child: &mut std::process::Child, seconds: f64) -> Result<(f64, u64, u64
         newest.ok_or_else(|| "no SYSTEM_TIME".to_string())
     };
     let (t0, b0) = latest(Instant::now() + Duration::from_secs(1))?;
-    let (t1, b1) = latest(t0 + crate::time::duration_from_secs(seconds))?;
+    let (t1, b1) = latest(t0 + autopilot::time::duration_from_secs(seconds))?;
     let ratio = f64::from(b1.wrapping_sub(b0)) / 1000.0 / (t1 - t0).as_secs_f64();
     let status = std::fs::read_to_string(format!("/proc/{}/status", child.id())).unwrap_or_default();
     let field = |name: &str| {

@@ -1,4 +1,4 @@
-//! `furrow bench tracking`: the accuracy of the navigation core on the
+//! `furrow-bench tracking`: the accuracy of the navigation core on the
 //! reference courses in `tests/data/bench` (their README gives the vehicle and receiver).
 //!
 //! Each course runs in AUTO for every seed, in-process at full speed (world,
@@ -16,23 +16,23 @@ use drivers::sim::GeoPoint as SimGeoPoint;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mission::{ExecState, MissionType, Plan};
 
-use super::plot::{self, PlotData};
-use crate::edge::clock::InstantTimer;
-use crate::geo::{GeoPoint, LocalFrame, Ned, wrap_pi};
-use crate::guidance::path::Piece;
-use crate::guidance::tracker::Direction;
-use crate::sitl::gcs;
-use crate::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
+use autopilot::edge::clock::InstantTimer;
+use autopilot::geo::{GeoPoint, LocalFrame, Ned, wrap_pi};
+use autopilot::guidance::path::Piece;
+use autopilot::guidance::tracker::Direction;
+use autopilot::offline::plot::{self, PlotData};
+use autopilot::sitl::gcs;
+use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
 /// The reference courses, built in so the benchmark runs from anywhere.
 const BUILT_IN: [(&str, &str); 2] = [
     (
         "agv_course",
-        include_str!("../../../tests/data/bench/agv_course.waypoints"),
+        include_str!("../../tests/data/bench/agv_course.waypoints"),
     ),
     (
         "square_40m",
-        include_str!("../../../tests/data/bench/square_40m.waypoints"),
+        include_str!("../../tests/data/bench/square_40m.waypoints"),
     ),
 ];
 
@@ -168,7 +168,7 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
         args.models.clone()
     };
     println!(
-        "furrow bench tracking: seeds 1..={}, bench vehicle {models:?}, RTK GNSS σ {noise_mm:.1} mm white + \
+        "furrow-bench tracking: seeds 1..={}, bench vehicle {models:?}, RTK GNSS σ {noise_mm:.1} mm white + \
          {walk_mm:.1} mm walk (τ 60 s) per axis at {rate_hz:.0} Hz, dual-antenna heading σ {heading_deg:.3}°; \
          errors are of the true pose",
         args.seeds
@@ -717,6 +717,7 @@ mod tests {
             &courses[0],
             &RunOptions {
                 seed: 1,
+                model: ModelKind::Ackermann,
                 heading_deg: 0.0,
                 timeout_s: 900.0,
                 keep_plot: false,

@@ -2,16 +2,16 @@
 
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
-use super::Core;
-use super::failsafe::Failsafe;
 use crate::geo::{GeoPoint, wrap_pi};
 use crate::guidance::navigator::NavTarget;
 use crate::guidance::tracker::Direction;
 use crate::modes::Mode;
+use crate::vehicle::Core;
+use crate::vehicle::failsafe::Failsafe;
 
 /// Why a mode change was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum ModeRefusal {
+pub(in crate::vehicle) enum ModeRefusal {
     NotAvailable,
     NeedsPosition,
     NoHome,
@@ -23,7 +23,7 @@ pub(super) enum ModeRefusal {
 
 impl Core {
     /// Requested by a ground station: refusals are reported in a STATUSTEXT.
-    pub(super) fn request_mode(&mut self, mode: Mode) -> Result<(), ModeRefusal> {
+    pub(in crate::vehicle) fn request_mode(&mut self, mode: Mode) -> Result<(), ModeRefusal> {
         let result = self.check_mode(mode);
         if let Err(why) = result {
             let reason = match why {
@@ -69,7 +69,7 @@ impl Core {
     }
 
     /// Switches mode unconditionally (failsafes use it directly).
-    pub(super) fn enter_mode(&mut self, mode: Mode) {
+    pub(in crate::vehicle) fn enter_mode(&mut self, mode: Mode) {
         self.mode = mode;
         self.speed_override_mps = None;
         self.navigator.clear();
@@ -88,7 +88,7 @@ impl Core {
 
     /// Drives in a straight leg from where the vehicle is to `target`, and
     /// stops there.
-    pub(super) fn navigate_to(&mut self, target: GeoPoint, speed_mps: Option<f64>) -> bool {
+    pub(in crate::vehicle) fn navigate_to(&mut self, target: GeoPoint, speed_mps: Option<f64>) -> bool {
         let Some(frame) = self.frame() else {
             return false;
         };

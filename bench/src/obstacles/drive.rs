@@ -10,11 +10,11 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 use mission::{ExecState, MissionType, Plan};
 
 use super::truth::{Judge, Limits, MOVING_MPS, Pose, STALL_S, TruthLog, on_its_line_s, rectangle};
-use crate::edge::clock::InstantTimer;
-use crate::geo::{GeoPoint, LocalFrame, Ned};
-use crate::obstacles::TrackStatus;
-use crate::sitl::gcs;
-use crate::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
+use autopilot::edge::clock::InstantTimer;
+use autopilot::geo::{GeoPoint, LocalFrame, Ned};
+use autopilot::obstacles::TrackStatus;
+use autopilot::sitl::gcs;
+use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
 /// The simulator warms up (fix, filter) this long before arming.
 const WARM_UP_S: f64 = 5.0;
@@ -413,7 +413,7 @@ impl RestWatch {
     }
 }
 
-fn statustexts(outputs: &mut crate::vehicle::Outputs) -> Vec<String> {
+fn statustexts(outputs: &mut autopilot::vehicle::Outputs) -> Vec<String> {
     outputs
         .mavlink
         .drain(..)

@@ -7,19 +7,19 @@ use std::time::Duration;
 
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
-use super::Core;
 use crate::guidance::magnetic::{
     IncrementalPidGains, MagneticGuide, MagneticGuideConfig, MagneticInput, MagneticStatus,
 };
 use crate::guidance::navigator::NavDemand;
 use crate::modes::Mode;
+use crate::vehicle::Core;
 
 /// A reading older than this is no reading: the mode stops.
 const SENSOR_TIMEOUT: Duration = Duration::from_millis(500);
 
 /// The mode's state.
 #[derive(Clone, Debug, Default)]
-pub(super) struct MagneticState {
+pub(in crate::vehicle) struct MagneticState {
     pub guide: MagneticGuide,
     pub status: MagneticStatus,
     pub lost_s: f64,
@@ -27,7 +27,7 @@ pub(super) struct MagneticState {
 }
 
 impl Core {
-    pub(super) fn magnetic_config(&self) -> MagneticGuideConfig {
+    pub(in crate::vehicle) fn magnetic_config(&self) -> MagneticGuideConfig {
         let t = &self.params;
         let m = &self.p.magnetic;
         let f = |p: params::Param<f32>| f64::from(p.get(t));
@@ -60,13 +60,13 @@ impl Core {
     }
 
     /// Whether the sensors are reporting.
-    pub(super) fn magnetic_sensors_fresh(&self) -> bool {
+    pub(in crate::vehicle) fn magnetic_sensors_fresh(&self) -> bool {
         self.magnetic_sample
             .is_some_and(|s| self.now.boot.saturating_sub(s.t) <= SENSOR_TIMEOUT)
     }
 
     /// Entering MAGNETIC: the guide starts from the steering the wheels have.
-    pub(super) fn start_magnetic(&mut self) {
+    pub(in crate::vehicle) fn start_magnetic(&mut self) {
         let steer_max = f64::from(self.p.vehicle.steer_max_deg.get(&self.params)).to_radians();
         self.magnetic = MagneticState {
             guide: MagneticGuide::engaged_at(self.drive.steering * steer_max),
@@ -75,7 +75,7 @@ impl Core {
     }
 
     /// This tick's demand in MAGNETIC; `None` to stop.
-    pub(super) fn magnetic_demand(&mut self, dt_s: f64) -> Option<NavDemand> {
+    pub(in crate::vehicle) fn magnetic_demand(&mut self, dt_s: f64) -> Option<NavDemand> {
         let Some(sample) = self.magnetic_sample.filter(|_| self.magnetic_sensors_fresh()) else {
             if !self.magnetic.stale_reported {
                 self.magnetic.stale_reported = true;

@@ -1,9 +1,9 @@
-//! `furrow bench magnetic`: MAGNETIC mode's guide getting back on the tape
+//! `furrow-bench magnetic`: MAGNETIC mode's guide getting back on the tape
 //! from the three starts of "Path tracking of a wheeled AGV with double
 //! magnetic guide" (its Fig. 4 a–c: tilted right of the tape, tilted left of
 //! it, off it), on a straight tape and on arcs of several radii, at 0.5, 1.0
 //! and 1.5 m/s, for the bench AGV and for that paper's robot; then whether
-//! the targets of issue 22 are met. `furrow bench tracking` prints the
+//! the targets of issue 22 are met. `furrow-bench tracking` prints the
 //! 15 m-arc subset ([`report`]).
 //!
 //! A start is the vehicle displaced from a pose with both sensors centred on
@@ -14,7 +14,7 @@
 //! Off the path heading away, the paper's straight-on search never finds the
 //! tape; those are counted apart.
 
-use crate::guidance::magnetic_scenario::{MagneticProfile, MagneticScenario, ScenarioResult, run};
+use autopilot::guidance::magnetic_scenario::{MagneticProfile, MagneticScenario, ScenarioResult, run};
 
 #[derive(clap::Args, Debug)]
 pub struct MagneticBenchArgs {
@@ -434,13 +434,13 @@ fn yes(met: bool) -> &'static str {
     if met { "yes" } else { "NO" }
 }
 
-/// The 15 m-arc re-acquisition for `furrow bench tracking`: both profiles at
+/// The 15 m-arc re-acquisition for `furrow-bench tracking`: both profiles at
 /// 1.5 m/s from 0.1 m and 5° either way.
 pub fn report(seeds: u64) {
     let profiles = [MagneticProfile::double_guide_robot(), MagneticProfile::bench_agv()];
     println!();
     println!(
-        "## magnetic guide: 1.5 m/s, 15 m arc, 0.1 m / 5° starts, seeds 1..={seeds} (all starts: furrow bench magnetic)"
+        "## magnetic guide: 1.5 m/s, 15 m arc, 0.1 m / 5° starts, seeds 1..={seeds} (all starts: furrow-bench magnetic)"
     );
     println!();
     println!(

@@ -7,16 +7,16 @@ use mavlink::dialects::ardupilotmega::{
 use mission::command::Position;
 use mission::{Action, ExecState, MissionType, VehicleReport, interpret_rally};
 
-use super::{Core, Destination};
 use crate::geo::{GeoPoint, Ned};
 use crate::guidance::navigator::NavTarget;
 use crate::guidance::tracker::Direction;
 use crate::modes::Mode;
+use crate::vehicle::{Core, Destination};
 
 impl Core {
     /// The local position a mission position stands for (`Current`: where
     /// the vehicle is).
-    pub(super) fn resolve(&self, p: &Position) -> Option<Ned> {
+    pub(in crate::vehicle) fn resolve(&self, p: &Position) -> Option<Ned> {
         let frame = self.frame()?;
         Some(match *p {
             Position::Global { lat_e7, lon_e7 } => frame.to_local(&GeoPoint::from_e7(lat_e7, lon_e7, 0.0)),
@@ -26,7 +26,7 @@ impl Core {
     }
 
     /// Where RTL goes: the nearest rally point, else home.
-    pub(super) fn rtl_target(&self) -> Option<GeoPoint> {
+    pub(in crate::vehicle) fn rtl_target(&self) -> Option<GeoPoint> {
         let here = self.estimator.estimate().position;
         let frame = self.frame()?;
         let nearest_rally = self
@@ -44,7 +44,7 @@ impl Core {
     }
 
     /// AUTO entered: start the mission, or resume it (`MIS_RESTART` 0).
-    pub(super) fn start_mission(&mut self) {
+    pub(in crate::vehicle) fn start_mission(&mut self) {
         let restart = self.p.mission.restart.get(&self.params);
         if restart || self.missions.executor.state() != ExecState::Running {
             self.missions.speed_mps = None;
@@ -55,7 +55,7 @@ impl Core {
     }
 
     /// One AUTO step of the executor.
-    pub(super) fn run_mission(&mut self) {
+    pub(in crate::vehicle) fn run_mission(&mut self) {
         let status = self.navigator.status();
         let report = VehicleReport {
             // On a detour the leg's waypoint is not reached yet.
@@ -72,6 +72,9 @@ impl Core {
         self.apply_mission_actions(actions);
     }
 
+    /// The vehicle's side of each executor action. Long because it is one
+    /// flat arm per `Action` variant, each short; splitting it would hide
+    /// the list of what a mission can do.
     fn apply_mission_actions(&mut self, actions: Vec<Action>) {
         for action in actions {
             match action {
@@ -172,7 +175,7 @@ impl Core {
     }
 
     /// MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT.
-    pub(super) fn set_mission_current(&mut self, seq: u16, reset_jumps: bool) -> bool {
+    pub(in crate::vehicle) fn set_mission_current(&mut self, seq: u16, reset_jumps: bool) -> bool {
         let running = self.mode == Mode::Auto;
         let mut actions = Vec::new();
         let ok = self
@@ -189,7 +192,7 @@ impl Core {
 
     /// The MISSION_SET_CURRENT message: no ACK in the protocol, so success
     /// shows as MISSION_CURRENT and failure as a STATUSTEXT.
-    pub(super) fn mission_set_current_message(&mut self, seq: u16) {
+    pub(in crate::vehicle) fn mission_set_current_message(&mut self, seq: u16) {
         if !self.set_mission_current(seq, false) {
             self.send_text(
                 MavSeverity::MAV_SEVERITY_WARNING,
@@ -200,7 +203,7 @@ impl Core {
 
     /// A plan was replaced (upload, clear, import); the derived state is
     /// already rebuilt.
-    pub(super) fn plan_changed(&mut self, mission_type: mission::MissionType) {
+    pub(in crate::vehicle) fn plan_changed(&mut self, mission_type: mission::MissionType) {
         let running = self.mode == Mode::Auto && mission_type == MissionType::Mission;
         if running {
             // The mission being driven is gone: stop rather than guess
@@ -226,7 +229,7 @@ impl Core {
 
     /// MISSION_CURRENT with the mavlink.io extension fields (total excludes
     /// home, mission state and mode, the three plans' opaque ids).
-    pub(super) fn mission_current(&self) -> MISSION_CURRENT_DATA {
+    pub(in crate::vehicle) fn mission_current(&self) -> MISSION_CURRENT_DATA {
         let ex = &self.missions.executor;
         let has_mission = self.missions.plan(MissionType::Mission).len() > 1;
         let mission_state = match (has_mission, ex.state()) {
