@@ -22,18 +22,26 @@
 //! - [`telemetry`]: identity, STATUSTEXT and the per-link stream rates.
 //!
 //! The edges:
+//! - [`edge`]: the runner `furrow sitl` and `furrow run` share: one tokio
+//!   runtime, the links, the data directory, the loop and its clocks.
 //! - [`link`]: sockets, serial ports, framing, signing, routing, tlog.
-//! - [`sitl`]: `furrow sitl`: the simulated world stepped with the core, and
-//!   the runner that paces both against the wall clock.
+//! - [`ftp`]: MAVLink FTP (the protocol pure, its file I/O on a worker
+//!   thread at the edge).
+//! - [`logging`]: onboard DataFlash logs: records built by the core,
+//!   written and served over MAVLink at the edge, read by `furrow logs`.
+//! - [`sitl`]: `furrow sitl`: the simulated world stepped with the core, as
+//!   a platform of the edge runner paced against the wall clock.
 //! - [`run`]: `furrow run --config FILE`: the real vehicle.
 //! - [`storage`]: the data directory and atomic persistence.
-//! - [`logging`]: the stderr log every binary writes.
+//! - [`stderr_log`]: the log on stderr every binary writes.
 //! - [`offline`]: tools on a data directory (`furrow params …`,
 //!   `furrow mission …`) and `furrow config check`.
 
 pub mod control;
+pub mod edge;
 pub mod estimation;
 pub mod fence;
+pub mod ftp;
 pub mod geo;
 pub mod guidance;
 pub mod link;
@@ -44,6 +52,7 @@ pub mod offline;
 pub mod run;
 pub mod sched;
 pub mod sitl;
+pub mod stderr_log;
 pub mod storage;
 pub mod telemetry;
 pub mod time;

@@ -163,7 +163,7 @@ fn utc_now_us() -> i64 {
 }
 
 fn main() -> ExitCode {
-    autopilot::logging::init_stderr();
+    autopilot::stderr_log::init();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Sitl(args) => {

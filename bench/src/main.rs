@@ -32,7 +32,7 @@ enum BenchCommand {
 }
 
 fn main() -> ExitCode {
-    autopilot::logging::init_stderr();
+    autopilot::stderr_log::init();
     let result = match Cli::parse().which {
         BenchCommand::Sitl(args) => furrow_bench::sitl::run(&args),
         BenchCommand::Tracking(args) => furrow_bench::tracking::run(&args),

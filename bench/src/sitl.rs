@@ -16,8 +16,8 @@ use std::time::{Duration, Instant};
 use mavlink::MavlinkReader;
 use mavlink::dialects::ardupilotmega::MavMessage;
 
+use autopilot::edge::clock::InstantTimer;
 use autopilot::sitl::gcs;
-use autopilot::sitl::runner::InstantTimer;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
 #[derive(clap::Args, Debug)]

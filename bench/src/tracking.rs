@@ -17,11 +17,11 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 use mission::{ExecState, MissionType, Plan};
 
 use super::plot::{self, PlotData};
+use autopilot::edge::clock::InstantTimer;
 use autopilot::geo::{GeoPoint, LocalFrame, Ned, wrap_pi};
 use autopilot::guidance::path::Piece;
 use autopilot::guidance::tracker::Direction;
 use autopilot::sitl::gcs;
-use autopilot::sitl::runner::InstantTimer;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
 /// The reference courses, built in so the benchmark runs from anywhere.

@@ -8,6 +8,7 @@
 //! - [`ntrip`], [`rtcm`]: RTK corrections from a caster, and RTCM fragments
 //!   reassembled from MAVLink.
 //! - [`pwm`]: servo and ESC pulses through Linux sysfs PWM.
+//! - [`backoff`]: the reconnect wait every device and link uses.
 //! - [`device`]: the health counters each device thread shares with the core's edge.
 //! - [`sim`]: the SITL world (vehicle physics, battery, obstacles, tape) whose
 //!   simulated devices emit what real ones do, so SITL exercises the real parsers.
@@ -18,6 +19,7 @@
 //! `scanner::client`, `magnetic_serial`, `ntrip`, `pwm`) do I/O: they own a
 //! port, a socket or files, and are the edges the real vehicle runs.
 
+pub mod backoff;
 pub mod device;
 pub mod gnss;
 pub mod magnetic;

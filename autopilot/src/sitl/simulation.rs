@@ -187,6 +187,11 @@ impl Simulation {
         sim
     }
 
+    /// The inputs of the next step, as gathered so far.
+    pub fn inputs(&self) -> &Inputs {
+        &self.inputs
+    }
+
     /// The inputs of the next step: add link events and messages here.
     pub fn inputs_mut(&mut self) -> &mut Inputs {
         &mut self.inputs

@@ -157,6 +157,10 @@ impl Core {
         if fence_present {
             present |= MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE;
         }
+        let (heading_present, heading_healthy) = self.heading_sensor_bits();
+        if heading_present {
+            present |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG;
+        }
         let obstacles = self.obstacle_status();
         if obstacles.enabled {
             present |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_PROXIMITY
@@ -180,6 +184,9 @@ impl Core {
         }
         if !gps_ok {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS);
+        }
+        if !heading_healthy {
+            health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG);
         }
         if self.battery_arming_failure().is_some() {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY);
@@ -246,6 +253,22 @@ impl Core {
             onboard_control_sensors_enabled_extended: MavSysStatusSensorExtended::empty(),
             onboard_control_sensors_health_extended: MavSysStatusSensorExtended::empty(),
         }
+    }
+
+    /// The heading sensor (dual antenna or compass) in SYS_STATUS's
+    /// magnetometer slot, the role ArduPilot's compass plays: (present,
+    /// healthy). Present once it has reported; healthy while it reports
+    /// within `FS_HDG_TIMEOUT` and the heading failsafe is off. A vehicle
+    /// steering on its GNSS course has none, and says so. No gyro or
+    /// accelerometer bits: Furrow has no IMU, and a ground station that
+    /// requires one (MAVSDK's `health_all_ok`) is told the truth.
+    fn heading_sensor_bits(&self) -> (bool, bool) {
+        let Some(last) = self.estimator.heading_sensor_last() else {
+            return (false, false);
+        };
+        let timeout = crate::time::duration_from_secs(f64::from(self.p.failsafe.heading_lost_s.get(&self.params)));
+        let fresh = self.now.boot.saturating_sub(last) <= timeout;
+        (true, fresh && !self.failsafe_is_active(Failsafe::HeadingLost))
     }
 
     fn gps_raw_int(&self) -> GPS_RAW_INT_DATA {

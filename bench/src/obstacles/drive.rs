@@ -10,10 +10,10 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 use mission::{ExecState, MissionType, Plan};
 
 use super::truth::{Judge, Limits, MOVING_MPS, Pose, STALL_S, TruthLog, rectangle};
+use autopilot::edge::clock::InstantTimer;
 use autopilot::geo::{GeoPoint, LocalFrame, Ned};
 use autopilot::obstacles::TrackStatus;
 use autopilot::sitl::gcs;
-use autopilot::sitl::runner::InstantTimer;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
 /// The simulator warms up (fix, filter) this long before arming.

@@ -217,7 +217,7 @@ impl Core {
     }
 
     fn send_mission_current_if_changed(&mut self) {
-        let current = self.missions.executor.current();
+        let current = (self.missions.executor.current(), self.missions.executor.state());
         if self.missions.last_current_sent != Some(current) {
             self.missions.last_current_sent = Some(current);
             self.send(
