@@ -86,14 +86,25 @@ impl DataFiles {
         self.param_pack[usize::from(with_defaults)] = Arc::new(bytes);
     }
 
+    /// The signing key (or its temporary file): never served.
+    fn secret(&self, path: &Path) -> bool {
+        let name = path.strip_prefix(&self.root).map(|r| r.to_string_lossy().into_owned());
+        name.is_ok_and(|n| n.strip_suffix(".tmp").unwrap_or(&n) == SECRET)
+    }
+
+    /// A vehicle-owned file, or the temporary file its atomic save writes
+    /// first (`NAME.tmp`): a client must not race the vehicle's own saves.
     fn owned(&self, path: &Path) -> bool {
         let Ok(rel) = path.strip_prefix(&self.root) else {
             return false;
         };
         let name = rel.to_string_lossy();
-        OWNED.contains(&name.as_ref())
+        let name = name.strip_suffix(".tmp").unwrap_or(&name);
+        OWNED.contains(&name)
             || name == SECRET
-            || MissionType::ALL.iter().any(|t| missions::path(&self.root, *t) == path)
+            || MissionType::ALL
+                .iter()
+                .any(|t| missions::path(&self.root, *t) == self.root.join(name))
     }
 
     fn resolve(&self, path: &str) -> Result<Target, FsError> {
@@ -141,7 +152,7 @@ impl DataFiles {
         for item in fs::read_dir(dir).map_err(|e| io_error(&e))?.flatten() {
             let name = item.file_name().to_string_lossy().into_owned();
             let Ok(kind) = item.file_type() else { continue };
-            if root && name == SECRET {
+            if root && name.strip_suffix(".tmp").unwrap_or(&name) == SECRET {
                 continue;
             }
             if kind.is_dir() {
@@ -192,7 +203,7 @@ impl Files for DataFiles {
                 let size = size_u32(bytes.len() as u64)?;
                 Ok((Handle::Memory(bytes), size))
             }
-            Target::Disk(p, _) if self.owned(&p) && p.ends_with(SECRET) => Err(FsError::Protected),
+            Target::Disk(p, _) if self.secret(&p) => Err(FsError::Protected),
             Target::Disk(p, _) => {
                 let file = File::open(&p).map_err(|e| io_error(&e))?;
                 let meta = file.metadata().map_err(|e| io_error(&e))?;

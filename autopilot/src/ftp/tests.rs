@@ -176,6 +176,8 @@ fn nothing_outside_the_data_directory_or_owned_by_the_vehicle_is_reachable() {
         (Opcode::RemoveFile, b"params.parm"),
         (Opcode::CreateFile, b"params.parm"),
         (Opcode::RemoveFile, b"mission.waypoints"),
+        (Opcode::CreateFile, b"params.parm.tmp"),
+        (Opcode::CreateFile, b"fence.waypoints.tmp"),
         (Opcode::RemoveDirectory, b"/"),
     ] {
         assert_eq!(nak_code(&c.one(op, 0, 0, path)), protected, "{op:?} {path:?}");
