@@ -49,19 +49,23 @@ impl LogState {
 
     /// Queues `command` after the records written so far.
     fn push(&mut self, command: LogCommand) {
+        self.flush_records();
+        self.commands.push(command);
+    }
+
+    /// Moves the records written so far into a command, leaving a buffer
+    /// as large for the next tick (no regrowth while it fills).
+    fn flush_records(&mut self) {
         if !self.records.is_empty() {
-            let records = std::mem::take(&mut self.records);
+            let next = Vec::with_capacity(self.records.len());
+            let records = std::mem::replace(&mut self.records, next);
             self.commands.push(LogCommand::Records(records));
         }
-        self.commands.push(command);
     }
 
     /// What to hand to the edge this step.
     pub(super) fn take_commands(&mut self) -> Vec<LogCommand> {
-        if !self.records.is_empty() {
-            let records = std::mem::take(&mut self.records);
-            self.commands.push(LogCommand::Records(records));
-        }
+        self.flush_records();
         std::mem::take(&mut self.commands)
     }
 
@@ -217,9 +221,11 @@ impl Core {
         };
         if due(self.onboard_log.last_fast, every) {
             self.onboard_log.last_fast = Some(now);
-            self.log_pose();
+            // Local headings to true ones, once for all records.
+            let turn = self.true_heading_offset_rad();
+            self.log_pose(turn);
             self.log_drive();
-            self.log_navigation();
+            self.log_navigation(turn);
             self.log_ekf();
             self.log_obstacles();
         }
@@ -257,10 +263,9 @@ impl Core {
         self.onboard_log.write(&m::GPS, &values);
     }
 
-    fn log_pose(&mut self) {
+    fn log_pose(&mut self, turn: f64) {
         let t = self.log_time_us();
         let e = *self.estimator.estimate();
-        let turn = self.true_heading_offset_rad();
         if let (Some(frame), true) = (self.frame(), e.position_valid) {
             let p = frame.to_geodetic(&e.position);
             let alt = self.estimator.gnss().alt_msl_m;
@@ -335,13 +340,12 @@ impl Core {
     }
 
     /// NTUN, the preview point and the tracker's PIDs while navigating.
-    fn log_navigation(&mut self) {
+    fn log_navigation(&mut self, turn: f64) {
         let s = *self.navigator.status();
         if !self.mode.is_autopilot() || !s.active {
             return;
         }
         let t = self.log_time_us();
-        let turn = self.true_heading_offset_rad();
         let yaw = self.estimator.estimate().yaw_rad;
         let k = &s.tracker;
         let values = [
