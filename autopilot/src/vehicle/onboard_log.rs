@@ -100,11 +100,15 @@ impl Core {
         let want_open = enabled && (self.armed || self.p.logging.disarmed.get(&self.params) != 0);
         let armed_changed = self.armed != self.onboard_log.logged_armed;
         if self.onboard_log.open && (!want_open || (armed_changed && self.armed)) {
-            self.log_event(armed_changed);
+            // A disarm ends its arming's file; an arming starts a new one
+            // (and is logged there).
+            if armed_changed && !self.armed {
+                self.log_arming_event();
+            }
             self.onboard_log.open = false;
             self.onboard_log.push(LogCommand::Close);
         } else if armed_changed {
-            self.log_event(true);
+            self.log_arming_event();
         }
         self.onboard_log.logged_armed = self.armed;
         if want_open && !self.onboard_log.open {
@@ -117,14 +121,11 @@ impl Core {
         self.log_periodic(gnss_samples);
     }
 
-    /// EV for an arming or disarming (written before a file closes, after
-    /// one opens).
-    fn log_event(&mut self, changed: bool) {
-        if changed {
-            let id = if self.armed { m::EV_ARMED } else { m::EV_DISARMED };
-            let t = self.log_time_us();
-            self.onboard_log.write(&m::EV, &[Value::U(t), Value::U(u64::from(id))]);
-        }
+    /// EV for the arming or disarming just seen.
+    fn log_arming_event(&mut self) {
+        let id = if self.armed { m::EV_ARMED } else { m::EV_DISARMED };
+        let t = self.log_time_us();
+        self.onboard_log.write(&m::EV, &[Value::U(t), Value::U(u64::from(id))]);
     }
 
     /// A new file: the parameters, then the mission, mode and arming state.
