@@ -143,3 +143,57 @@ fn an_auto_drive_is_logged_in_one_file_with_its_course_and_cross_track() {
     let times: Vec<f64> = dflog.messages("ATT").filter_map(|m| m.time_s()).collect();
     assert!(times.windows(2).all(|w| w[1] > w[0]));
 }
+
+#[test]
+fn log_disarmed_logs_from_start_and_each_arming_starts_a_file() {
+    let mut h = Harness::new(4, ModelKind::Ackermann);
+    h.sim.core_mut().params_mut().set_by_name("LOG_DISARMED", 1.0).unwrap();
+    let mut log = Vec::new();
+    for _ in 0..150 {
+        step(&mut h, &mut log);
+    }
+    assert_eq!(files(&log).len(), 1, "logging from start-up");
+    for _ in 0..2 {
+        h.arm();
+        for _ in 0..50 {
+            step(&mut h, &mut log);
+        }
+        assert!(h.sim.core().is_armed(), "{:?}", h.texts());
+        h.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, [0.0; 7]);
+        for _ in 0..50 {
+            step(&mut h, &mut log);
+        }
+    }
+    let files = files(&log);
+    assert_eq!(files.len(), 3, "start-up, then one per arming");
+    let events = |bytes: &Vec<u8>| -> Vec<f64> {
+        DataFlashLog::parse(bytes)
+            .messages("EV")
+            .filter_map(|m| m.get("Id"))
+            .collect()
+    };
+    assert!(events(&files[0]).is_empty());
+    assert_eq!(
+        events(&files[1]),
+        vec![10.0, 11.0],
+        "the disarm is in the arming's file"
+    );
+    assert_eq!(events(&files[2]), vec![10.0, 11.0]);
+    // With the backend off nothing more is logged.
+    h.sim
+        .core_mut()
+        .params_mut()
+        .set_by_name("LOG_BACKEND_TYPE", 0.0)
+        .unwrap();
+    let mut after = Vec::new();
+    step(&mut h, &mut after);
+    assert!(
+        matches!(
+            after.as_slice(),
+            [LogCommand::Records(_), LogCommand::Close] | [LogCommand::Close]
+        ),
+        "{after:?}"
+    );
+    step(&mut h, &mut after);
+    assert!(after.len() <= 2);
+}

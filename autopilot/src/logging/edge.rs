@@ -256,3 +256,73 @@ pub fn report(logger: Logger) {
         dropped
     );
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::logging::reader::DataFlashLog;
+
+    fn temp_dir(tag: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("furrow-logedge-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        dir
+    }
+
+    fn records(n: usize) -> Vec<u8> {
+        let mut out = Vec::new();
+        for i in 0..n {
+            let values = [
+                super::super::format::Value::U(i as u64),
+                super::super::format::Value::U(10),
+            ];
+            super::super::format::write_record(&mut out, &messages::EV, &values);
+        }
+        out
+    }
+
+    #[test]
+    fn files_rotate_by_size_and_count_and_each_reads_on_its_own() {
+        let data = temp_dir("rotate");
+        let (outbound, _rx) = tokio::sync::mpsc::channel(16);
+        let mut logger = Logger::start(&data, outbound);
+        let limits = FileLimits {
+            max_files: 3,
+            max_bytes: 20_000,
+        };
+        let mut commands = vec![LogCommand::Open(limits)];
+        // 12 kB a batch: a file (with its header) passes 20 kB on its
+        // second batch, so 7 batches make 4 files, and the first is removed.
+        for _ in 0..7 {
+            commands.push(LogCommand::Records(records(1000)));
+        }
+        commands.push(LogCommand::Close);
+        logger.send(&mut commands);
+        assert_eq!(logger.dropped(), 0);
+        drop(logger);
+        let logs = LogStore::new(&data).list();
+        let numbers: Vec<u16> = logs.iter().map(|l| l.number).collect();
+        assert_eq!(numbers, vec![2, 3, 4], "rotated by size, the oldest removed past 3");
+        for log in &logs {
+            let parsed = DataFlashLog::read(&log.path).unwrap();
+            assert_eq!(parsed.skipped_bytes, 0, "each file has its own header");
+            assert!(parsed.messages("EV").count() >= 1000);
+        }
+        std::fs::remove_dir_all(&data).unwrap();
+    }
+
+    #[test]
+    fn a_full_queue_drops_and_counts_without_waiting() {
+        let data = temp_dir("full");
+        let (outbound, _rx) = tokio::sync::mpsc::channel(16);
+        let mut logger = Logger::start(&data, outbound);
+        let mut commands: Vec<_> = (0..QUEUE * 4).map(|_| LogCommand::Records(records(1000))).collect();
+        let started = Instant::now();
+        logger.send(&mut commands);
+        assert!(started.elapsed() < Duration::from_millis(500));
+        assert!(commands.is_empty());
+        // Records without an open file are discarded; some did not fit.
+        assert!(logger.dropped() > 0, "{} dropped", logger.dropped());
+        drop(logger);
+        std::fs::remove_dir_all(&data).ok();
+    }
+}

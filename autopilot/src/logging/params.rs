@@ -14,7 +14,7 @@ declare_params! {
         },
         disarmed: u8 = "LOG_DISARMED" => {
             default: 0, range: 0, 1, unit: "",
-            desc: "1: log while disarmed too (a file per disarmed period); 0: log only while armed. Every arming starts a new file",
+            desc: "1: log while disarmed too (from start-up, and after a disarm until the next arming); 0: log only while armed. Every arming starts a new file",
         },
         rate_max_hz: f32 = "LOG_FILE_RATEMAX" => {
             default: 0.0, range: 0.0, 400.0, unit: "Hz",

@@ -49,19 +49,23 @@ impl LogState {
 
     /// Queues `command` after the records written so far.
     fn push(&mut self, command: LogCommand) {
+        self.flush_records();
+        self.commands.push(command);
+    }
+
+    /// Moves the records written so far into a command, leaving a buffer
+    /// as large for the next tick (no regrowth while it fills).
+    fn flush_records(&mut self) {
         if !self.records.is_empty() {
-            let records = std::mem::take(&mut self.records);
+            let next = Vec::with_capacity(self.records.len());
+            let records = std::mem::replace(&mut self.records, next);
             self.commands.push(LogCommand::Records(records));
         }
-        self.commands.push(command);
     }
 
     /// What to hand to the edge this step.
     pub(super) fn take_commands(&mut self) -> Vec<LogCommand> {
-        if !self.records.is_empty() {
-            let records = std::mem::take(&mut self.records);
-            self.commands.push(LogCommand::Records(records));
-        }
+        self.flush_records();
         std::mem::take(&mut self.commands)
     }
 
@@ -96,11 +100,15 @@ impl Core {
         let want_open = enabled && (self.armed || self.p.logging.disarmed.get(&self.params) != 0);
         let armed_changed = self.armed != self.onboard_log.logged_armed;
         if self.onboard_log.open && (!want_open || (armed_changed && self.armed)) {
-            self.log_event(armed_changed);
+            // A disarm ends its arming's file; an arming starts a new one
+            // (and is logged there).
+            if armed_changed && !self.armed {
+                self.log_arming_event();
+            }
             self.onboard_log.open = false;
             self.onboard_log.push(LogCommand::Close);
         } else if armed_changed {
-            self.log_event(true);
+            self.log_arming_event();
         }
         self.onboard_log.logged_armed = self.armed;
         if want_open && !self.onboard_log.open {
@@ -113,14 +121,11 @@ impl Core {
         self.log_periodic(gnss_samples);
     }
 
-    /// EV for an arming or disarming (written before a file closes, after
-    /// one opens).
-    fn log_event(&mut self, changed: bool) {
-        if changed {
-            let id = if self.armed { m::EV_ARMED } else { m::EV_DISARMED };
-            let t = self.log_time_us();
-            self.onboard_log.write(&m::EV, &[Value::U(t), Value::U(u64::from(id))]);
-        }
+    /// EV for the arming or disarming just seen.
+    fn log_arming_event(&mut self) {
+        let id = if self.armed { m::EV_ARMED } else { m::EV_DISARMED };
+        let t = self.log_time_us();
+        self.onboard_log.write(&m::EV, &[Value::U(t), Value::U(u64::from(id))]);
     }
 
     /// A new file: the parameters, then the mission, mode and arming state.
@@ -217,9 +222,11 @@ impl Core {
         };
         if due(self.onboard_log.last_fast, every) {
             self.onboard_log.last_fast = Some(now);
-            self.log_pose();
+            // Local headings to true ones, once for all records.
+            let turn = self.true_heading_offset_rad();
+            self.log_pose(turn);
             self.log_drive();
-            self.log_navigation();
+            self.log_navigation(turn);
             self.log_ekf();
             self.log_obstacles();
         }
@@ -257,10 +264,9 @@ impl Core {
         self.onboard_log.write(&m::GPS, &values);
     }
 
-    fn log_pose(&mut self) {
+    fn log_pose(&mut self, turn: f64) {
         let t = self.log_time_us();
         let e = *self.estimator.estimate();
-        let turn = self.true_heading_offset_rad();
         if let (Some(frame), true) = (self.frame(), e.position_valid) {
             let p = frame.to_geodetic(&e.position);
             let alt = self.estimator.gnss().alt_msl_m;
@@ -335,13 +341,12 @@ impl Core {
     }
 
     /// NTUN, the preview point and the tracker's PIDs while navigating.
-    fn log_navigation(&mut self) {
+    fn log_navigation(&mut self, turn: f64) {
         let s = *self.navigator.status();
         if !self.mode.is_autopilot() || !s.active {
             return;
         }
         let t = self.log_time_us();
-        let turn = self.true_heading_offset_rad();
         let yaw = self.estimator.estimate().yaw_rad;
         let k = &s.tracker;
         let values = [
