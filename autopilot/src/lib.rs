@@ -17,7 +17,7 @@
 //! - [`obstacles`]: scans to clusters to tracks, collision prediction along
 //!   the swept path, the stop/pass/detour policy.
 //! - [`modes`]: ArduPilot Rover's mode numbers, names and properties (what
-//!   each mode does each tick is in [`vehicle`]).
+//!   each mode does each tick is in `vehicle/modes/`, one file per mode).
 //! - [`fence`]: the geofence geometry.
 //! - [`telemetry`]: identity, STATUSTEXT and the per-link stream rates.
 //!
@@ -25,21 +25,23 @@
 //! - [`edge`]: the runner `furrow sitl` and `furrow run` share: one tokio
 //!   runtime, the links, the data directory, the loop and its clocks.
 //! - [`link`]: sockets, serial ports, framing, signing, routing, tlog.
+//! - [`ftp`]: MAVLink FTP (the protocol pure, its file I/O on a worker
+//!   thread at the edge).
 //! - [`logging`]: onboard DataFlash logs: records built by the core,
 //!   written and served over MAVLink at the edge, read by `furrow logs`.
 //! - [`sitl`]: `furrow sitl`: the simulated world stepped with the core, as
 //!   a platform of the edge runner paced against the wall clock.
 //! - [`run`]: `furrow run --config FILE`: the real vehicle.
 //! - [`storage`]: the data directory and atomic persistence.
+//! - [`stderr_log`]: the diagnostic log every binary writes to stderr.
 //! - [`offline`]: tools on a data directory (`furrow params …`,
 //!   `furrow mission …`) and `furrow config check`.
-//! - [`bench`]: `furrow bench …`: benchmarks that print figures.
 
-pub mod bench;
 pub mod control;
 pub mod edge;
 pub mod estimation;
 pub mod fence;
+pub mod ftp;
 pub mod geo;
 pub mod guidance;
 pub mod link;
@@ -50,6 +52,7 @@ pub mod offline;
 pub mod run;
 pub mod sched;
 pub mod sitl;
+pub mod stderr_log;
 pub mod storage;
 pub mod telemetry;
 pub mod time;

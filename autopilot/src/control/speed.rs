@@ -2,7 +2,7 @@
 //! model (`CRUISE_SPEED` reached at `CRUISE_THROTTLE`) plus a PI correction
 //! on the speed error, with acceleration limits on the demanded speed.
 
-use crate::control::pid::{PidGains, PidState};
+use crate::control::pid::{PidGains, PidState, PidTerms};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SpeedControlConfig {
@@ -19,6 +19,9 @@ pub struct SpeedController {
     pid: PidState,
     /// The demand after the acceleration limit.
     limited_mps: f64,
+    /// The last update's PID terms and feed-forward throttle (for the log).
+    last_terms: PidTerms,
+    last_feed_forward: f64,
 }
 
 impl SpeedController {
@@ -30,6 +33,11 @@ impl SpeedController {
     /// The acceleration-limited speed demand of the last update.
     pub fn limited_demand_mps(&self) -> f64 {
         self.limited_mps
+    }
+
+    /// The last update's PID terms and feed-forward throttle.
+    pub fn last_terms(&self) -> (PidTerms, f64) {
+        (self.last_terms, self.last_feed_forward)
     }
 
     /// Throttle in [-1, 1] for `desired_mps` given the measured speed; with
@@ -56,16 +64,15 @@ impl SpeedController {
             1.0
         };
         let feed_forward = self.limited_mps / full_throttle_speed.max(1e-3);
-        let correction = match measured_mps {
-            Some(measured) => self
-                .pid
-                .update(&config.gains, self.limited_mps - measured, dt_s)
-                .output(),
+        self.last_terms = match measured_mps {
+            Some(measured) => self.pid.update(&config.gains, self.limited_mps - measured, dt_s),
             None => {
                 self.pid.reset();
-                0.0
+                PidTerms::default()
             }
         };
+        self.last_feed_forward = feed_forward;
+        let correction = self.last_terms.output();
         (feed_forward + correction).clamp(-1.0, 1.0)
     }
 }

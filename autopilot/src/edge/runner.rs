@@ -13,8 +13,10 @@ use tokio::sync::oneshot;
 
 use super::clock::InstantTimer;
 use super::persistence::Persistence;
+use crate::ftp::service::FtpService;
 use crate::link::hub::{self, CoreChannels, HubConfig, LinkRuntime, ToCore};
 use crate::link::sockets::LinkSockets;
+use crate::logging::edge::Logger;
 use crate::vehicle::{Core, Inbound, Inputs, Outbound, Outputs, SaveRequest};
 
 /// The core with the devices around it: a simulated world, or a real
@@ -92,8 +94,12 @@ impl EdgeRunner {
             shutdown.await;
             let _ = stop_tx.send(());
         });
+        let ftp = FtpService::start(persistence.dir(), channels.outbound.clone());
+        let logger = Logger::start(persistence.dir(), channels.outbound.clone());
         let mut edge = Edge {
             origin: self.origin,
+            logger,
+            ftp,
             links,
             channels,
             persistence,
@@ -104,8 +110,10 @@ impl EdgeRunner {
         self.runtime.block_on(edge.drive(platform, stop));
         platform.stop(edge.wall(), edge.dropped_to_links);
         edge.persistence.finish();
+        let Edge { links, logger, .. } = edge;
+        crate::logging::edge::report(logger);
         // The hub saves the signing timestamp as it stops.
-        drop(edge);
+        drop(links);
         Ok(())
     }
 }
@@ -113,6 +121,10 @@ impl EdgeRunner {
 /// The loop's side of the links and the data directory.
 struct Edge {
     origin: Instant,
+    /// Answers FILE_TRANSFER_PROTOCOL on a thread of its own.
+    ftp: FtpService,
+    /// Writes the core's onboard log records off the core's thread.
+    logger: Logger,
     links: LinkRuntime,
     channels: CoreChannels,
     persistence: Persistence,
@@ -172,6 +184,7 @@ impl Edge {
             match item {
                 ToCore::Event(e) => platform.inputs_mut().link_events.push(e),
                 ToCore::Message(m) => {
+                    self.ftp.offer(std::slice::from_ref(&m), platform.core());
                     if !platform.answer_at_edge(&m, wall, &mut self.replies) {
                         platform.inputs_mut().messages.push(m);
                     }
@@ -193,6 +206,7 @@ impl Edge {
             }
             self.send_to_links(out);
         }
+        self.logger.send(&mut outputs.log);
         std::mem::take(&mut outputs.saves)
     }
 

@@ -331,7 +331,7 @@ impl Default for MagneticGuideConfig {
     /// 50 Hz: the seed's P and D, and an integral (learnt while tracking) so
     /// that curves entered from a straight are held without a standing
     /// offset; no configured correction limit below full lock (the
-    /// geometric one, 12.3° here, applies). `furrow bench magnetic`
+    /// geometric one, 12.3° here, applies). `furrow-bench magnetic`
     /// measures it: back within 3 s from 0.1 m and 5° towards the tape at
     /// 1.5 m/s on a straight and on 15 and 25 m arcs, never off a tape
     /// running into arcs of 10 m and more.

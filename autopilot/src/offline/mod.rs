@@ -2,5 +2,7 @@
 //! runs on it.
 
 pub mod config;
+pub mod logs;
 pub mod mission;
 pub mod params;
+pub mod plot;

@@ -69,6 +69,10 @@ impl Core {
             MavMessage::RC_CHANNELS_OVERRIDE(m) if from_gcs => self.handle_rc_override(m),
             MavMessage::SET_POSITION_TARGET_GLOBAL_INT(m) => self.handle_position_target(m),
             MavMessage::MISSION_SET_CURRENT(m) => self.mission_set_current_message(m.seq),
+            MavMessage::LOG_REQUEST_LIST(_)
+            | MavMessage::LOG_REQUEST_DATA(_)
+            | MavMessage::LOG_ERASE(_)
+            | MavMessage::LOG_REQUEST_END(_) => self.onboard_log.request(inbound.link, inbound.message.clone()),
             MavMessage::REQUEST_DATA_STREAM(r) => {
                 if let Some(streams) = self.links.get_mut(&inbound.link) {
                     streams.request_data_stream(r.req_stream_id as u8, r.req_message_rate, r.start_stop != 0);

@@ -4,22 +4,22 @@
 //! caller hands it this tick's inputs and takes its outputs.
 
 mod arming;
-mod auto;
 mod commands;
 mod drive;
 mod estimation;
 mod failsafe;
 mod geofence;
 mod io;
-mod magnetic;
 mod messages;
 mod mission_protocol;
 mod mission_state;
 mod modes;
 mod obstacles;
+mod onboard_log;
 mod param_protocol;
 pub mod params;
 mod persistence;
+mod sim_truth;
 mod telemetry;
 
 use std::collections::BTreeMap;
@@ -44,7 +44,9 @@ use crate::time::{Now, TaskTimer};
 
 pub use drive::DriveState;
 pub use failsafe::{Failsafe, FailsafeAction};
-pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, PeerId, ScanInput, UndecodableItem};
+pub use io::{
+    Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, PeerId, ScanInput, SimTruth, UndecodableItem,
+};
 pub use obstacles::ObstacleStatus;
 pub use params::CoreParams;
 pub use persistence::{SaveDone, SaveRequest, SaveWhat, Storage};
@@ -94,7 +96,9 @@ pub struct Core {
     missions: mission_state::MissionState,
     battery: Option<BatterySample>,
     magnetic_sample: Option<MagneticSample>,
-    magnetic: magnetic::MagneticState,
+    /// The simulator's true pose of this tick (SITL only).
+    sim_truth: Option<SimTruth>,
+    magnetic: modes::magnetic::MagneticState,
     obstacles: obstacles::ObstacleState,
     failsafes: failsafe::FailsafeState,
     /// Since when the drive demand has been neutral.
@@ -109,6 +113,7 @@ pub struct Core {
     startup_notices: Vec<(MavSeverity, String)>,
     last_boot: Option<Duration>,
     persist: persistence::PersistState,
+    onboard_log: onboard_log::LogState,
     now: Now,
     outbox: Vec<Outbound>,
     counters: CoreCounters,
@@ -144,7 +149,8 @@ impl Core {
             missions: mission_state::MissionState::new(mission::Plans::default()),
             battery: None,
             magnetic_sample: None,
-            magnetic: magnetic::MagneticState::default(),
+            sim_truth: None,
+            magnetic: modes::magnetic::MagneticState::default(),
             obstacles: obstacles::ObstacleState::default(),
             failsafes: failsafe::FailsafeState::default(),
             neutral_since: None,
@@ -155,6 +161,7 @@ impl Core {
             startup_notices: Vec::new(),
             last_boot: None,
             persist: persistence::PersistState::default(),
+            onboard_log: onboard_log::LogState::default(),
             now: Now::default(),
             outbox: Vec::new(),
             counters: CoreCounters::default(),
@@ -201,9 +208,11 @@ impl Core {
             }
             self.sched.record(i, timer.now_ns().saturating_sub(started));
         }
+        self.log_tick(inputs.gnss.len());
         self.request_param_save();
         out.saves.append(&mut self.persist.take_requests());
         out.mavlink.append(&mut self.outbox);
+        out.log.append(&mut self.onboard_log.take_commands());
         self.sched.record_tick(timer.now_ns().saturating_sub(tick_start));
     }
 
@@ -220,6 +229,7 @@ impl Core {
         self.request_param_save();
         out.saves.append(&mut self.persist.take_requests());
         out.mavlink.append(&mut self.outbox);
+        out.log.append(&mut self.onboard_log.take_commands());
     }
 
     fn receive(&mut self, inputs: &Inputs) {
@@ -386,6 +396,7 @@ impl Core {
         if let Some(m) = inputs.magnetic {
             self.magnetic_sample = Some(m);
         }
+        self.sim_truth = inputs.sim_truth;
         self.read_scans(&inputs.scans);
         if self.home.is_none() && self.estimator.estimate().position_valid {
             self.set_home_to_current(false);
@@ -441,6 +452,7 @@ impl Core {
 
     /// Broadcasts a STATUSTEXT (chunked when longer than 50 characters).
     fn send_text(&mut self, severity: MavSeverity, text: &str) {
+        self.log_text(text);
         for chunk in statustext(severity, text, &mut self.statustext_id) {
             self.send(Destination::AllLinks, MavMessage::STATUSTEXT(chunk));
         }

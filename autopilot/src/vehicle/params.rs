@@ -468,6 +468,7 @@ pub struct CoreParams {
     pub servos: ServoParams,
     pub failsafe: FailsafeParams,
     pub signing: SigningParams,
+    pub logging: crate::logging::params::LogParams,
 }
 
 impl CoreParams {
@@ -489,6 +490,7 @@ impl CoreParams {
             servos: ServoParams::register(builder),
             failsafe: FailsafeParams::register(builder),
             signing: SigningParams::register(builder),
+            logging: crate::logging::params::LogParams::register(builder),
         }
     }
 }

@@ -6,15 +6,16 @@
 use drivers::sim::BatterySample;
 use mavlink::dialects::ardupilotmega::{
     ATTITUDE_DATA, BATTERY_STATUS_DATA, EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA, EkfStatusFlags,
-    GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, GpsFixType, HOME_POSITION_DATA, MavBatteryChargeState, MavBatteryFault,
-    MavBatteryFunction, MavBatteryMode, MavBatteryType, MavFrame, MavLandedState, MavMessage, MavSysStatusSensor,
-    MavSysStatusSensorExtended, MavVtolState, NAV_CONTROLLER_OUTPUT_DATA, POSITION_TARGET_GLOBAL_INT_DATA,
-    PositionTargetTypemask, RELAY_STATUS_DATA, SERVO_OUTPUT_RAW_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA,
+    GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, GpsFixType, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA,
+    MavBatteryChargeState, MavBatteryFault, MavBatteryFunction, MavBatteryMode, MavBatteryType, MavFrame,
+    MavLandedState, MavMessage, MavSysStatusSensor, MavSysStatusSensorExtended, MavVtolState,
+    NAV_CONTROLLER_OUTPUT_DATA, POSITION_TARGET_GLOBAL_INT_DATA, PositionTargetTypemask, RELAY_STATUS_DATA,
+    SERVO_OUTPUT_RAW_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA,
 };
 
 use super::failsafe::Failsafe;
 use super::{Core, Destination};
-use crate::geo::{wrap_2pi, wrap_pi};
+use crate::geo::{FrameKind, LocalFrame, wrap_2pi, wrap_pi};
 use crate::modes::Mode;
 use crate::telemetry::identity::{self, VehicleStatus};
 use crate::telemetry::streams::{StreamGroup, StreamMsg};
@@ -92,7 +93,9 @@ impl Core {
             StreamMsg::PositionTargetGlobalInt => MavMessage::POSITION_TARGET_GLOBAL_INT(self.position_target()?),
             StreamMsg::ServoOutputRaw => MavMessage::SERVO_OUTPUT_RAW(self.servo_output_raw()),
             StreamMsg::GlobalPositionInt => MavMessage::GLOBAL_POSITION_INT(self.global_position_int()?),
+            StreamMsg::LocalPositionNed => MavMessage::LOCAL_POSITION_NED(self.local_position_ned()?),
             StreamMsg::Attitude => MavMessage::ATTITUDE(self.attitude()),
+            StreamMsg::SimState => MavMessage::SIMSTATE(self.simstate()?),
             StreamMsg::VfrHud => MavMessage::VFR_HUD(self.vfr_hud()),
             StreamMsg::SystemTime => MavMessage::SYSTEM_TIME(SYSTEM_TIME_DATA {
                 time_unix_usec: self
@@ -340,7 +343,7 @@ impl Core {
     /// How much a heading in the local frame must turn to be a true heading
     /// at the vehicle (meridian convergence, plant-grid rotation): MAVLink
     /// headings are true.
-    fn true_heading_offset_rad(&self) -> f64 {
+    pub(super) fn true_heading_offset_rad(&self) -> f64 {
         let e = self.estimator.estimate();
         match self.frame() {
             Some(frame) => {
@@ -381,6 +384,34 @@ impl Core {
             } else {
                 u16::MAX
             },
+        })
+    }
+
+    /// The estimate in metres north, east and down of the local origin (the
+    /// first fix, as ArduPilot's EKF origin), on the tangent plane there and
+    /// towards true north whatever `GEO_FRAME` the core works in: what a
+    /// ground station checks positions against below GLOBAL_POSITION_INT's
+    /// 1e-7° steps.
+    fn local_position_ned(&self) -> Option<LOCAL_POSITION_NED_DATA> {
+        let frame = self.frame()?;
+        let e = self.estimator.estimate();
+        let origin = frame.origin();
+        let plain_tangent_plane = frame.kind() == FrameKind::TangentPlane && frame.map().is_none();
+        let position = if plain_tangent_plane {
+            e.position
+        } else {
+            LocalFrame::new(origin).to_local(&frame.to_geodetic(&e.position))
+        };
+        let turn = self.true_heading_offset_rad();
+        let (sin, cos) = turn.sin_cos();
+        Some(LOCAL_POSITION_NED_DATA {
+            time_boot_ms: self.now.boot_ms(),
+            x: position.north_m as f32,
+            y: position.east_m as f32,
+            z: -(self.estimator.gnss().alt_msl_m - origin.alt_m) as f32,
+            vx: (e.vel_north_mps * cos - e.vel_east_mps * sin) as f32,
+            vy: (e.vel_north_mps * sin + e.vel_east_mps * cos) as f32,
+            vz: 0.0,
         })
     }
 

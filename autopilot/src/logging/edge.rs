@@ -1,0 +1,258 @@
+//! The log's edge: a thread that writes the core's records to `logs/` and
+//! serves downloads. The core's side only ever `try_send`s into a bounded
+//! queue: when the disk or a download falls behind, commands are dropped
+//! and counted, and the core never waits.
+
+use std::io::{BufWriter, Write};
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use tokio::sync::mpsc::Sender;
+
+use super::format::write_header;
+use super::messages;
+use super::protocol::{Action, LogTransfer};
+use super::store::LogStore;
+use super::{FileLimits, LogCommand};
+use crate::vehicle::{Destination, Outbound};
+
+/// Commands queued for the thread: about five seconds of ticks at 50 Hz.
+const QUEUE: usize = 256;
+/// LOG_DATA sent per pass at most, and only while the link queue is at
+/// most half full (telemetry keeps its room).
+const CHUNKS_PER_PASS: usize = 64;
+/// How long the thread sleeps between passes during a download.
+const DOWNLOAD_PASS: Duration = Duration::from_millis(2);
+/// Written data reaches the file at least this often (a download of the
+/// file being written, a crash).
+const FLUSH_EVERY: Duration = Duration::from_secs(1);
+
+/// The handle the runner keeps: hands commands over and counts drops.
+pub struct Logger {
+    tx: Option<SyncSender<LogCommand>>,
+    dropped: u64,
+    written_bytes: Arc<AtomicU64>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Logger {
+    /// Starts the thread for the data directory at `data_dir`; replies to
+    /// downloads go to `outbound`.
+    pub fn start(data_dir: &Path, outbound: Sender<Outbound>) -> Logger {
+        let (tx, rx) = std::sync::mpsc::sync_channel(QUEUE);
+        let store = LogStore::new(data_dir);
+        let written_bytes = Arc::new(AtomicU64::new(0));
+        let written = written_bytes.clone();
+        let thread = std::thread::Builder::new()
+            .name("log".into())
+            .spawn(move || run(rx, store, outbound, &written))
+            .map_err(|e| tracing::error!("onboard log thread: {e}; not logging"))
+            .ok();
+        Logger {
+            tx: thread.is_some().then_some(tx),
+            dropped: 0,
+            written_bytes,
+            thread,
+        }
+    }
+
+    /// Moves `commands` to the thread without waiting; what does not fit
+    /// is dropped and counted.
+    pub fn send(&mut self, commands: &mut Vec<LogCommand>) {
+        let Some(tx) = &self.tx else {
+            commands.clear();
+            return;
+        };
+        for command in commands.drain(..) {
+            match tx.try_send(command) {
+                Ok(()) => {}
+                Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => self.dropped += 1,
+            }
+        }
+    }
+
+    /// Commands dropped because the queue was full.
+    pub fn dropped(&self) -> u64 {
+        self.dropped
+    }
+
+    /// Bytes written to log files so far.
+    pub fn written_bytes(&self) -> u64 {
+        self.written_bytes.load(Ordering::Relaxed)
+    }
+}
+
+impl Drop for Logger {
+    /// Closes the queue and waits for the thread to write what it holds.
+    fn drop(&mut self) {
+        self.tx.take();
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+/// The file being written.
+struct OpenLog {
+    number: u16,
+    file: BufWriter<std::fs::File>,
+    bytes: u64,
+    limits: FileLimits,
+}
+
+struct Writer<'a> {
+    store: LogStore,
+    open: Option<OpenLog>,
+    last_flush: Instant,
+    written: &'a AtomicU64,
+}
+
+impl Writer<'_> {
+    fn open(&mut self, limits: FileLimits) {
+        self.close();
+        match self.store.create_next(limits.max_files) {
+            Ok((number, file)) => {
+                let mut header = Vec::new();
+                write_header(&mut header, 0, messages::ALL);
+                self.open = Some(OpenLog {
+                    number,
+                    file: BufWriter::with_capacity(64 * 1024, file),
+                    bytes: 0,
+                    limits,
+                });
+                self.write(&header);
+                tracing::info!("onboard log {} started", number);
+            }
+            Err(e) => tracing::warn!("onboard log in {}: {e}; not logging", self.store.dir().display()),
+        }
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        let Some(log) = &mut self.open else {
+            return;
+        };
+        if let Err(e) = log.file.write_all(bytes) {
+            tracing::warn!("onboard log {}: {e}; closed", log.number);
+            self.open = None;
+            return;
+        }
+        log.bytes += bytes.len() as u64;
+        self.written.fetch_add(bytes.len() as u64, Ordering::Relaxed);
+        if log.limits.max_bytes > 0 && log.bytes >= log.limits.max_bytes {
+            let limits = log.limits;
+            self.open(limits);
+        }
+    }
+
+    fn flush(&mut self) {
+        self.last_flush = Instant::now();
+        if let Some(log) = &mut self.open
+            && let Err(e) = log.file.flush()
+        {
+            tracing::warn!("onboard log {}: {e}", log.number);
+        }
+    }
+
+    fn close(&mut self) {
+        self.flush();
+        self.open = None;
+    }
+}
+
+fn run(rx: Receiver<LogCommand>, store: LogStore, outbound: Sender<Outbound>, written: &AtomicU64) {
+    let mut writer = Writer {
+        store: store.clone(),
+        open: None,
+        last_flush: Instant::now(),
+        written,
+    };
+    let mut transfer = LogTransfer::default();
+    loop {
+        let wait = if transfer.busy() { DOWNLOAD_PASS } else { FLUSH_EVERY };
+        let first = match rx.recv_timeout(wait) {
+            Ok(command) => Some(command),
+            Err(RecvTimeoutError::Timeout) => None,
+            Err(RecvTimeoutError::Disconnected) => break,
+        };
+        for command in first.into_iter().chain(rx.try_iter()) {
+            match command {
+                LogCommand::Open(limits) => writer.open(limits),
+                LogCommand::Records(bytes) => writer.write(&bytes),
+                LogCommand::Close => writer.close(),
+                LogCommand::Request { link, message } => {
+                    // A download sees everything written so far.
+                    writer.flush();
+                    let logs: Vec<_> = store.list().iter().map(|l| l.info()).collect();
+                    for action in transfer.handle(link, &message, &logs) {
+                        match action {
+                            Action::Send(link, message) => send(&outbound, link, *message),
+                            Action::EraseAll => erase(&store, writer.open.as_ref().map(|l| l.number)),
+                        }
+                    }
+                }
+            }
+        }
+        if writer.last_flush.elapsed() >= FLUSH_EVERY {
+            writer.flush();
+        }
+        pump(&mut transfer, &store, &outbound);
+    }
+    writer.close();
+}
+
+fn send(
+    outbound: &Sender<Outbound>,
+    link: crate::vehicle::LinkId,
+    message: mavlink::dialects::ardupilotmega::MavMessage,
+) {
+    let _ = outbound.try_send(Outbound {
+        dest: Destination::Link(link),
+        message,
+    });
+}
+
+fn erase(store: &LogStore, keep: Option<u16>) {
+    match store.erase_all(keep) {
+        Ok(n) => tracing::info!("onboard logs erased: {n}"),
+        Err(e) => tracing::warn!("erasing onboard logs in {}: {e}", store.dir().display()),
+    }
+}
+
+/// Sends the next LOG_DATA chunks while the link queue has room.
+fn pump(transfer: &mut LogTransfer, store: &LogStore, outbound: &Sender<Outbound>) {
+    let mut buf = [0u8; super::protocol::CHUNK];
+    for _ in 0..CHUNKS_PER_PASS {
+        if outbound.capacity() < outbound.max_capacity() / 2 {
+            return;
+        }
+        let Some(request) = transfer.next_chunk() else {
+            return;
+        };
+        let read = match store.read(request.id, u64::from(request.ofs), &mut buf[..request.len]) {
+            Ok(n) => n,
+            Err(e) => {
+                tracing::warn!("onboard log {} read: {e}", request.id);
+                0
+            }
+        };
+        if let Some(message) = transfer.chunk_read(request, &buf[..read]) {
+            send(outbound, request.link, message);
+        }
+    }
+}
+
+/// Stops the thread once it has written everything, and says how it went.
+pub fn report(logger: Logger) {
+    let dropped = logger.dropped();
+    let written = logger.written_bytes.clone();
+    drop(logger);
+    tracing::info!(
+        "onboard log: {} bytes written, {} commands dropped (queue full)",
+        written.load(Ordering::Relaxed),
+        dropped
+    );
+}
