@@ -7,9 +7,10 @@ use std::process::Command;
 
 use autopilot::link::endpoint::Endpoint;
 use autopilot::run::config::{
-    self, BAUD_RATES, ConfigError, Frame, GnssLink, HeadingSource, HostPort, NtripVersion, PwmOutputSetting,
-    SerialLine, VehicleConfig,
+    self, BAUD_RATES, ConfigError, Frame, GnssLink, HeadingSource, HostPort, PwmOutputSetting, SerialLine,
+    VehicleConfig,
 };
+use drivers::ntrip::NtripVersion;
 use proptest::prelude::*;
 
 fn examples_dir() -> PathBuf {
@@ -71,7 +72,7 @@ fn ackermann_example_loads_with_every_device() {
     let ntrip = agv.corrections.ntrip.as_ref().unwrap_or_else(|| panic!("no ntrip"));
     assert_eq!(ntrip.version, NtripVersion::V2);
     assert_eq!((ntrip.host.as_str(), ntrip.port), ("rtk.example.net", 2101));
-    assert_eq!(ntrip.gga_interval().as_secs(), 10);
+    assert_eq!(ntrip.gga_interval.as_secs(), 10);
     assert!(ntrip.user.is_some() && ntrip.password.is_some());
     assert_eq!(agv.scanners.len(), 2);
     assert!(agv.scanners.iter().all(|s| s.port == 2111));
@@ -157,7 +158,10 @@ fn a_minimal_file_gets_the_documented_defaults() {
     ))
     .unwrap_or_else(|e| panic!("{e}"));
     let n = ntrip.corrections.ntrip.unwrap_or_else(|| panic!("no ntrip"));
-    assert_eq!((n.port, n.version, n.gga_interval_s), (2101, NtripVersion::V2, 10));
+    assert_eq!(
+        (n.port, n.version, n.gga_interval.as_secs()),
+        (2101, NtripVersion::V2, 10)
+    );
     assert_eq!((n.user, n.password), (None, None));
     // Relative to the config file's directory.
     assert_eq!(ntrip.pwm.root, Path::new(BASE_DIR).join("fake/pwm"));

@@ -3,9 +3,9 @@
 //!
 //! The protocol pieces (request, response head, chunked transfer coding,
 //! GGA sentence) are pure functions and small state machines; [`NtripClient`]
-//! is the thin I/O shell around them. It runs on its own thread with a
-//! single-threaded tokio runtime so a core that polls once per tick can own
-//! it without being async itself.
+//! is the thin I/O shell around them: a task on the tokio runtime the caller
+//! gives (the edge's), with a handle a core that polls once per tick can own
+//! without being async itself.
 //!
 //! Protocol notes (NTRIP 1.0 and 2.0, RTCM 10410.1 / 10410.0, as casters
 //! such as BKG's and SNIP behave):
@@ -24,11 +24,11 @@
 use std::collections::VecDeque;
 use std::fmt::Write as _;
 use std::sync::{Arc, Mutex};
-use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
+use tokio::runtime::Handle;
 use tokio::sync::watch;
 use tokio::time::{sleep, sleep_until, timeout};
 
@@ -57,7 +57,7 @@ pub enum NtripVersion {
 }
 
 /// Where the caster is and how to talk to it.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct NtripConfig {
     pub host: String,
     /// NTRIP casters listen on 2101 by convention.
@@ -546,18 +546,18 @@ impl Shared {
     }
 }
 
-/// A running NTRIP client. Dropping it closes the connection and stops its
-/// thread.
+/// A running NTRIP client. Dropping it closes the connection and ends its
+/// task.
 pub struct NtripClient {
     shared: Shared,
     gga: watch::Sender<Option<String>>,
     shutdown: watch::Sender<bool>,
-    thread: Option<JoinHandle<()>>,
 }
 
 impl NtripClient {
-    /// Starts connecting at once; `origin` is the clock the status uses.
-    pub fn spawn(config: NtripConfig, origin: Instant) -> Self {
+    /// Starts connecting at once, as a task on `runtime`; `origin` is the
+    /// clock the status uses.
+    pub fn spawn(config: NtripConfig, origin: Instant, runtime: &Handle) -> Self {
         let shared = Shared {
             status: shared_status(),
             corrections: Arc::new(Mutex::new(CorrectionQueue::default())),
@@ -566,22 +566,8 @@ impl NtripClient {
         let (gga, gga_rx) = watch::channel(None);
         let (shutdown, shutdown_rx) = watch::channel(false);
         let task_shared = shared.clone();
-        let thread = std::thread::Builder::new()
-            .name("ntrip".to_string())
-            .spawn(move || run_thread(config, task_shared, gga_rx, shutdown_rx));
-        let thread = match thread {
-            Ok(handle) => Some(handle),
-            Err(e) => {
-                shared.error(&NtripError::Link(format!("cannot start thread: {e}")));
-                None
-            }
-        };
-        Self {
-            shared,
-            gga,
-            shutdown,
-            thread,
-        }
+        runtime.spawn(async move { run(config, &task_shared, gga_rx, shutdown_rx).await });
+        Self { shared, gga, shutdown }
     }
 
     /// The position to report upstream (an NMEA GGA, e.g. from
@@ -611,31 +597,10 @@ impl NtripClient {
 
 impl Drop for NtripClient {
     fn drop(&mut self) {
+        // The task leaves at its next await on shutdown (a DNS lookup in
+        // progress finishes on the runtime's blocking pool, unawaited).
         self.shutdown.send_replace(true);
-        if let Some(thread) = self.thread.take() {
-            // The task leaves at its next await on shutdown, and the runtime
-            // is shut down without waiting for blocking work (a DNS lookup),
-            // so this join is short.
-            let _ = thread.join();
-        }
     }
-}
-
-fn run_thread(
-    config: NtripConfig,
-    shared: Shared,
-    gga: watch::Receiver<Option<String>>,
-    shutdown: watch::Receiver<bool>,
-) {
-    let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
-        Ok(runtime) => runtime,
-        Err(e) => {
-            shared.error(&NtripError::Link(format!("cannot start runtime: {e}")));
-            return;
-        }
-    };
-    runtime.block_on(run(config, &shared, gga, shutdown));
-    runtime.shutdown_background();
 }
 
 /// How one connection ended.

@@ -17,6 +17,15 @@ const USER: &str = "Aladdin";
 const PASSWORD: &str = "open sesame";
 const EXPECTED_AUTH: &str = "Authorization: Basic QWxhZGRpbjpvcGVuIHNlc2FtZQ==";
 
+/// The runtime the client's task runs on (the edge's, in furrow).
+fn edge_runtime() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .expect("runtime")
+}
+
 fn listen() -> (TcpListener, u16) {
     let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
     listener.set_nonblocking(true).expect("nonblocking");
@@ -165,7 +174,12 @@ fn v1_stream_arrives_byte_exact_and_gga_goes_upstream() {
         let _ = s.read_to_end(&mut rest);
     });
 
-    let client = NtripClient::spawn(config(port, "MOUNT1", NtripVersion::V1), Instant::now());
+    let runtime = edge_runtime();
+    let client = NtripClient::spawn(
+        config(port, "MOUNT1", NtripVersion::V1),
+        Instant::now(),
+        runtime.handle(),
+    );
     client.set_gga(gga_at(48.117_3, 11.516_67));
 
     let Ok(Seen::Request(request)) = seen_rx.recv_timeout(IO_TIMEOUT) else {
@@ -240,7 +254,8 @@ fn v2_chunked_stream_arrives_byte_exact_and_gga_repeats() {
 
     let mut cfg = config(port, "/MOUNT2", NtripVersion::V2);
     cfg.gga_interval = Duration::from_millis(150);
-    let client = NtripClient::spawn(cfg, Instant::now());
+    let runtime = edge_runtime();
+    let client = NtripClient::spawn(cfg, Instant::now(), runtime.handle());
     client.set_gga(gga_at(-33.856_78, 151.215_3));
 
     let Ok(Seen::Request(request)) = seen_rx.recv_timeout(IO_TIMEOUT) else {
@@ -304,7 +319,8 @@ fn dropped_connection_is_reopened_and_gga_resent() {
         let _ = s.read_to_end(&mut rest);
     });
 
-    let client = NtripClient::spawn(config(port, "M", NtripVersion::V1), Instant::now());
+    let runtime = edge_runtime();
+    let client = NtripClient::spawn(config(port, "M", NtripVersion::V1), Instant::now(), runtime.handle());
     client.set_gga(gga_at(10.0, 20.0));
     let Ok(Seen::Gga(gga)) = seen_rx.recv_timeout(IO_TIMEOUT) else {
         panic!("no GGA")
@@ -352,7 +368,8 @@ fn unauthorized_is_reported_and_not_retried_fast() {
         }
     });
 
-    let client = NtripClient::spawn(config(port, "M", NtripVersion::V2), Instant::now());
+    let runtime = edge_runtime();
+    let client = NtripClient::spawn(config(port, "M", NtripVersion::V2), Instant::now(), runtime.handle());
     assert!(
         wait_for(IO_TIMEOUT, || client
             .status()
@@ -378,7 +395,8 @@ fn wrong_mountpoint_source_table_is_reported() {
         s.write_all(b"SOURCETABLE 200 OK\r\nContent-Type: text/plain\r\n\r\nSTR;OTHER;x\r\nENDSOURCETABLE\r\n")
             .unwrap();
     });
-    let client = NtripClient::spawn(config(port, "NOPE", NtripVersion::V1), Instant::now());
+    let runtime = edge_runtime();
+    let client = NtripClient::spawn(config(port, "NOPE", NtripVersion::V1), Instant::now(), runtime.handle());
     assert!(
         wait_for(IO_TIMEOUT, || client
             .status()
@@ -413,7 +431,8 @@ fn silent_caster_is_left_after_stale_after() {
     });
     let mut cfg = config(port, "M", NtripVersion::V1);
     cfg.stale_after = Duration::from_millis(300);
-    let client = NtripClient::spawn(cfg, Instant::now());
+    let runtime = edge_runtime();
+    let client = NtripClient::spawn(cfg, Instant::now(), runtime.handle());
     let first = accepted_rx.recv_timeout(IO_TIMEOUT).expect("first connection");
     let second = accepted_rx.recv_timeout(IO_TIMEOUT).expect("reconnect after silence");
     let gap = second - first;
@@ -446,7 +465,8 @@ fn drop_closes_the_connection_promptly() {
     });
     let mut cfg = config(port, "M", NtripVersion::V1);
     cfg.gga_interval = Duration::ZERO;
-    let client = NtripClient::spawn(cfg, Instant::now());
+    let runtime = edge_runtime();
+    let client = NtripClient::spawn(cfg, Instant::now(), runtime.handle());
     ready_rx.recv_timeout(IO_TIMEOUT).expect("stream started");
     assert!(wait_for(IO_TIMEOUT, || client.status().connected));
     let dropped_at = Instant::now();

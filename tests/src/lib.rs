@@ -22,11 +22,21 @@ pub fn furrow_bin() -> PathBuf {
     profile_dir.join("furrow")
 }
 
+/// What follows `key` in a ready line, up to the next `,` or whitespace.
+fn field_after<'a>(line: &'a str, key: &str) -> &'a str {
+    line.split(key)
+        .nth(1)
+        .and_then(|rest| rest.split([',', ' ', '\n']).next())
+        .unwrap_or_else(|| panic!("no {key:?} in ready line {line:?}"))
+}
+
 /// A `furrow sitl` process with its bound addresses.
 pub struct Sitl {
     child: Child,
     pub tcp: SocketAddr,
     pub udp_local: SocketAddr,
+    /// The line it printed when ready.
+    pub ready: String,
     _data: TempDir,
 }
 
@@ -50,11 +60,9 @@ impl Sitl {
             .read_line(&mut line)
             .expect("ready line");
         let field = |key: &str| -> SocketAddr {
-            line.split(key)
-                .nth(1)
-                .and_then(|rest| rest.split([',', ' ']).next())
-                .and_then(|a| a.parse().ok())
-                .unwrap_or_else(|| panic!("no {key:?} in ready line {line:?}"))
+            let text = field_after(&line, key);
+            text.parse()
+                .unwrap_or_else(|_| panic!("{text:?} after {key:?} is not an address"))
         };
         let tcp = field("tcp ");
         let udp_local = field("udp ");
@@ -62,8 +70,14 @@ impl Sitl {
             child,
             tcp: SocketAddr::from(([127, 0, 0, 1], tcp.port())),
             udp_local,
+            ready: line,
             _data: data,
         }
+    }
+
+    /// What follows `key` in the ready line, up to the next `,` or space.
+    pub fn ready_field(&self, key: &str) -> &str {
+        field_after(&self.ready, key)
     }
 
     pub fn is_running(&mut self) -> bool {

@@ -53,11 +53,12 @@ fn tcp_client_endpoint_connects_out() {
 
 #[test]
 fn udpin_endpoint_answers_its_sender() {
-    let port = {
-        let probe = UdpSocket::bind("127.0.0.1:0").unwrap();
-        probe.local_addr().unwrap().port()
-    };
-    let _sitl = Sitl::start(9, &["--mavlink", &format!("udpin:127.0.0.1:{port}")]);
+    // Port 0: the OS picks it, and the ready line says which.
+    let sitl = Sitl::start(9, &["--mavlink", "udpin:127.0.0.1:0"]);
+    let port: u16 = sitl
+        .ready_field(", listening udpin:127.0.0.1:")
+        .parse()
+        .expect("a port");
     let gcs = UdpSocket::bind("127.0.0.1:0").unwrap();
     gcs.set_read_timeout(Some(Duration::from_millis(500))).unwrap();
     let hb = encode(MavlinkVersion::V2, &MavMessage::HEARTBEAT(HEARTBEAT_DATA::DEFAULT));

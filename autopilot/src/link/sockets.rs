@@ -40,6 +40,19 @@ pub struct BoundAddresses {
     /// The secure endpoints, in endpoint syntax with the port a listener
     /// actually bound (`tcpin:127.0.0.1:40123`).
     pub secure: Vec<String>,
+    /// The other extra endpoints that listen (`udpin:`, `tcpin:`), the same
+    /// way.
+    pub listening: Vec<String>,
+}
+
+impl BoundAddresses {
+    /// The end of the ready line: `, secure tcpin:…` for each secure
+    /// endpoint, then `, listening udpin:…` for each other listener.
+    pub fn ready_suffix(&self) -> String {
+        let secure = self.secure.iter().map(|s| format!(", secure {s}"));
+        let listening = self.listening.iter().map(|s| format!(", listening {s}"));
+        secure.chain(listening).collect()
+    }
 }
 
 /// One link's way to the outside, bound where binding applies.
@@ -152,8 +165,11 @@ impl LinkSockets {
                 baud: *baud,
             },
         };
+        let listens = matches!(endpoint, Endpoint::UdpIn { .. } | Endpoint::TcpServer { .. });
         if link.secure {
             self.bound.secure.push(shown);
+        } else if listens {
+            self.bound.listening.push(shown);
         }
         self.links.push((socket, role));
         Ok(())

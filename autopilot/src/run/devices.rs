@@ -9,14 +9,14 @@ use drivers::device::DeviceStatus;
 use drivers::gnss::port::{GnssPort, GnssPortConfig, GnssSource};
 use drivers::gnss::{FixQuality, GnssFix, GnssSample};
 use drivers::magnetic_serial::MagneticSerial;
-use drivers::ntrip::{NtripClient, NtripConfig, gga_sentence};
+use drivers::ntrip::{NtripClient, gga_sentence};
 use drivers::rtcm::RtcmReassembler;
 use drivers::scanner::Scan;
 use drivers::scanner::client::{ScannerClient, ScannerClientConfig};
 use tokio::runtime::Handle;
 use tokio::sync::mpsc;
 
-use super::config::{GnssLink, HeadingSource, NtripVersion, SerialLine, VehicleConfig};
+use super::config::{GnssLink, HeadingSource, SerialLine, VehicleConfig};
 use crate::vehicle::{Inputs, ScanInput};
 
 /// How long a magnetic sensor may stay silent before it counts as lost.
@@ -179,26 +179,12 @@ impl Devices {
             HeadingSource::Gnss | HeadingSource::None => None,
         };
         let ntrip = config.corrections.ntrip.as_ref().map(|n| {
-            let ntrip_config = NtripConfig {
-                host: n.host.clone(),
-                port: n.port,
-                mountpoint: n.mountpoint.clone(),
-                user: n.user.clone(),
-                password: n.password.clone(),
-                version: match n.version {
-                    NtripVersion::V1 => drivers::ntrip::NtripVersion::V1,
-                    NtripVersion::V2 => drivers::ntrip::NtripVersion::V2,
-                },
-                gga_interval: n.gga_interval(),
-                ..NtripConfig::default()
-            };
-            let stale_after = ntrip_config.stale_after;
-            let client = NtripClient::spawn(ntrip_config, origin);
+            let client = NtripClient::spawn(n.clone(), origin, runtime);
             (
                 client,
                 format!("{}:{}/{}", n.host, n.port, n.mountpoint),
-                n.gga_interval(),
-                stale_after,
+                n.gga_interval,
+                n.stale_after,
             )
         });
         let magnetic = config.magnetic.as_ref().map(|line| {

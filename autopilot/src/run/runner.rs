@@ -79,8 +79,11 @@ pub fn run(config_path: &Path) -> Result<(), String> {
     let tcp = sockets.bound.tcp.map_or("none".into(), |a| a.to_string());
     let udp = sockets.bound.udp_local.map_or("none".into(), |a| a.to_string());
     // One line on stdout that scripts and tests parse for the bound ports.
-    let secure: String = sockets.bound.secure.iter().map(|s| format!(", secure {s}")).collect();
-    println!("furrow run ready: tcp {tcp}, udp {udp}, sysid {}{secure}", core.sysid());
+    let listeners = sockets.bound.ready_suffix();
+    println!(
+        "furrow run ready: tcp {tcp}, udp {udp}, sysid {}{listeners}",
+        core.sysid()
+    );
     tracing::info!("vehicle from {}:\n{}", config_path.display(), config.summary());
 
     let mut vehicle = RealVehicle {

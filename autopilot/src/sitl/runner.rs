@@ -97,11 +97,11 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
     let edge = EdgeRunner::new()?;
     let tcp = sockets.bound.tcp.map_or("none".into(), |a| a.to_string());
     let udp = sockets.bound.udp_local.map_or("none".into(), |a| a.to_string());
-    let secure: String = sockets.bound.secure.iter().map(|s| format!(", secure {s}")).collect();
+    let listeners = sockets.bound.ready_suffix();
     // One line on stdout that scripts and tests parse for the bound ports
     // (new fields go at the end).
     println!(
-        "furrow sitl ready: tcp {tcp}, udp {udp} to 127.0.0.1:{udp_port}, sysid {}{secure}",
+        "furrow sitl ready: tcp {tcp}, udp {udp} to 127.0.0.1:{udp_port}, sysid {}{listeners}",
         sim.core().sysid()
     );
     tracing::info!(

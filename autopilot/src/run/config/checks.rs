@@ -3,7 +3,9 @@
 
 use std::ops::{Range, RangeInclusive};
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
+use drivers::ntrip::{NtripConfig, NtripVersion};
 use serde::Deserialize;
 use toml::Spanned;
 
@@ -289,7 +291,7 @@ impl Checker<'_> {
         }
     }
 
-    fn ntrip(&self, ntrip: RawNtrip) -> Result<NtripSettings, ConfigError> {
+    fn ntrip(&self, ntrip: RawNtrip) -> Result<NtripConfig, ConfigError> {
         let host = ntrip.host.get_ref();
         if host.contains("://") {
             return Err(self.error(
@@ -353,14 +355,15 @@ impl Checker<'_> {
             Some(s) => self.int_in("corrections.ntrip.gga_interval_s", s, GGA_INTERVAL_S_RANGE)?,
             None => DEFAULT_GGA_INTERVAL_S,
         };
-        Ok(NtripSettings {
+        Ok(NtripConfig {
             host: host.clone(),
             port,
             mountpoint: mountpoint.clone(),
             user: ntrip.user.map(Spanned::into_inner),
             password: ntrip.password.map(Spanned::into_inner),
             version,
-            gga_interval_s,
+            gga_interval: Duration::from_secs(u64::from(gga_interval_s)),
+            ..NtripConfig::default()
         })
     }
 

@@ -4,6 +4,7 @@ use std::fmt;
 use std::path::PathBuf;
 use std::time::Duration;
 
+use drivers::ntrip::{NtripConfig, NtripVersion};
 use serde::Deserialize;
 
 use crate::link::endpoint::Endpoint;
@@ -165,31 +166,8 @@ pub enum HeadingSource {
 pub struct Corrections {
     /// Pass GPS_RTCM_DATA from a ground station to the receiver.
     pub mavlink: bool,
-    pub ntrip: Option<NtripSettings>,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum NtripVersion {
-    V1,
-    V2,
-}
-
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct NtripSettings {
-    pub host: String,
-    pub port: u16,
-    pub mountpoint: String,
-    pub user: Option<String>,
-    pub password: Option<String>,
-    pub version: NtripVersion,
-    /// 0: never send GGA (casters with a fixed base need none).
-    pub gga_interval_s: u32,
-}
-
-impl NtripSettings {
-    pub fn gga_interval(&self) -> Duration {
-        Duration::from_secs(u64::from(self.gga_interval_s))
-    }
+    /// The caster, with the client's default timeouts and backoff.
+    pub ntrip: Option<NtripConfig>,
 }
 
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -244,7 +222,7 @@ impl VehicleConfig {
                 (Some(user), None) => format!("as {user} (no password)"),
                 _ => "anonymous".to_string(),
             };
-            let gga = match ntrip.gga_interval_s {
+            let gga = match ntrip.gga_interval.as_secs() {
                 0 => "no GGA".to_string(),
                 s => format!("GGA every {s} s"),
             };
