@@ -49,7 +49,11 @@ fn a_guided_target_just_behind_is_reached_in_reverse() {
         reversed |= s.world().truth().speed_mps < -0.2;
         s.core().navigator().arrived()
     });
-    assert!(arrived && reversed, "arrived {arrived}, reversed {reversed}");
+    assert!(
+        arrived && reversed,
+        "arrived {arrived}, reversed {reversed} {:?}",
+        h.texts()
+    );
     assert!(h.distance_to(-6.0, 0.0) < 0.03);
     let yaw = h.sim.world().truth().yaw_rad.to_degrees();
     assert!(yaw.abs() < 1.0, "still facing north: {yaw:.2}°");

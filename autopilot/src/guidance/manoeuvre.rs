@@ -81,9 +81,26 @@ impl std::fmt::Display for Refusal {
 }
 
 /// Every manoeuvre from `start` to `goal` (heading `yaw_rad`) through
-/// each approach direction, limits not applied.
+/// each approach direction, limits not applied; and the words straight to
+/// the goal that end with a straight at least as long as the approach, or
+/// are one straight (the vehicle already on the goal's line).
 pub fn candidates(start: &Pose, goal: &Pose, config: &ManoeuvreConfig) -> Vec<Manoeuvre> {
-    let mut out = Vec::new();
+    let (x, y, phi) = normalise(start, goal, config.radius_m);
+    let mut out: Vec<Manoeuvre> = words(x, y, phi)
+        .into_iter()
+        .map(|word| Manoeuvre {
+            strokes: to_strokes(start, &word, config.radius_m),
+            goal: *goal,
+        })
+        .filter(|m| {
+            let pieces: Vec<&Piece> = m.strokes.iter().flat_map(|s| &s.pieces).collect();
+            match pieces.as_slice() {
+                [Piece::Line(_)] => true,
+                [.., Piece::Line(last)] => last.length_m() >= config.approach_m,
+                _ => false,
+            }
+        })
+        .collect();
     for approach in [Direction::Forward, Direction::Reverse] {
         // The vehicle drives into the goal along its heading (forwards) or
         // backs into it (reverse): the approach starts before it in the
@@ -258,12 +275,15 @@ mod tests {
             max_direction_changes: 0,
             ..config()
         };
-        // Just behind, facing the same way: not without backing up.
-        let refusal = plan(&start(), Ned::new(-2.0, 0.0), Some(0.0), &no_reverse).unwrap_err();
-        assert!(
-            matches!(refusal, Refusal::TooManyDirectionChanges { fewest } if fewest >= 1),
-            "{refusal:?}"
-        );
+        // Straight behind is one reverse stroke: no change of direction.
+        let m = plan(&start(), Ned::new(-2.0, 0.0), Some(0.0), &no_reverse).unwrap();
+        assert_eq!((m.strokes.len(), m.strokes[0].direction), (1, Direction::Reverse));
+        // Beside, inside the turning circle: not without changing direction.
+        match plan(&start(), Ned::new(1.0, 2.0), Some(0.0), &no_reverse) {
+            Ok(m) => assert_eq!(m.direction_changes(), 0, "{m:?}"),
+            Err(Refusal::TooManyDirectionChanges { fewest }) => assert!(fewest >= 1),
+            Err(other) => panic!("{other:?}"),
+        }
         assert!(plan(&start(), Ned::new(f64::NAN, 0.0), None, &config()).is_err());
     }
 

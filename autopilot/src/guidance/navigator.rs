@@ -4,9 +4,13 @@
 //! steering angle and signed speed for the controllers, and after a stop
 //! the stop error it reached.
 
+use std::collections::VecDeque;
+
 use crate::estimation::Estimate;
 use crate::geo::{Ned, wrap_pi};
+use crate::guidance::manoeuvre::Manoeuvre;
 use crate::guidance::path::{Arc, LegPath, fit_corner};
+use crate::guidance::reeds_shepp::{Pose, Stroke};
 use crate::guidance::speed::{SpeedConfig, SpeedInputs, SpeedState, SpeedStatus, scheduled_speed};
 use crate::guidance::tracker::{Direction, TrackInput, TrackerConfig, TrackerState, TrackerStatus, VehiclePose, track};
 
@@ -30,6 +34,14 @@ const MIN_LEG_M: f64 = 1e-3;
 /// Past a stop by more than this, the vehicle drives to it again rather
 /// than back up.
 const OVERSHOOT_REPLAN_M: f64 = 2.0;
+/// A manoeuvre's change of direction is a stop this close: the next stroke
+/// starts with the tracker correcting what is left.
+const CUSP_TOL_M: f64 = 0.05;
+/// Before each stroke of a manoeuvre the wheels turn at rest until the
+/// tracker's command settles, for at most this long: the steering rate
+/// would otherwise spread a full-lock change over metres of a stroke that
+/// may be only a few long.
+const PRESTEER_MAX_S: f64 = 4.0;
 
 /// How close a precision stop must end (`WP_STOP_TOL_MM`, `WP_STOP_TOL_DEG`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,6 +70,8 @@ pub struct NavConfig {
     pub stop: StopTolerance,
     /// Preview distance for the last stretch to a stop (`PVW_STOP_DIST`).
     pub stop_preview_m: f64,
+    /// Caps the speed on a manoeuvre (`MNV_SPEED`).
+    pub manoeuvre_speed_mps: f64,
 }
 
 /// A leg to drive: from `from` to `point`.
@@ -159,9 +173,37 @@ struct Settling {
     still_s: f64,
 }
 
+/// A manoeuvre being driven: the strokes after the current one.
+#[derive(Clone, Debug)]
+struct ManoeuvreRun {
+    goal: Pose,
+    rest: VecDeque<Stroke>,
+    /// The current stroke's end pose.
+    stroke_end: Pose,
+    speed_mps: Option<f64>,
+    seq: Option<u16>,
+    /// Turning the wheels at rest before the stroke starts.
+    presteer: Option<Presteer>,
+}
+
+/// The wheels turning at rest before a stroke: for how long, the last
+/// command, and how long it has not changed.
+#[derive(Clone, Copy, Debug, Default)]
+struct Presteer {
+    elapsed_s: f64,
+    last_steer_rad: Option<f64>,
+    steady_s: f64,
+}
+
+/// The command has settled once it moves less than this a tick…
+const PRESTEER_STEADY_RAD: f64 = 0.05 * std::f64::consts::PI / 180.0;
+/// …for this long (the steering gear's lag).
+const PRESTEER_STEADY_S: f64 = 0.4;
+
 #[derive(Default)]
 pub struct Navigator {
     leg: Option<Leg>,
+    manoeuvre: Option<ManoeuvreRun>,
     carry: Option<Carry>,
     arrived: bool,
     approach_s: f64,
@@ -178,6 +220,102 @@ impl Navigator {
     /// the corner the previous one drove round starts with the rest of its
     /// arc.
     pub fn set_target(&mut self, from: Ned, target: NavTarget) {
+        self.manoeuvre = None;
+        self.start_leg(from, target);
+    }
+
+    /// Drives a planned manoeuvre: its strokes one after the other, stopping
+    /// (and resting) between them, the last a precision stop at the goal.
+    pub fn set_manoeuvre(&mut self, manoeuvre: Manoeuvre, speed_mps: Option<f64>, seq: Option<u16>) {
+        let mut rest: VecDeque<Stroke> = manoeuvre.strokes.into();
+        let Some(first) = rest.pop_front() else {
+            self.clear();
+            return;
+        };
+        self.carry = None;
+        self.manoeuvre = Some(ManoeuvreRun {
+            goal: manoeuvre.goal,
+            rest,
+            stroke_end: first.end,
+            speed_mps,
+            seq,
+            presteer: None,
+        });
+        self.start_stroke(first);
+    }
+
+    fn start_stroke(&mut self, stroke: Stroke) {
+        let Some(run) = &mut self.manoeuvre else {
+            return;
+        };
+        run.stroke_end = stroke.end;
+        run.presteer = Some(Presteer::default());
+        let last = run.rest.is_empty();
+        let from = stroke.pieces[0].point_at(0.0);
+        let target = NavTarget {
+            point: stroke.end.position,
+            speed_mps: run.speed_mps,
+            direction: stroke.direction,
+            stop: true,
+            next: None,
+            seq: if last { run.seq } else { None },
+        };
+        self.start_leg(from, target);
+        // Every stroke starts from rest, where the wheels were centred.
+        self.tracker.wheels_centred();
+        if let Some(leg) = &mut self.leg {
+            leg.path = Some(LegPath::from_pieces(stroke.pieces));
+        }
+    }
+
+    /// Moves on to the manoeuvre's next stroke, if any.
+    fn next_stroke(&mut self) -> bool {
+        match self.manoeuvre.as_mut().and_then(|m| m.rest.pop_front()) {
+            Some(stroke) => {
+                self.start_stroke(stroke);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// While a stroke's wheels turn at rest: true (hold still).
+    fn presteering(&mut self, steer_rad: f64, dt_s: f64) -> bool {
+        let Some(presteer) = self.manoeuvre.as_mut().and_then(|m| m.presteer.as_mut()) else {
+            return false;
+        };
+        presteer.elapsed_s += dt_s;
+        let moved = presteer
+            .last_steer_rad
+            .is_none_or(|last| (steer_rad - last).abs() > PRESTEER_STEADY_RAD);
+        presteer.steady_s = if moved { 0.0 } else { presteer.steady_s + dt_s };
+        presteer.last_steer_rad = Some(steer_rad);
+        if presteer.steady_s < PRESTEER_STEADY_S && presteer.elapsed_s < PRESTEER_MAX_S {
+            return true;
+        }
+        if let Some(m) = &mut self.manoeuvre {
+            m.presteer = None;
+        }
+        false
+    }
+
+    /// The goal of the manoeuvre being driven.
+    pub fn manoeuvre_goal(&self) -> Option<Pose> {
+        self.manoeuvre.as_ref().map(|m| m.goal)
+    }
+
+    /// Changes of direction still to come on the manoeuvre being driven.
+    pub fn direction_changes_left(&self) -> usize {
+        self.manoeuvre.as_ref().map_or(0, |m| m.rest.len())
+    }
+
+    /// The heading the vehicle should have at the current leg's end, when
+    /// it has one (a manoeuvre's stroke).
+    pub fn target_yaw(&self) -> Option<f64> {
+        self.manoeuvre.as_ref().map(|m| m.stroke_end.yaw_rad)
+    }
+
+    fn start_leg(&mut self, from: Ned, target: NavTarget) {
         let entry = self
             .carry
             .take()
@@ -210,6 +348,7 @@ impl Navigator {
     /// Stops navigating (the vehicle holds).
     pub fn clear(&mut self) {
         self.leg = None;
+        self.manoeuvre = None;
         self.carry = None;
         self.arrived = false;
         self.settling = None;
@@ -300,7 +439,8 @@ impl Navigator {
         // Far past a stop (it braked too late): backing up steers with the
         // law for driving forward along the leg and runs away (found by the
         // mission_flight fuzz target). Drive to the stop again from here.
-        if target.stop && remaining < -OVERSHOOT_REPLAN_M && self.settling.is_none() {
+        let cusp = self.manoeuvre.as_ref().is_some_and(|m| !m.rest.is_empty());
+        if target.stop && remaining < -OVERSHOOT_REPLAN_M && self.settling.is_none() && self.manoeuvre.is_none() {
             leg.from = est.position;
             leg.entry = None;
             leg.path = None;
@@ -317,7 +457,7 @@ impl Navigator {
         // last 2·PVW_STOP_DIST: slow there, a short preview would turn
         // millimetres of estimate noise into heading wiggle, and the stop's
         // heading tolerance is the tighter one.
-        let min_preview_m = if target.stop && config.stop_preview_m > 0.0 {
+        let min_preview_m = if target.stop && config.stop_preview_m > 0.0 && !cusp {
             let d = config.stop_preview_m;
             d * (2.0 - remaining / d).clamp(0.0, 1.0)
         } else {
@@ -339,7 +479,12 @@ impl Navigator {
         // Signed along the direction of travel.
         let travel_speed = est.speed_mps * target.direction.sign();
 
-        let half_tol = 0.5 * config.stop.position_m;
+        let half_tol = 0.5
+            * if cusp {
+                config.stop.position_m.max(CUSP_TOL_M)
+            } else {
+                config.stop.position_m
+            };
         let done = if target.stop {
             if remaining.abs() < APPROACH_ZONE_M {
                 self.approach_s += dt_s;
@@ -369,12 +514,18 @@ impl Navigator {
         }
 
         let arcs: Vec<(f64, f64)> = path.arcs_from(projection.along_m).collect();
+        let manoeuvre_cap = if self.manoeuvre.is_some() {
+            config.manoeuvre_speed_mps
+        } else {
+            f64::INFINITY
+        };
         let speed_config = SpeedConfig {
             cruise_mps: target
                 .speed_mps
                 .unwrap_or(config.speed.cruise_mps)
                 .max(config.speed_boost_mps.unwrap_or(0.0))
-                .min(config.speed_limit_mps.unwrap_or(f64::INFINITY)),
+                .min(config.speed_limit_mps.unwrap_or(f64::INFINITY))
+                .min(manoeuvre_cap),
             ..config.speed
         };
         let speed = scheduled_speed(
@@ -389,19 +540,29 @@ impl Navigator {
             dt_s,
         );
 
+        // On a manoeuvre the destination is its goal, by the path still to
+        // drive, and it is reached only by stopping there.
+        let (wp_dist_m, goal) = match &self.manoeuvre {
+            Some(m) => (
+                remaining.max(0.0) + m.rest.iter().map(Stroke::length_m).sum::<f64>(),
+                m.goal.position,
+            ),
+            None => (wp_dist, target.point),
+        };
         self.status = NavStatus {
             active: true,
-            wp_dist_m: wp_dist,
-            target_bearing_rad: est.position.bearing_to(&target.point),
+            wp_dist_m,
+            target_bearing_rad: est.position.bearing_to(&goal),
             nav_bearing_rad: wrap_pi(pose.yaw_rad + tracker.steer_rad),
             crosstrack_m: tracker.crosstrack_m,
             along_m: projection.along_m,
             remaining_m: remaining,
-            reached: self.status.reached || wp_dist <= config.wp_radius_m || self.arrived,
+            reached: self.status.reached || (self.manoeuvre.is_none() && wp_dist <= config.wp_radius_m) || self.arrived,
             tracker,
             speed,
         };
 
+        let mut next_stroke = false;
         if let Some(settling) = &mut self.settling {
             settling.elapsed_s += dt_s;
             settling.still_s = if est.speed_mps.abs() < REST_SPEED_MPS {
@@ -416,6 +577,9 @@ impl Navigator {
             if rested && short {
                 self.settling = None;
                 self.reapproaches += 1;
+            } else if rested && cusp {
+                self.settling = None;
+                next_stroke = true;
             } else if rested {
                 self.settling = None;
                 self.arrived = true;
@@ -444,8 +608,19 @@ impl Navigator {
             }
         }
 
+        if next_stroke {
+            self.next_stroke();
+            return NavDemand::default();
+        }
         if self.stopping() {
             return NavDemand::default();
+        }
+        if self.presteering(tracker.steer_rad, dt_s) {
+            self.speed.reset();
+            return NavDemand {
+                steer_rad: tracker.steer_rad,
+                speed_mps: 0.0,
+            };
         }
         NavDemand {
             steer_rad: tracker.steer_rad,
@@ -498,6 +673,7 @@ mod tests {
                 yaw_rad: 0.05f64.to_radians(),
             },
             stop_preview_m: 4.0,
+            manoeuvre_speed_mps: 0.5,
         }
     }
 
@@ -618,6 +794,71 @@ mod tests {
         assert!(report.within_tolerance, "{report:?}");
         assert!(car.est.position.distance_to(&c) < 0.01, "{:?}", car.est.position);
         assert!(worst_on_path < 0.3, "{worst_on_path}");
+    }
+
+    /// Drives a manoeuvre to the end on the kinematic bicycle: the stop
+    /// report, the final pose and the gear changes seen.
+    fn drive_manoeuvre(car: &mut Bicycle, goal: Ned, yaw_deg: Option<f64>) -> (StopReport, usize) {
+        use crate::guidance::manoeuvre::{ManoeuvreConfig, plan};
+        let cfg = config();
+        let start = Pose {
+            position: car.est.position,
+            yaw_rad: car.est.yaw_rad,
+        };
+        let mc = ManoeuvreConfig {
+            radius_m: 6.0,
+            // This test's tracker gains settle slower than the defaults.
+            approach_m: 12.0,
+            max_length_m: 60.0,
+            max_direction_changes: 3,
+        };
+        let m = plan(&start, goal, yaw_deg.map(f64::to_radians), &mc).expect("a manoeuvre");
+        let mut nav = Navigator::default();
+        nav.set_manoeuvre(m, None, Some(7));
+        let dt = 0.02;
+        let mut changes = 0;
+        let mut last_sign = 0.0;
+        for _ in 0..(300.0 / dt) as usize {
+            let d = nav.update(&car.est, &cfg, dt);
+            car.step(d, dt);
+            if d.speed_mps.abs() > 1e-3 {
+                let sign = d.speed_mps.signum();
+                if last_sign != 0.0 && sign != last_sign {
+                    changes += 1;
+                }
+                last_sign = sign;
+            }
+            if let Some(report) = nav.take_stop_report() {
+                assert!(nav.arrived());
+                return (report, changes);
+            }
+        }
+        panic!("never stopped: {:?}", car.est);
+    }
+
+    #[test]
+    fn a_manoeuvre_reaches_a_pose_behind_and_inside_the_turning_circle() {
+        for (goal, yaw) in [
+            (Ned::new(-5.0, 0.0), Some(0.0)),
+            (Ned::new(1.0, 2.0), Some(0.0)),
+            (Ned::new(0.0, 3.0), Some(180.0)),
+            (Ned::new(-4.0, -4.0), None),
+        ] {
+            let mut car = Bicycle::new(0.0, 0.0, 0.0);
+            let (report, changes) = drive_manoeuvre(&mut car, goal, yaw);
+            assert_eq!(report.seq, Some(7));
+            assert!(report.within_tolerance, "{goal:?}: {report:?}");
+            assert!(
+                car.est.position.distance_to(&goal) < 0.01,
+                "{goal:?}: {:?}",
+                car.est.position
+            );
+            if let Some(yaw) = yaw {
+                let error = wrap_pi(car.est.yaw_rad - f64::to_radians(yaw)).to_degrees();
+                assert!(error.abs() < 0.05, "{goal:?}: yaw off by {error}°");
+            }
+            assert!(changes <= 3, "{goal:?}: {changes} changes");
+        }
     }
 
     #[test]

@@ -306,6 +306,18 @@ impl LegPath {
         LegPath { pieces, end_m }
     }
 
+    /// A path of given pieces (a manoeuvre's stroke), ending at their end.
+    /// Empty, it is a point: a zero-length line there.
+    pub fn from_pieces(pieces: Vec<Piece>) -> LegPath {
+        let pieces = if pieces.is_empty() {
+            vec![Piece::Line(Segment::new(Ned::new(0.0, 0.0), Ned::new(0.0, 0.0)))]
+        } else {
+            pieces
+        };
+        let end_m = pieces.iter().map(Piece::length_m).sum();
+        LegPath { pieces, end_m }
+    }
+
     pub fn pieces(&self) -> &[Piece] {
         &self.pieces
     }

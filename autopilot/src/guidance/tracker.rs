@@ -102,6 +102,12 @@ impl TrackerState {
             ..TrackerState::default()
         };
     }
+
+    /// The wheels were centred (the vehicle rested with its steering at
+    /// neutral): the rate limit starts from there.
+    pub fn wheels_centred(&mut self) {
+        self.last_steer_rad = Some(0.0);
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

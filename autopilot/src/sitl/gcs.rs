@@ -115,3 +115,15 @@ pub fn local_target(sim: &Simulation, north_m: f64, east_m: f64) -> MavMessage {
     let p = sim.world().local_to_geodetic(north_m, east_m);
     position_target(p.lat_deg, p.lon_deg)
 }
+
+/// A GUIDED position target `north_m`/`east_m` from home in the simulator's
+/// frame, to stop facing `yaw_deg` (true).
+pub fn local_pose_target(sim: &Simulation, north_m: f64, east_m: f64, yaw_deg: f64) -> MavMessage {
+    let p = sim.world().local_to_geodetic(north_m, east_m);
+    let MavMessage::SET_POSITION_TARGET_GLOBAL_INT(mut target) = position_target(p.lat_deg, p.lon_deg) else {
+        unreachable!("position_target builds a SET_POSITION_TARGET_GLOBAL_INT")
+    };
+    target.yaw = yaw_deg.to_radians() as f32;
+    target.type_mask -= PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_IGNORE;
+    MavMessage::SET_POSITION_TARGET_GLOBAL_INT(target)
+}

@@ -299,7 +299,8 @@ impl Core {
     }
 
     /// DO_REPOSITION (COMMAND_INT only, as positional commands must be):
-    /// drive to the point in GUIDED, switching to GUIDED if param 2 allows.
+    /// drive to the point in GUIDED, switching to GUIDED if param 2 allows,
+    /// facing param 4 (degrees true; NaN: any heading) when it stops.
     fn do_reposition(&mut self, c: &Command) -> MavResult {
         if !c.is_int() {
             return MavResult::MAV_RESULT_COMMAND_INT_ONLY;
@@ -316,6 +317,10 @@ impl Core {
             Ok(None) => return MavResult::MAV_RESULT_DENIED,
             Err(e) => return e,
         };
+        // Param 4: a heading must be a number of degrees (or NaN: none).
+        if c.params[3].is_infinite() {
+            return MavResult::MAV_RESULT_DENIED;
+        }
         // Param 1: speed, -1 or NaN (or 0) keep the current one.
         let speed = c.params[0];
         if speed > mission::command::limits::MAX_SPEED_MPS {
@@ -329,7 +334,8 @@ impl Core {
         if speed_in_range(speed) {
             self.speed_override_mps = Some(f64::from(speed));
         }
-        if self.navigate_to(target, None) {
+        let yaw = self.local_yaw(&target, f64::from(c.params[3]).to_radians());
+        if self.navigate_to(target, yaw, None) {
             MavResult::MAV_RESULT_ACCEPTED
         } else {
             MavResult::MAV_RESULT_FAILED

@@ -123,7 +123,8 @@ impl Core {
     }
 
     /// GUIDED position targets, as ArduPilot Rover accepts them: only in
-    /// GUIDED, global frames, position not masked out.
+    /// GUIDED, global frames, position not masked out; the yaw (radians
+    /// true) is the heading to stop with unless masked out.
     fn handle_position_target(&mut self, m: &SET_POSITION_TARGET_GLOBAL_INT_DATA) {
         if self.mode != Mode::Guided {
             return;
@@ -146,7 +147,12 @@ impl Core {
         }
         let target = GeoPoint::from_e7(m.lat_int, m.lon_int, self.estimator.gnss().alt_msl_m);
         if target.is_valid() && !(m.lat_int == 0 && m.lon_int == 0) {
-            self.navigate_to(target, self.speed_override_mps);
+            let yaw = (!m
+                .type_mask
+                .contains(PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_IGNORE))
+            .then(|| self.local_yaw(&target, f64::from(m.yaw)))
+            .flatten();
+            self.navigate_to(target, yaw, self.speed_override_mps);
         }
     }
 }

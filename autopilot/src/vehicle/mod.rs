@@ -19,6 +19,7 @@ mod onboard_log;
 mod param_protocol;
 pub mod params;
 mod persistence;
+mod pose_goal;
 mod sim_truth;
 mod telemetry;
 
@@ -88,6 +89,8 @@ pub struct Core {
     armed: bool,
     home: Option<GeoPoint>,
     home_set_by_gcs: bool,
+    /// GUIDED/RTL's goal, home's heading, a missed mission stop.
+    goals: pose_goal::PoseGoalState,
     /// DO_CHANGE_SPEED for the current mode; cleared on a mode change.
     speed_override_mps: Option<f64>,
     manual: ManualInput,
@@ -142,6 +145,7 @@ impl Core {
             armed: false,
             home: None,
             home_set_by_gcs: false,
+            goals: pose_goal::PoseGoalState::default(),
             speed_override_mps: None,
             manual: ManualInput::default(),
             drive: DriveState::neutral(drive_train),
@@ -411,11 +415,14 @@ impl Core {
         let mut home = frame.to_geodetic(&self.estimator.estimate().position);
         home.alt_m = self.estimator.gnss().alt_msl_m;
         self.set_home(home, by_gcs);
+        let estimate = self.estimator.estimate();
+        self.goals.home_yaw_rad = estimate.heading_valid.then_some(estimate.yaw_rad);
         true
     }
 
     fn set_home(&mut self, home: GeoPoint, by_gcs: bool) {
         self.home = Some(home);
+        self.goals.home_yaw_rad = None;
         self.home_set_by_gcs |= by_gcs;
         self.update_protocol_home();
         if let Some(msg) = self.build_home_position() {

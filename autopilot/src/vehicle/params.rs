@@ -151,6 +151,28 @@ declare_params! {
 }
 
 declare_params! {
+    /// Manoeuvres: forward/reverse paths to a pose the current leg cannot reach.
+    pub struct ManoeuvreParams {
+        length_max_m: f32 = "MNV_LEN_MAX" => {
+            default: 60.0, range: 1.0, 1000.0, unit: "m",
+            desc: "Longest manoeuvre planned to reach a pose; beyond it the goal is refused",
+        },
+        direction_changes_max: i8 = "MNV_DIR_MAX" => {
+            default: 3, range: 0, 10, unit: "",
+            desc: "Most changes between forward and reverse a manoeuvre may have",
+        },
+        approach_m: f32 = "MNV_APPR_LEN" => {
+            default: 8.0, range: 0.0, 50.0, unit: "m",
+            desc: "Straight a manoeuvre ends with, into the goal (a precision stop settles on it)",
+        },
+        speed_mps: f32 = "MNV_SPEED" => {
+            default: 0.5, range: 0.05, 5.0, unit: "m/s",
+            desc: "Speed limit on a manoeuvre",
+        },
+    }
+}
+
+declare_params! {
     /// The preview-point tracker (seed 000 §2.4).
     pub struct PreviewParams {
         dist_m: f32 = "PVW_DIST" => {
@@ -457,6 +479,7 @@ pub struct CoreParams {
     pub vehicle: VehicleParams,
     pub nav: NavParams,
     pub preview: PreviewParams,
+    pub manoeuvre: ManoeuvreParams,
     pub mission: MissionParams,
     pub magnetic: MagneticParams,
     pub fence: FenceParams,
@@ -479,6 +502,7 @@ impl CoreParams {
             vehicle: VehicleParams::register(builder),
             nav: NavParams::register(builder),
             preview: PreviewParams::register(builder),
+            manoeuvre: ManoeuvreParams::register(builder),
             mission: MissionParams::register(builder),
             magnetic: MagneticParams::register(builder),
             fence: FenceParams::register(builder),

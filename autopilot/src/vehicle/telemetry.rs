@@ -480,7 +480,10 @@ impl Core {
 
     fn position_target(&self) -> Option<POSITION_TARGET_GLOBAL_INT_DATA> {
         let target = self.navigator.target()?;
-        let p = self.frame()?.to_geodetic(&target.point);
+        let frame = self.frame()?;
+        let p = frame.to_geodetic(&target.point);
+        // A manoeuvre's stroke ends with a heading: sent, as a true one.
+        let yaw = self.navigator.target_yaw().map(|yaw| frame.heading_to_true(&p, yaw));
         Some(POSITION_TARGET_GLOBAL_INT_DATA {
             time_boot_ms: self.now.boot_ms(),
             lat_int: p.lat_e7(),
@@ -492,7 +495,7 @@ impl Core {
             afx: 0.0,
             afy: 0.0,
             afz: 0.0,
-            yaw: 0.0,
+            yaw: yaw.unwrap_or(0.0) as f32,
             yaw_rate: 0.0,
             type_mask: PositionTargetTypemask::from_bits_truncate(0xF000)
                 | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_VX_IGNORE
@@ -501,8 +504,12 @@ impl Core {
                 | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_AX_IGNORE
                 | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_AY_IGNORE
                 | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_AZ_IGNORE
-                | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_IGNORE
-                | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
+                | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE
+                | if yaw.is_some() {
+                    PositionTargetTypemask::empty()
+                } else {
+                    PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_IGNORE
+                },
             coordinate_frame: MavFrame::MAV_FRAME_GLOBAL,
         })
     }

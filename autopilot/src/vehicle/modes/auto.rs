@@ -101,7 +101,7 @@ impl Core {
                 Action::Hold => self.navigator.clear(),
                 Action::ReturnToLaunch => {
                     if let Some(target) = self.rtl_target() {
-                        self.navigate_to(target, self.missions.speed_mps);
+                        self.navigate_to(target, self.rtl_yaw(&target), self.missions.speed_mps);
                     }
                 }
                 Action::SetSpeed(speed) => {
@@ -152,6 +152,13 @@ impl Core {
                         home.alt_m = self.estimator.gnss().alt_msl_m;
                         self.set_home(home, true);
                     }
+                }
+                Action::Reached(seq) if self.goals.missed_seq == Some(seq) => {
+                    self.goals.missed_seq = None;
+                    self.send_text(
+                        MavSeverity::MAV_SEVERITY_WARNING,
+                        &format!("Waypoint #{seq} NOT reached: stop out of tolerance"),
+                    );
                 }
                 Action::Reached(seq) => {
                     self.send(

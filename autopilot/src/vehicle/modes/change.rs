@@ -2,9 +2,6 @@
 
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
-use crate::geo::{GeoPoint, wrap_pi};
-use crate::guidance::navigator::NavTarget;
-use crate::guidance::tracker::Direction;
 use crate::modes::Mode;
 use crate::vehicle::Core;
 use crate::vehicle::failsafe::Failsafe;
@@ -73,45 +70,17 @@ impl Core {
         self.mode = mode;
         self.speed_override_mps = None;
         self.navigator.clear();
+        self.goals.goal = None;
         self.obstacles_mode_changed();
         match mode {
             Mode::Rtl => {
                 if let Some(target) = self.rtl_target() {
-                    self.navigate_to(target, None);
+                    self.navigate_to(target, self.rtl_yaw(&target), None);
                 }
             }
             Mode::Auto => self.start_mission(),
             Mode::Magnetic => self.start_magnetic(),
             _ => {}
         }
-    }
-
-    /// Drives in a straight leg from where the vehicle is to `target`, and
-    /// stops there.
-    pub(in crate::vehicle) fn navigate_to(&mut self, target: GeoPoint, speed_mps: Option<f64>) -> bool {
-        let Some(frame) = self.frame() else {
-            return false;
-        };
-        let estimate = *self.estimator.estimate();
-        let from = estimate.position;
-        let to = frame.to_local(&target);
-        // A GUIDED target just behind the vehicle is reached by backing up:
-        // turning round would take a loop wider than the distance.
-        let behind = wrap_pi(from.bearing_to(&to) - estimate.yaw_rad).abs() > std::f64::consts::FRAC_PI_2;
-        let near = from.distance_to(&to) <= 2.0 * self.nav_config().arc_radius_m;
-        let direction = if self.mode == Mode::Guided && behind && near {
-            Direction::Reverse
-        } else {
-            Direction::Forward
-        };
-        self.navigator.set_target(
-            from,
-            NavTarget {
-                speed_mps,
-                direction,
-                ..NavTarget::stop_at(to)
-            },
-        );
-        true
     }
 }

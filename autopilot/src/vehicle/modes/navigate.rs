@@ -17,17 +17,17 @@ impl Core {
         let config = self.nav_config();
         let estimate = *self.estimator.estimate();
         let nav = self.navigator.update(&estimate, &config, dt_s);
-        if let Some(report) = self.navigator.take_stop_report() {
-            self.report_stop(&report);
+        let report = self.navigator.take_stop_report();
+        if let Some(report) = &report {
+            self.report_stop(report);
+            if report.seq.is_some() {
+                self.goals.missed_seq = report.seq.filter(|_| !report.within_tolerance);
+            }
         }
         self.advance_detour();
         // AUTO reports its own arrivals (MISSION_ITEM_REACHED).
         if self.mode != Mode::Auto && self.navigator.arrived() && !was_arrived && self.navigator.target().is_some() {
-            let text = match self.mode {
-                Mode::Rtl => "Reached destination: home".to_string(),
-                _ => format!("Reached destination: {:.2} m", self.navigator.status().wp_dist_m),
-            };
-            self.send_text(MavSeverity::MAV_SEVERITY_INFO, &text);
+            self.announce_arrival(report.as_ref());
         }
         // Arrived (or nothing to do): stop outright, so no integrator
         // keeps the wheels creeping.

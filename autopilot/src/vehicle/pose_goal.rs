@@ -1,0 +1,227 @@
+//! Pose goals for GUIDED and RTL: a point with an optional heading, reached
+//! by today's straight leg when that leg can reach it (far ahead, or on the
+//! line the vehicle faces) and otherwise by a manoeuvre planned in the core;
+//! a far goal with a heading by the straight leg and then a manoeuvre onto
+//! the heading (a manoeuvre all the way could be longer than `MNV_LEN_MAX`
+//! allows, and RTL must not be refused for that); and the honest arrival: "Reached destination" only for a stop within
+//! `WP_STOP_TOL_MM` / `WP_STOP_TOL_DEG`, one retry of a miss, a warning
+//! for a miss after it.
+
+use std::f64::consts::{FRAC_PI_2, PI};
+
+use mavlink::dialects::ardupilotmega::MavSeverity;
+
+use super::Core;
+use crate::geo::{GeoPoint, Ned, wrap_pi};
+use crate::guidance::manoeuvre::{ManoeuvreConfig, plan};
+use crate::guidance::navigator::{NavTarget, StopReport};
+use crate::guidance::reeds_shepp::Pose;
+use crate::guidance::tracker::Direction;
+use crate::modes::Mode;
+
+/// A straight leg reaches a goal it starts this well aligned with…
+const ALIGNED_RAD: f64 = 1.0 * PI / 180.0;
+/// …this well when it is shorter than `MNV_APPR_LEN`…
+const SHORT_ALIGNED_RAD: f64 = 0.2 * PI / 180.0;
+/// …(and a leg shorter than this has no direction)…
+const MIN_LEG_M: f64 = 0.01;
+/// …or one this many planning radii (and the approach) away and not
+/// behind: the capture turn and the settling after it fit in the leg.
+const FAR_RADII: f64 = 4.0;
+
+/// Where GUIDED or RTL is driving to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct PoseGoal {
+    pub point: Ned,
+    /// Local frame, radians from north; `None`: any heading.
+    pub yaw_rad: Option<f64>,
+    pub speed_mps: Option<f64>,
+    /// The one retry after a miss has been used.
+    pub retried: bool,
+    /// Driving a straight leg to a far goal: its heading comes after.
+    pub turn_after_leg: bool,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct PoseGoalState {
+    pub goal: Option<PoseGoal>,
+    /// The vehicle's heading when home was set to where it stood (local
+    /// frame): RTL returns facing that way.
+    pub home_yaw_rad: Option<f64>,
+    /// A mission stop that ended out of tolerance: it is not reported
+    /// reached.
+    pub missed_seq: Option<u16>,
+}
+
+impl Core {
+    pub(super) fn manoeuvre_config(&self) -> ManoeuvreConfig {
+        let t = &self.params;
+        let m = &self.p.manoeuvre;
+        ManoeuvreConfig {
+            radius_m: self.nav_config().arc_radius_m,
+            approach_m: f64::from(m.approach_m.get(t)),
+            max_length_m: f64::from(m.length_max_m.get(t)),
+            max_direction_changes: m.direction_changes_max.get(t).max(0) as usize,
+        }
+    }
+
+    /// Drives to `target`, facing `yaw_rad` (local frame) if given, and
+    /// stops there. False (with a STATUSTEXT) when no manoeuvre fits.
+    pub(super) fn navigate_to(&mut self, target: GeoPoint, yaw_rad: Option<f64>, speed_mps: Option<f64>) -> bool {
+        let Some(frame) = self.frame() else {
+            return false;
+        };
+        let goal = PoseGoal {
+            point: frame.to_local(&target),
+            yaw_rad,
+            speed_mps,
+            retried: false,
+            turn_after_leg: false,
+        };
+        self.goals.goal = Some(goal);
+        self.drive_to_goal(goal, false)
+    }
+
+    fn drive_to_goal(&mut self, mut goal: PoseGoal, manoeuvre_only: bool) -> bool {
+        let estimate = *self.estimator.estimate();
+        let start = Pose {
+            position: estimate.position,
+            yaw_rad: estimate.yaw_rad,
+        };
+        let leg = if manoeuvre_only {
+            None
+        } else {
+            self.straight_leg(&start, &goal)
+        };
+        if let Some((direction, turn_after_leg)) = leg {
+            goal.turn_after_leg = turn_after_leg;
+            self.goals.goal = Some(goal);
+            self.navigator.set_target(
+                start.position,
+                NavTarget {
+                    speed_mps: goal.speed_mps,
+                    direction,
+                    ..NavTarget::stop_at(goal.point)
+                },
+            );
+            return true;
+        }
+        match plan(&start, goal.point, goal.yaw_rad, &self.manoeuvre_config()) {
+            Ok(manoeuvre) => {
+                if manoeuvre.direction_changes() > 0 || manoeuvre_only {
+                    self.send_text(
+                        MavSeverity::MAV_SEVERITY_INFO,
+                        &format!(
+                            "Manoeuvre: {:.1} m, {} direction changes",
+                            manoeuvre.length_m(),
+                            manoeuvre.direction_changes()
+                        ),
+                    );
+                }
+                self.navigator.set_manoeuvre(manoeuvre, goal.speed_mps, None);
+                true
+            }
+            Err(why) => {
+                self.send_text(MavSeverity::MAV_SEVERITY_WARNING, &format!("Manoeuvre refused: {why}"));
+                self.navigator.clear();
+                self.goals.goal = None;
+                false
+            }
+        }
+    }
+
+    /// Today's straight leg from here reaches the goal's point: the
+    /// vehicle already faces along the leg (or away from it: a reverse
+    /// leg) and the goal's heading is the leg's, or the goal is far ahead.
+    /// The leg's direction, and whether the heading needs a manoeuvre after
+    /// it (a far goal's).
+    fn straight_leg(&self, start: &Pose, goal: &PoseGoal) -> Option<(Direction, bool)> {
+        let distance = start.position.distance_to(&goal.point);
+        let bearing = start.position.bearing_to(&goal.point);
+        let config = self.manoeuvre_config();
+        let tolerance = self.nav_config().stop.yaw_rad;
+        // A short leg has little room to turn onto it.
+        let aligned_limit = if distance >= config.approach_m {
+            ALIGNED_RAD
+        } else {
+            SHORT_ALIGNED_RAD
+        };
+        for direction in [Direction::Forward, Direction::Reverse] {
+            let flip = if direction == Direction::Reverse { PI } else { 0.0 };
+            let off = wrap_pi(bearing - flip - start.yaw_rad).abs();
+            let end_yaw = wrap_pi(bearing - flip);
+            let heading_fits = goal.yaw_rad.is_none_or(|yaw| wrap_pi(yaw - end_yaw).abs() <= tolerance);
+            if off <= aligned_limit && heading_fits && distance >= MIN_LEG_M {
+                return Some((direction, false));
+            }
+        }
+        let off = wrap_pi(bearing - start.yaw_rad).abs();
+        let far = distance >= FAR_RADII * config.radius_m + config.approach_m && off <= FRAC_PI_2;
+        let heading_fits = goal.yaw_rad.is_none_or(|yaw| wrap_pi(yaw - bearing).abs() <= tolerance);
+        far.then_some((Direction::Forward, !heading_fits))
+    }
+
+    /// GUIDED or RTL came to rest at its goal: say whether it is there, and
+    /// try once more if not.
+    pub(super) fn announce_arrival(&mut self, report: Option<&StopReport>) {
+        if let Some(mut goal) = self.goals.goal.filter(|g| g.turn_after_leg) {
+            goal.turn_after_leg = false;
+            self.goals.goal = Some(goal);
+            self.drive_to_goal(goal, true);
+            return;
+        }
+        let within = report.is_some_and(|r| r.within_tolerance);
+        if within {
+            let text = match self.mode {
+                Mode::Rtl => "Reached destination: home".to_string(),
+                _ => format!(
+                    "Reached destination: {:.1} mm",
+                    report.map_or(0.0, StopReport::position_error_m) * 1000.0
+                ),
+            };
+            self.send_text(MavSeverity::MAV_SEVERITY_INFO, &text);
+            return;
+        }
+        let miss = report.map_or(String::from("no stop report"), |r| {
+            format!(
+                "{:.1} mm, yaw {:.3} deg",
+                r.position_error_m() * 1000.0,
+                r.yaw_error_rad.to_degrees()
+            )
+        });
+        match self.goals.goal {
+            Some(mut goal) if !goal.retried => {
+                self.send_text(
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    &format!("Missed ({miss}): trying again"),
+                );
+                goal.retried = true;
+                self.goals.goal = Some(goal);
+                self.drive_to_goal(goal, true);
+            }
+            _ => self.send_text(
+                MavSeverity::MAV_SEVERITY_WARNING,
+                &format!("Destination NOT reached: {miss}"),
+            ),
+        }
+    }
+
+    /// A true heading (MAVLink's) at `at` as a heading in the local frame;
+    /// `None` for no heading (NaN, infinite).
+    pub(super) fn local_yaw(&self, at: &GeoPoint, true_yaw_rad: f64) -> Option<f64> {
+        let frame = self.frame()?;
+        true_yaw_rad
+            .is_finite()
+            .then(|| frame.heading_to_local(at, true_yaw_rad))
+    }
+
+    /// Where RTL faces at home: the way the vehicle faced when home was set
+    /// where it stood (unknown for a home sent as coordinates or a rally
+    /// point).
+    pub(super) fn rtl_yaw(&self, rtl_target: &GeoPoint) -> Option<f64> {
+        let home = self.home?;
+        (home.lat_e7() == rtl_target.lat_e7() && home.lon_e7() == rtl_target.lon_e7())
+            .then_some(self.goals.home_yaw_rad)
+            .flatten()
+    }
+}

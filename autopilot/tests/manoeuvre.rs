@@ -1,0 +1,107 @@
+//! Pose goals reached by manoeuvres, in simulated time through MAVLink: a
+//! GUIDED goal behind and beside the vehicle, RTL facing away from home.
+//! Poses are checked against the simulator's truth; every "Reached" claim
+//! against the vehicle's own stop report.
+
+mod common;
+
+use autopilot::geo::wrap_pi;
+use autopilot::sitl::gcs;
+use autopilot::sitl::simulation::ModelKind;
+use common::Harness;
+
+/// The true pose's error from (`north_m`, `east_m`, `yaw_deg`): metres,
+/// degrees.
+fn pose_error(h: &Harness, north_m: f64, east_m: f64, yaw_deg: Option<f64>) -> (f64, f64) {
+    let t = h.sim.world().truth();
+    let yaw = yaw_deg.map_or(0.0, |y| wrap_pi(t.yaw_rad - y.to_radians()).to_degrees());
+    (h.distance_to(north_m, east_m), yaw)
+}
+
+fn guided(model: ModelKind, seed: u64) -> Harness {
+    let mut h = Harness::new(seed, model);
+    h.run_for(5.0);
+    h.set_mode(15);
+    h.arm();
+    h.step();
+    assert!(h.sim.core().is_armed(), "{:?}", h.texts());
+    h
+}
+
+/// Sends the goal and waits for the GUIDED/RTL verdict.
+fn wait_for_verdict(h: &mut Harness, seconds: f64) -> String {
+    let done = |t: &String| t.starts_with("Reached destination") || t.starts_with("Destination NOT reached");
+    let before = h.texts().len();
+    let mut verdict = None;
+    h.run_until(seconds, |_| false);
+    for t in h.texts().into_iter().skip(before) {
+        if done(&t) {
+            verdict = Some(t);
+        }
+    }
+    verdict.unwrap_or_else(|| panic!("no verdict: {:?}", h.texts()))
+}
+
+fn direction_changes(texts: &[String]) -> Vec<String> {
+    texts.iter().filter(|t| t.starts_with("Manoeuvre")).cloned().collect()
+}
+
+/// The verdict is honest: "Reached" only after an in-tolerance stop report
+/// (the estimate's view), and then the truth is within the GNSS walk of it.
+fn check_reached(h: &Harness, verdict: &str, north: f64, east: f64, yaw_deg: Option<f64>) {
+    let texts = h.texts();
+    assert!(verdict.starts_with("Reached destination"), "{texts:?}");
+    let last_stop = texts
+        .iter()
+        .rev()
+        .find(|t| t.starts_with("Stop"))
+        .expect("a stop report");
+    assert!(last_stop.ends_with("in tolerance"), "{texts:?}");
+    let (m, deg) = pose_error(h, north, east, yaw_deg);
+    assert!(m < 0.03 && deg.abs() < 0.1, "truth {:.1} mm, {deg:.3}°", m * 1000.0);
+    let changes: usize = direction_changes(&texts)
+        .iter()
+        .filter_map(|t| t.split(", ").nth(1)?.split(' ').next()?.parse::<usize>().ok())
+        .sum();
+    // A retry starts with one more change of direction.
+    let retries = texts.iter().filter(|t| t.contains("trying again")).count();
+    assert!(
+        changes + retries <= 3,
+        "{changes} direction changes, {retries} retries: {texts:?}"
+    );
+}
+
+#[test]
+fn guided_to_a_pose_behind_and_beside() {
+    for (north, east, yaw) in [(-4.0, 1.5, 0.0), (1.0, 3.0, 0.0), (2.0, 5.0, 180.0)] {
+        let mut h = guided(ModelKind::Ackermann, 1);
+        let target = gcs::local_pose_target(&h.sim, north, east, yaw);
+        h.send(target);
+        let verdict = wait_for_verdict(&mut h, 180.0);
+        check_reached(&h, &verdict, north, east, Some(yaw));
+        assert_eq!(h.sim.core().mode(), autopilot::modes::Mode::Guided);
+    }
+}
+
+#[test]
+fn guided_beside_without_a_heading() {
+    let mut h = guided(ModelKind::Ackermann, 2);
+    h.goto_local(0.0, 6.0);
+    let verdict = wait_for_verdict(&mut h, 180.0);
+    check_reached(&h, &verdict, 0.0, 6.0, None);
+}
+
+#[test]
+fn rtl_facing_away_returns_facing_the_way_it_left() {
+    let mut h = guided(ModelKind::Ackermann, 3);
+    // Home was set facing north; park 5 m east, 4 m north facing east.
+    let target = gcs::local_pose_target(&h.sim, 4.0, 5.0, 90.0);
+    h.send(target);
+    let verdict = wait_for_verdict(&mut h, 180.0);
+    check_reached(&h, &verdict, 4.0, 5.0, Some(90.0));
+    h.received.clear();
+    h.set_mode(11);
+    let verdict = wait_for_verdict(&mut h, 180.0);
+    assert_eq!(verdict, "Reached destination: home");
+    check_reached(&h, &verdict, 0.0, 0.0, Some(0.0));
+}
