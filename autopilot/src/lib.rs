@@ -1,32 +1,47 @@
-//! Furrow's autopilot: the pure core and the edges that feed it.
+//! Furrow's autopilot: the pure core and the edges that feed it
+//! (docs/architecture.md has the map).
 //!
-//! Layout (the core first, then the edges):
+//! The core first (no I/O, time injected):
 //! - [`vehicle`]: the [`vehicle::Core`], a plain struct stepped at
-//!   `SCHED_LOOP_RATE` with injected time; it owns the parameters and every
-//!   subsystem below and does no I/O.
-//! - [`sched`]: the scheduler table (task, rate, budget) and its statistics.
+//!   `SCHED_LOOP_RATE`; it owns the parameters and every subsystem below,
+//!   handles MAVLink messages, runs the modes, arming and failsafes, and
+//!   builds telemetry.
+//! - [`time`]: the two clocks a step is given (vehicle time, wall time) and
+//!   the injected task timer.
+//! - [`sched`]: the scheduler table (task, rate, clock, budget) and its statistics.
 //! - [`geo`]: local frames from latitude/longitude.
-//! - [`estimation`]: the pose estimate from GNSS position and heading.
-//! - [`guidance`]: paths, the preview-point tracker, speed scheduling.
-//! - [`control`]: PID, speed control, actuator mixing.
-//! - [`modes`]: ArduPilot Rover's mode numbers and each mode's behaviour.
+//! - [`estimation`]: the pose estimate (EKF) from GNSS position and heading.
+//! - [`guidance`]: paths, the preview-point tracker, speed scheduling, the
+//!   navigator and the magnetic guide.
+//! - [`control`]: PID, speed control, kinematics, mixing and servo outputs.
+//! - [`obstacles`]: scans to clusters to tracks, collision prediction along
+//!   the swept path, the stop/pass/detour policy.
+//! - [`modes`]: ArduPilot Rover's mode numbers, names and properties (what
+//!   each mode does each tick is in `vehicle/modes/`, one file per mode).
 //! - [`fence`]: the geofence geometry.
-//! - [`telemetry`]: MAVLink messages built from the core's state, and the
-//!   per-link stream rates.
-//! - [`link`] (edge): sockets, serial ports, framing, routing, tlog.
+//! - [`telemetry`]: identity, STATUSTEXT and the per-link stream rates.
+//!
+//! The edges:
+//! - [`edge`]: the runner `furrow sitl` and `furrow run` share: one tokio
+//!   runtime, the links, the data directory, the loop and its clocks.
+//! - [`link`]: sockets, serial ports, framing, signing, routing, tlog.
+//! - [`ftp`]: MAVLink FTP (the protocol pure, its file I/O on a worker
+//!   thread at the edge).
 //! - [`logging`]: onboard DataFlash logs: records built by the core,
 //!   written and served over MAVLink at the edge, read by `furrow logs`.
-//! - [`sitl`] (edge): the simulated world stepped with the core, and the
-//!   runner that paces both against the wall clock.
-//! - [`storage`] (edge): the data directory and parameter persistence.
-//! - [`run`] (edge): the real vehicle (`furrow run --config FILE`).
-//! - [`offline`]: tools on a data directory (`furrow params …`) and
-//!   `furrow config check`.
+//! - [`sitl`]: `furrow sitl`: the simulated world stepped with the core, as
+//!   a platform of the edge runner paced against the wall clock.
+//! - [`run`]: `furrow run --config FILE`: the real vehicle.
+//! - [`storage`]: the data directory and atomic persistence.
+//! - [`stderr_log`]: the diagnostic log every binary writes to stderr.
+//! - [`offline`]: tools on a data directory (`furrow params …`,
+//!   `furrow mission …`) and `furrow config check`.
 
-pub mod bench;
 pub mod control;
+pub mod edge;
 pub mod estimation;
 pub mod fence;
+pub mod ftp;
 pub mod geo;
 pub mod guidance;
 pub mod link;
@@ -37,6 +52,7 @@ pub mod offline;
 pub mod run;
 pub mod sched;
 pub mod sitl;
+pub mod stderr_log;
 pub mod storage;
 pub mod telemetry;
 pub mod time;

@@ -43,25 +43,6 @@ enum Command {
         #[command(subcommand)]
         action: autopilot::offline::config::ConfigAction,
     },
-    /// Measure Furrow (prints figures; not a test).
-    Bench {
-        #[command(subcommand)]
-        which: BenchCommand,
-    },
-}
-
-#[derive(Subcommand)]
-enum BenchCommand {
-    /// SITL speed with --speedup max, core tick timing and memory.
-    Sitl(autopilot::bench::sitl::SitlBenchArgs),
-    /// Path-tracking and stop accuracy on the reference courses, seeds 1..20, with SVG plots.
-    Tracking(autopilot::bench::tracking::TrackingBenchArgs),
-    /// Obstacle scenarios (crossing people, head-on, parked car, box, reversing, corridor) at 1 and 2 m/s.
-    Obstacles(autopilot::bench::obstacles::ObstacleBenchArgs),
-    /// Safety: injected faults and the failsafe that answers, SIGKILL during saves, a MAVLink flood while driving.
-    Safety(autopilot::bench::safety::SafetyBenchArgs),
-    /// MAGNETIC mode's guide back on the tape: three starts, straight and arcs, 0.5–1.5 m/s, two vehicles.
-    Magnetic(autopilot::bench::magnetic::MagneticBenchArgs),
 }
 
 #[derive(clap::Args)]
@@ -184,11 +165,7 @@ fn utc_now_us() -> i64 {
 }
 
 fn main() -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .init();
+    autopilot::stderr_log::init();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Sitl(args) => {
@@ -225,21 +202,6 @@ fn main() -> ExitCode {
         Command::Config { action } => autopilot::offline::config::run(&action),
         Command::Run { config } => autopilot::run::runner::run(&config),
         Command::Status(args) => autopilot::run::status::run(&args),
-        Command::Bench {
-            which: BenchCommand::Sitl(args),
-        } => autopilot::bench::sitl::run(&args),
-        Command::Bench {
-            which: BenchCommand::Tracking(args),
-        } => autopilot::bench::tracking::run(&args),
-        Command::Bench {
-            which: BenchCommand::Obstacles(args),
-        } => autopilot::bench::obstacles::run(&args),
-        Command::Bench {
-            which: BenchCommand::Safety(args),
-        } => autopilot::bench::safety::run(&args),
-        Command::Bench {
-            which: BenchCommand::Magnetic(args),
-        } => autopilot::bench::magnetic::run_bench(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -2,6 +2,8 @@
 //! (seed 002 §3, eq. 6–13), checked against the geometry itself, against the
 //! seed's own (one-direction, magnitude) formulas, and against the SITL
 //! vehicle.
+//!
+//! Sources: docs/references.md §Seed 002.
 
 use std::f64::consts::FRAC_PI_2;
 use std::time::Duration;

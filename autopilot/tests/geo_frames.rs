@@ -4,6 +4,8 @@
 //!
 //! `cargo test -p autopilot --test geo_frames error_table -- --nocapture`
 //! prints the error table quoted in `autopilot/src/geo/mod.rs`.
+//!
+//! Sources: docs/references.md §Seed 000.
 
 use autopilot::geo::{
     Ellipsoid, FrameKind, GeoPoint, LocalFrame, Ned, PlaneTransform, ZoneWidth, wrap_pi, zone_meridian_deg,

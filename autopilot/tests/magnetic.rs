@@ -1,6 +1,8 @@
 //! Double magnetic guide (seed 002 §2, §4): sign conventions against the
 //! simulated sensors, the incremental PID against the positional one, the
 //! lost-tape behaviour, and the re-acquisition scenario's figures.
+//!
+//! Sources: docs/references.md §Seed 002.
 
 use autopilot::control::pid::{PidGains, PidState};
 use autopilot::guidance::magnetic::{

@@ -1,7 +1,7 @@
 //! Issue 22: MAGNETIC's guide gets back on the tape from the starts of "Path
 //! tracking of a wheeled AGV with double magnetic guide" (tilted right of
 //! the tape, tilted left of it, off it), on the paper's robot and on the
-//! bench AGV, in the simulated scenario (`furrow bench magnetic` runs the
+//! bench AGV, in the simulated scenario (`furrow-bench magnetic` runs the
 //! whole grid). Re-acquired: both sensors' true offsets within 10 mm from
 //! then to the end of the run.
 
@@ -126,4 +126,54 @@ fn the_bench_agv_tracks_a_straight_within_10_mm_p99() {
             r.lateral_p99_after_m
         );
     }
+}
+
+/// On the tape where an arc begins, with no straight before it: the vehicle
+/// drives straight onto the arc (steering 0 where the arc needs it at once)
+/// and must follow it, `radius_m` either way at each speed, without either
+/// sensor leaving the tape's reach.
+fn follows_an_arc_that_begins_under_it(radius_m: f64) {
+    let agv = MagneticProfile::bench_agv();
+    for curves_right in [true, false] {
+        for speed_mps in [0.5, 1.0, 1.5] {
+            let scenario = MagneticScenario {
+                run_up_on_curve: false,
+                lead_in_m: 0.0,
+                tape_curves_right: curves_right,
+                duration_s: 15.0,
+                ..start(&agv, radius_m, speed_mps, 0.0, 0.0, 1)
+            };
+            let r = run(&scenario);
+            let what = format!("radius {radius_m} m, curving right {curves_right}, {speed_mps} m/s");
+            assert_eq!(r.lost_steps, 0, "{what}: both sensors lost the tape");
+            let worst_m = r
+                .samples
+                .iter()
+                .map(|s| s.front_offset_m.abs().max(s.rear_offset_m.abs()))
+                .fold(0.0, f64::max);
+            assert!(
+                worst_m < agv.guide.sensor_reach_m(),
+                "{what}: a sensor {worst_m} m off the tape"
+            );
+        }
+    }
+}
+
+/// Measured: worst sensor offset 27 mm on 25 m, 52 mm on 15 m (75 mm
+/// reach); back within 10 mm by 2.7–4.0 s at 1.0–1.5 m/s, not within 15 s
+/// at 0.5 m/s on 15 m.
+#[test]
+fn the_bench_agv_follows_25_and_15_m_arcs_that_begin_under_it() {
+    follows_an_arc_that_begins_under_it(25.0);
+    follows_an_arc_that_begins_under_it(15.0);
+}
+
+/// A 10 m arc needs 16.2° of steering, beyond the 12.3° correction limit,
+/// and the integral that would learn the rest is gated off once the angle
+/// deviation passes half the approach limit: both sensors lose the tape at
+/// every speed (measured: 409–588 of 750 steps lost).
+#[test]
+#[ignore = "the bench AGV loses a 10 m arc that begins under it"]
+fn the_bench_agv_follows_a_10_m_arc_that_begins_under_it() {
+    follows_an_arc_that_begins_under_it(10.0);
 }

@@ -1,5 +1,7 @@
 //! Tangent-bug detour round a static obstacle (seed 004 §III.D): side
 //! choice, clearance of the path and of the body, corridor, refusals.
+//!
+//! Sources: docs/references.md §Seed 004.
 
 use autopilot::geo::Ned;
 use autopilot::obstacles::detour::{Detour, DetourConfig, DetourRefusal, Side, plan_detour};

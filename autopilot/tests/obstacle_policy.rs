@@ -1,12 +1,14 @@
 //! Collision prediction, protective/warning fields and the stop/resume
-//! policy (DESIGN §5.5, seed 004 §III.C–D), exercised through their public
+//! policy (docs/architecture.md §Obstacles, seed 004 §III.C–D), exercised through their public
 //! API with scenes built from tracks, as the core builds them.
+//!
+//! Sources: docs/references.md §Seed 004.
 
 use autopilot::geo::Ned;
 use autopilot::obstacles::field::{FieldConfig, FieldStatus, check_field, fields, warning_speed_limit};
 use autopilot::obstacles::policy::{
-    ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, StopCause, Verdict, distance_gained_m, pass_first_holds,
-    pass_first_requirement,
+    DECIDE_LEAD_S, ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, StopCause, Verdict, distance_gained_m,
+    pass_first_holds, pass_first_requirement,
 };
 use autopilot::obstacles::prediction::{CollisionPrediction, VehicleMotion, predict_collision};
 use autopilot::obstacles::{Footprint, Pose, Track, TrackStatus};
@@ -702,10 +704,15 @@ fn warning_hits_slow_the_vehicle() {
 /// A person crossing from the left who reaches the vehicle's lane 2.5 s
 /// from now, 0.3 m ahead of where the front bumper would touch it at 0.8 m/s.
 fn crossing_scene(t_s: f64) -> Scene {
+    crossing_scene_in(t_s, 2.5)
+}
+
+/// The same crossing, reaching the lane `reach_s` from now.
+fn crossing_scene_in(t_s: f64, reach_s: f64) -> Scene {
     let person = track(
         9,
-        0.8 * 2.5 + FOOTPRINT.front_m + 0.25 + 0.3,
-        -(0.3 + 0.25 + 2.5),
+        0.8 * reach_s + FOOTPRINT.front_m + 0.25 + 0.3,
+        -(0.3 + 0.25 + reach_s),
         0.0,
         1.0,
         0.25,
@@ -731,8 +738,16 @@ fn pass_first_off_stops_for_a_crossing_person() {
         time_s.is_some_and(|t| t < 3.0),
         "the person meets the front corner: {time_s:?}"
     );
+    // Further off than stopping from 0.8 m/s (0.95 s) plus the decision
+    // lead: hold the speed and look again.
     let mut policy = ObstaclePolicy::new();
     let status = policy.update(&scene.inputs(), &pass_config(false, 1.5));
+    assert_eq!(status.verdict, Verdict::Slow { limit_mps: 0.8 });
+    // Still coming a second later: stop, with the lead to spare.
+    let nearer = crossing_scene_in(1.0, 1.5);
+    let time_s = nearer.predictions.first().map_or(f64::NAN, |p| p.time_s);
+    assert!(time_s <= 0.15 + 0.8 + DECIDE_LEAD_S, "{time_s}");
+    let status = policy.update(&nearer.inputs(), &pass_config(false, 1.5));
     assert!(matches!(
         status.verdict,
         Verdict::Stop(StopCause::Collision { track_id: 9, .. })
@@ -890,4 +905,80 @@ fn stops_far_apart_or_with_cycles_off_never_turn_patient() {
             t = resumed.expect("resumes") + gap_s;
         }
     }
+}
+
+/// A prediction of contact now (time 0) that is not closing: someone
+/// standing against the side of a vehicle at rest.
+fn against_the_side(track_id: u32) -> CollisionPrediction {
+    CollisionPrediction {
+        track_id,
+        time_s: 0.0,
+        place: Ned::default(),
+        distance_m: 0.05,
+        relative_speed_mps: 0.0,
+        closing: false,
+    }
+}
+
+#[test]
+fn the_vehicle_does_not_start_with_someone_against_it() {
+    let config = PolicyConfig::default();
+    let side = FOOTPRINT.half_width_m + 0.25 + 0.05;
+    for status in [TrackStatus::Confirmed, TrackStatus::Coasting] {
+        let mut person = track(9, 0.3, side, 0.0, 0.0, 0.25);
+        person.status = status;
+        let mut scene = Scene::clear(0.0, 0.0);
+        scene.tracks = vec![person];
+        scene.predictions_at_resume = vec![against_the_side(9)];
+        let mut policy = ObstaclePolicy::new();
+        let verdict = policy.update(&scene.inputs(), &config).verdict;
+        assert!(
+            matches!(verdict, Verdict::Stop(StopCause::Collision { track_id: 9, .. })),
+            "{status:?}: {verdict:?}"
+        );
+        // Driving past it (not starting), a gap that is not closing is no
+        // reason to stop.
+        let mut driving = Scene::clear(0.0, 1.0);
+        driving.tracks = vec![person];
+        driving.predictions = vec![against_the_side(9)];
+        driving.predictions_at_resume = vec![against_the_side(9)];
+        let verdict = ObstaclePolicy::new().update(&driving.inputs(), &config).verdict;
+        assert_eq!(verdict, Verdict::Go, "{status:?}");
+    }
+    // A tentative track (maybe noise) does not hold the vehicle.
+    let mut ghost = track(9, 0.3, side, 0.0, 0.0, 0.25);
+    ghost.status = TrackStatus::Tentative;
+    let mut scene = Scene::clear(0.0, 0.0);
+    scene.tracks = vec![ghost];
+    scene.predictions_at_resume = vec![against_the_side(9)];
+    assert_eq!(
+        ObstaclePolicy::new().update(&scene.inputs(), &config).verdict,
+        Verdict::Go
+    );
+}
+
+#[test]
+fn a_held_stop_does_not_resume_while_a_lost_track_may_be_against_the_body() {
+    let config = PolicyConfig::default();
+    let mut policy = ObstaclePolicy::new();
+    let mut scene = Scene::clear(0.0, 1.0);
+    scene.field = hit(0.4);
+    assert!(policy.update(&scene.inputs(), &config).stopped);
+    // The field clears; a track lost next to the body (no longer in the
+    // list) holds the stop for as long as it is reported.
+    for i in 1..=200 {
+        let t = f64::from(i) * 0.05;
+        let mut scene = Scene::clear(t, 0.0);
+        if t < 6.0 {
+            scene.predictions_at_resume = vec![against_the_side(12)];
+        }
+        let status = policy.update(&scene.inputs(), &config);
+        let resumed = status.events.iter().any(|e| matches!(e, PolicyEvent::Resumed { .. }));
+        if t < 6.0 + config.resume_s - 1e-9 {
+            assert!(status.stopped && !resumed, "t {t}: {status:?}");
+        } else if resumed {
+            return;
+        }
+    }
+    panic!("never resumed once the lost track was gone");
 }

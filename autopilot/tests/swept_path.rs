@@ -5,8 +5,8 @@ mod common;
 
 use std::time::Duration;
 
+use autopilot::edge::clock::InstantTimer;
 use autopilot::sitl::gcs;
-use autopilot::sitl::runner::InstantTimer;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 use common::{Harness, item};
 use drivers::sim::{MovingObstacle, ObstacleWorld, Rectangle, Shape};

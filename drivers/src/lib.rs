@@ -1,15 +1,25 @@
-//! Furrow device drivers and the simulated world.
+//! Furrow's device drivers and the simulated world.
 //!
-//! - [`gnss`]: GNSS sample types and the NMEA 0183 stream parser that the real
-//!   serial driver and SITL both feed.
-//! - [`magnetic`]: magnetic-tape guide sensor readings.
-//! - [`sim`]: the SITL world (vehicle physics, battery) whose simulated GNSS
-//!   receiver writes the same NMEA bytes a real RTK receiver would, so SITL
-//!   exercises the real parser.
+//! - [`gnss`]: GNSS sample types, the NMEA 0183 stream parser that the real
+//!   receiver and SITL both feed, and the port thread that reads a receiver.
+//! - [`scanner`]: laser scans, the SICK CoLa-A telegrams and the scanner client.
+//! - [`magnetic`], [`magnetic_serial`]: magnetic-tape guide readings and the
+//!   sensor pair's serial framing and reader thread.
+//! - [`ntrip`], [`rtcm`]: RTK corrections from a caster, and RTCM fragments
+//!   reassembled from MAVLink.
+//! - [`pwm`]: servo and ESC pulses through Linux sysfs PWM.
+//! - [`backoff`]: the reconnect wait every device and link uses.
+//! - [`device`]: the health counters each device thread shares with the core's edge.
+//! - [`sim`]: the SITL world (vehicle physics, battery, obstacles, tape) whose
+//!   simulated devices emit what real ones do, so SITL exercises the real parsers.
 //!
-//! Everything here is pure and deterministic: time is passed in as a
-//! [`std::time::Duration`] since start, randomness comes from a caller's seed.
+//! The parsers and the simulated world are pure and deterministic: time is
+//! passed in as a [`std::time::Duration`] since start, randomness comes from a
+//! caller's seed. The device threads and clients (`gnss::port`,
+//! `scanner::client`, `magnetic_serial`, `ntrip`, `pwm`) do I/O: they own a
+//! port, a socket or files, and are the edges the real vehicle runs.
 
+pub mod backoff;
 pub mod device;
 pub mod gnss;
 pub mod magnetic;

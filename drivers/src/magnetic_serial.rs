@@ -48,6 +48,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
+use crate::backoff::Backoff;
 use crate::device::{self, DeviceStatus, SharedStatus};
 use crate::magnetic::MagneticSample;
 
@@ -331,32 +332,35 @@ struct Reader {
 
 impl Reader {
     fn run(mut self) {
-        let mut backoff = MIN_BACKOFF;
+        let mut backoff = Backoff::new(MIN_BACKOFF, MAX_BACKOFF);
         while !self.stopped() {
             let port = serialport::new(&self.path, self.baud).timeout(READ_TIMEOUT).open();
-            match port {
+            let failure = match port {
                 Ok(mut port) => {
                     tracing::info!(path = %self.path, baud = self.baud, "magnetic sensor port open");
                     device::update(&self.status, |s| {
                         s.connected = true;
                         s.connects += 1;
                     });
-                    backoff = MIN_BACKOFF;
+                    backoff.reset();
                     self.framer.resync();
                     let result = self.read_until_lost(&mut *port);
                     device::update(&self.status, |s| s.connected = false);
-                    if let Err(e) = result {
-                        tracing::warn!(path = %self.path, error = %e, retry_in = ?backoff, "magnetic sensor port lost");
-                        self.note_error(format!("{}: {e}", self.path));
-                    }
+                    // Lost after it was open: worth a warning.
+                    result.err().map(|e| (e.to_string(), true))
                 }
-                Err(e) => {
-                    tracing::debug!(path = %self.path, error = %e, retry_in = ?backoff, "magnetic sensor port not open");
-                    self.note_error(format!("{}: {e}", self.path));
+                Err(e) => Some((e.to_string(), false)),
+            };
+            let retry_in = backoff.next_delay();
+            if let Some((error, lost)) = failure {
+                if lost {
+                    tracing::warn!(path = %self.path, %error, ?retry_in, "magnetic sensor port lost");
+                } else {
+                    tracing::debug!(path = %self.path, %error, ?retry_in, "magnetic sensor port not open");
                 }
+                self.note_error(format!("{}: {error}", self.path));
             }
-            self.sleep_unless_stopped(backoff);
-            backoff = (backoff * 2).min(MAX_BACKOFF);
+            self.sleep_unless_stopped(retry_in);
         }
     }
 

@@ -32,6 +32,7 @@ use tokio::net::TcpStream;
 use tokio::sync::watch;
 use tokio::time::{sleep, sleep_until, timeout};
 
+use crate::backoff::Backoff;
 use crate::device::{DeviceStatus, SharedStatus, shared_status, snapshot, update};
 use crate::rtcm::Rtcm3FrameCounter;
 
@@ -650,7 +651,7 @@ async fn run(
     mut gga: watch::Receiver<Option<String>>,
     mut shutdown: watch::Receiver<bool>,
 ) {
-    let mut backoff = config.backoff_initial;
+    let mut backoff = Backoff::new(config.backoff_initial, config.backoff_max);
     loop {
         let end = tokio::select! {
             _ = shutdown.wait_for(|stop| *stop) => return,
@@ -659,21 +660,18 @@ async fn run(
         update(&shared.status, |s| s.connected = false);
         shared.error(&end.error);
         if end.delivered {
-            backoff = config.backoff_initial;
+            backoff.reset();
         }
+        let delay = backoff.next_delay();
         let wait = if end.error.is_refusal() {
             REFUSED_RETRY.max(config.backoff_max)
         } else {
-            backoff
+            delay
         };
         tokio::select! {
             _ = shutdown.wait_for(|stop| *stop) => return,
             () = sleep(wait) => {}
         }
-        backoff = backoff
-            .saturating_mul(2)
-            .min(config.backoff_max)
-            .max(config.backoff_initial);
     }
 }
 

@@ -125,6 +125,9 @@ pub struct MissionExecutor {
     repeat: Option<Repeat>,
     /// The trim a repeated servo returns to (ArduPilot cycles pwm ↔ trim).
     servo_trim_us: u16,
+    /// The NAV item started last: what MISSION_CURRENT keeps reporting once
+    /// the mission is complete (as ArduPilot, whose nav index stays there).
+    last_nav_seq: Option<u16>,
 }
 
 impl MissionExecutor {
@@ -157,6 +160,7 @@ impl MissionExecutor {
             last_nav_position: None,
             repeat: None,
             servo_trim_us: 1500,
+            last_nav_seq: None,
         }
     }
 
@@ -175,9 +179,14 @@ impl MissionExecutor {
     }
 
     /// The current item: the NAV item in progress, else where the next
-    /// search starts.
+    /// search starts; once complete, the last NAV item driven (never past
+    /// the last item: mavlink.io's "on last item, seq == total").
     pub fn current(&self) -> u16 {
-        self.nav.map_or(self.cursor, |n| n.seq)
+        match (self.state, self.nav) {
+            (_, Some(nav)) => nav.seq,
+            (ExecState::Complete, None) => self.last_nav_seq.unwrap_or(self.cursor).min(self.total()),
+            _ => self.cursor,
+        }
     }
 
     /// Whether the vehicle is driving in reverse on this leg.
@@ -220,6 +229,7 @@ impl MissionExecutor {
         self.reverse = false;
         self.last_nav_position = None;
         self.repeat = None;
+        self.last_nav_seq = None;
         self.state = ExecState::NotStarted;
     }
 
@@ -350,6 +360,7 @@ impl MissionExecutor {
             reached_at: None,
         });
         self.cursor = seq;
+        self.last_nav_seq = Some(seq);
         actions.push(Action::CurrentChanged(seq));
         match command {
             MissionCommand::Waypoint { position, hold_s } => {
@@ -635,6 +646,25 @@ mod tests {
         );
         assert_eq!(reached(&actions), vec![1, 2, 3]);
         assert_eq!(actions.last(), Some(&Action::Complete));
+    }
+
+    #[test]
+    fn a_complete_mission_reports_its_last_nav_item_never_one_past_the_end() {
+        let servo = item(3, cmd::DO_SET_SERVO, [9.0, 1900.0, 0.0, 0.0], 0);
+        let mut ex = MissionExecutor::new(&plan(vec![home(), wp(1, 10, 0.0), wp(2, 20, 0.0), servo]));
+        run_to_end(&mut ex);
+        assert_eq!(ex.state(), ExecState::Complete);
+        assert_eq!(
+            (ex.current(), ex.total()),
+            (2, 3),
+            "the last NAV item, not the DO after it"
+        );
+        let mut ex = MissionExecutor::new(&plan(vec![home(), wp(1, 10, 0.0), wp(2, 20, 0.0)]));
+        run_to_end(&mut ex);
+        assert_eq!(ex.current(), ex.total(), "on the last item seq == total");
+        let mut a = Vec::new();
+        ex.start(ms(0), false, &mut a);
+        assert_eq!(ex.current(), 1, "a restart starts from item 1 again");
     }
 
     #[test]

@@ -6,7 +6,7 @@ acknowledged (MISSION_ACK ACCEPTED, PARAM_VALUE echo of the new value) is on
 disk: it survives a kill at any instant after the acknowledgement, even the
 next millisecond. A save that fails is answered as failed (MISSION_ACK ERROR,
 the old value echoed, a STATUSTEXT) and the old plan or value survives a
-restart. `furrow bench safety --only kill` does this at length; this is the
+restart. `furrow-bench safety --only kill` does this at length; this is the
 quick version, independent of the bench's client."""
 
 import random

@@ -1,7 +1,7 @@
 """The navigation core end to end: the reference AGV course driven in AUTO by
 `furrow sitl`, watched by pymavlink as a ground station would.
 
-Bounds (from `furrow bench tracking`, which measures the true pose over 20
+Bounds (from `furrow-bench tracking`, which measures the true pose over 20
 seeds; here the autopilot's own report is what a GCS sees):
 - NAV_CONTROLLER_OUTPUT.xtrack_error: the bench's straight-leg p99 bound
   (20 mm) for 95 % of the samples, and never beyond 50 mm (corner arcs,

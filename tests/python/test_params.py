@@ -167,6 +167,12 @@ def test_param_file_export_edit_import_round_trip(tmp_path):
 def test_offline_tool_rejects_bad_input_and_changes_nothing(tmp_path):
     data = tmp_path / "vehicle"
     s = Sitl(tmp_path, data_dir=data)
+    # The first save is asked for by the core's first steps: wait for them
+    # (a loaded machine may not have stepped yet when the ready line comes).
+    s.tcp()
+    deadline = time.monotonic() + 10
+    while not (data / "params.parm").exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
     # While the autopilot runs, the directory is locked.
     r = run_furrow("params", "--data-dir", data, "set", "WP_SPEED", "3")
     assert r.returncode != 0 and "in use" in r.stderr

@@ -1,4 +1,4 @@
-//! Vehicle kinematics of seed 002 §3 (DESIGN §5.4): from the tracker's centre
+//! Vehicle kinematics of seed 002 §3 (docs/architecture.md §Kinematics and the magnetic guide): from the tracker's centre
 //! (bicycle) steering angle to each front wheel's angle under pure rolling
 //! (eq. 6–9), the rear electronic differential (eq. 10–13), and the
 //! differential-drive mapping of the same demand.
@@ -29,6 +29,8 @@
 //! geometry at points e_L, e_R inboard of the rear wheels' lines (the
 //! kingpin axes; the front wheels' contact points sit that far outboard of
 //! them). With e = 0 the front and rear tracks are equal.
+//!
+//! Sources: docs/references.md §Seed 002.
 
 use std::f64::consts::FRAC_PI_2;
 

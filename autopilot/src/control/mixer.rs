@@ -7,6 +7,8 @@
 //! channel carries which, and with what pulse range, is `SERVOn_*`
 //! ([`super::servo`]); the fixed-range helpers here are the RC input scale
 //! and the defaults' old 1000–2000 µs layout.
+//!
+//! Sources: docs/references.md §Seed 002.
 
 use drivers::sim::ActuatorDemand;
 

@@ -23,6 +23,8 @@
 //! (a disarmed vehicle's neutral demand gives TRIM), a relay's MIN/MAX (GPIO
 //! channels), a DO_SET_SERVO pulse (Disabled/RCPassThru channels only, as
 //! ArduPilot refuses channels with a function), or 0: not driven.
+//!
+//! Sources: docs/references.md §Seed 002.
 
 use drivers::sim::ActuatorDemand;
 use params::{Param, ParamDef, ParamFlags, ParamName, ParamTable, ParamTableBuilder, ParamType};

@@ -1,5 +1,5 @@
 //! The pose estimate: where the vehicle's reference point (the rear axle
-//! centre) is, which way it points and how fast it moves (DESIGN §5.2).
+//! centre) is, which way it points and how fast it moves (docs/architecture.md §Estimation).
 //!
 //! The [`ekf`] fuses GNSS position (σ from GST, else from the fix quality)
 //! with the antenna lever arm, GNSS velocity and course, and heading (a

@@ -5,7 +5,7 @@ use params::{ParamTable, declare_params};
 use super::ekf::EkfConfig;
 
 declare_params! {
-    /// The fusion filter (DESIGN §5.2).
+    /// The fusion filter (docs/architecture.md §Estimation).
     pub struct EkfParams {
         pos_gate_sigma: f32 = "EKF_POS_GATE" => {
             default: 5.0, range: 1.0, 100.0, unit: "sigma",

@@ -1,4 +1,6 @@
 //! Reference ellipsoids a Gauss–Krüger grid can be computed on.
+//!
+//! Sources: docs/references.md §Seed 001.
 
 /// An earth ellipsoid, by its defining semi-major axis and inverse flattening.
 ///

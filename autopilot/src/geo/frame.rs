@@ -1,5 +1,7 @@
 //! [`LocalFrame`]: a projection about an origin, optionally followed by a
 //! plant-grid transform.
+//!
+//! Sources: docs/references.md §Seed 000, docs/references.md §Seed 001.
 
 use map_3d::{Ellipsoid as Map3dEllipsoid, ecef2geodetic, geodetic2ecef};
 

@@ -24,6 +24,8 @@
 //! from conformal latitude. The unit tests check it against the corrected
 //! seed series (within ±3°) and seed eq. 3's IAG-75 meridian arc; the
 //! integration tests check it against PROJ.
+//!
+//! Sources: docs/references.md §Seed 001.
 
 use super::ellipsoid::Ellipsoid;
 use super::wrap_pi;

@@ -29,6 +29,8 @@
 //! The inverse is exact: φ from north, then Δλ from east with D's cos φ.
 //! Near a pole (cos φ → 0) longitude is undetermined and the inverse returns
 //! what `asin` gives (NaN past the sphere); it never panics.
+//!
+//! Sources: docs/references.md §Seed 000.
 
 use super::{GeoPoint, Ned, wrap_pi};
 

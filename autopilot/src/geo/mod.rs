@@ -1,4 +1,4 @@
-//! Local frames from latitude/longitude (DESIGN §5.1).
+//! Local frames from latitude/longitude (docs/architecture.md §Frames).
 //!
 //! Inside the core every position is metres north/east of an origin (NED,
 //! the same axes MAVLink's local frames use), and every heading is radians
@@ -72,6 +72,8 @@
 //! at the origin) 5.4e-8 m, headings 1.6e-7° — the fixtures' own rounding.
 //! The haversine frame is not used within [`HAVERSINE_MAX_ABS_LAT_DEG`] of a
 //! pole ([`FrameKind::usable_at`]).
+//!
+//! Sources: docs/references.md §Seed 000, docs/references.md §Seed 001.
 
 pub mod ellipsoid;
 pub mod frame;

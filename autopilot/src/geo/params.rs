@@ -1,4 +1,4 @@
-//! `GEO_*`: which local frame the core builds at its origin (DESIGN §5.1).
+//! `GEO_*`: which local frame the core builds at its origin (docs/architecture.md §Frames).
 //!
 //! Every one is `reboot_required`: the frame is built once, when the origin
 //! is set, and changing it under a running mission would move every local
@@ -25,7 +25,7 @@ declare_params! {
     pub struct GeoParams {
         frame: i8 = FRAME => {
             default: 0, range: 0, 2, unit: "", flags: [reboot_required],
-            desc: "Local frame: 0 ellipsoidal tangent plane, 1 spherical haversine (seed 000), 2 Gauss-Kruger (seed 001)",
+            desc: "Local frame: 0 ellipsoidal tangent plane (exact), 1 spherical (R 6371 km), 2 Gauss-Kruger grid",
         },
         ellipsoid: i8 = ELLIPSOID => {
             default: 0, range: 0, 2, unit: "", flags: [reboot_required],

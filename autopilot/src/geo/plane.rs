@@ -19,6 +19,8 @@
 //! Writing a point as the complex number z = north + i·east, the map is
 //! z′ = t + c·z with c = scale·e^{ir}: two common points fix c and t, and more
 //! than two give the least-squares fit in closed form.
+//!
+//! Sources: docs/references.md §Seed 001.
 
 use super::Ned;
 

@@ -1,6 +1,6 @@
 //! Double magnetic guide tracking ("Path tracking of a wheeled AGV with
 //! double magnetic guide", Yin et al., called "the seed" below: its §2 and
-//! §4; DESIGN §5.4): two 16-probe sensors, front and rear, read the tape;
+//! §4; docs/architecture.md §Kinematics and the magnetic guide): two 16-probe sensors, front and rear, read the tape;
 //! their deviations give the vehicle's lateral and angle deviation; a PD on
 //! the lateral deviation sets the steering angle and a PID on the angle
 //! deviation the speed, both in incremental form (eq. 15).
@@ -70,6 +70,8 @@
 //!   increments and integrates only while that does not push further past a
 //!   limit: the literal form, clamped, "remembers" saturation (a 1 rad
 //!   demand clamped to 0.5 rad comes back as −0.5 rad when the error goes).
+//!
+//! Sources: docs/references.md §Seed 002.
 
 /// Probes per sensor.
 pub const PROBES: u32 = 16;
@@ -329,7 +331,7 @@ impl Default for MagneticGuideConfig {
     /// 50 Hz: the seed's P and D, and an integral (learnt while tracking) so
     /// that curves entered from a straight are held without a standing
     /// offset; no configured correction limit below full lock (the
-    /// geometric one, 12.3° here, applies). `furrow bench magnetic`
+    /// geometric one, 12.3° here, applies). `furrow-bench magnetic`
     /// measures it: back within 3 s from 0.1 m and 5° towards the tape at
     /// 1.5 m/s on a straight and on 15 and 25 m arcs, never off a tape
     /// running into arcs of 10 m and more.

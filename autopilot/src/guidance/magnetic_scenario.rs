@@ -37,7 +37,7 @@
 //!
 //! [`MagneticProfile`] holds the vehicles: the bench AGV and the robot of
 //! "Path tracking of a wheeled AGV with double magnetic guide" (Yin et al.).
-//! `furrow bench magnetic` runs the whole grid of starts and prints what it
+//! `furrow-bench magnetic` runs the whole grid of starts and prints what it
 //! measures; from 5° *away* from the tape on the bench AGV both sensors leave
 //! their ±92 mm range before 30°/s steering can turn the vehicle, and the
 //! search (back towards the side last seen, then on) takes 5–9 s.

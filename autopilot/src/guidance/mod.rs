@@ -4,7 +4,9 @@
 
 pub mod magnetic;
 pub mod magnetic_scenario;
+pub mod manoeuvre;
 pub mod navigator;
 pub mod path;
+pub mod reeds_shepp;
 pub mod speed;
 pub mod tracker;

@@ -1,6 +1,6 @@
 //! Path geometry in the local frame: straight segments between waypoints and
 //! the circular arcs that round a corner the vehicle drives through
-//! (DESIGN §5.3).
+//! (docs/architecture.md §Path tracking).
 //!
 //! Headings are radians from north, clockwise; a curvature is positive for
 //! a right turn in the direction of travel; a cross-track error is positive

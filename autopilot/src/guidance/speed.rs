@@ -2,7 +2,9 @@
 //! curvature ahead (a lateral-acceleration limit, braking in time for an
 //! arc), by the heading error (seed 002 §4.1: a PID on the angle deviation
 //! whose output is the speed), and by a stop at the leg's end, whose final
-//! approach is a position loop that ends on the point (DESIGN §5.3).
+//! approach is a position loop that ends on the point (docs/architecture.md §Path tracking).
+//!
+//! Sources: docs/references.md §Seed 002.
 
 use crate::control::pid::{PidGains, PidState};
 

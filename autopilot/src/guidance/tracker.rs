@@ -1,4 +1,4 @@
-//! The preview-point PID tracker of seed 000 §2.4 (DESIGN §5.3).
+//! The preview-point PID tracker of seed 000 §2.4 (docs/architecture.md §Path tracking).
 //!
 //! Each step:
 //! 1. rotate the path into the vehicle frame (seed 000 eq. 8: x forward,
@@ -34,6 +34,8 @@
 //!   full lock once Q is more than 90° off the driving direction, until
 //!   heading and offset are small enough for the seed law.
 //! - The command is limited in angle and in rate, as the steering gear is.
+//!
+//! Sources: docs/references.md §Seed 000.
 
 use crate::control::pid::{PidGains, PidState, PidTerms};
 use crate::geo::{Ned, wrap_pi};

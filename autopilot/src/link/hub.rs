@@ -1,5 +1,6 @@
-//! The link runtime: a tokio runtime on its own thread running one task per
-//! link and the hub task that owns the registry and the router.
+//! The link layer at run time: one task per link and the hub task that
+//! owns the registry and the router, on the runtime the caller gives (the
+//! edge's), over sockets the caller bound ([`super::sockets`]).
 //!
 //! Inbound: link task → frames → hub (signature checked, see
 //! [`super::sign_policy`]) → routed to other links as raw bytes and, when
@@ -21,7 +22,7 @@
 
 use std::collections::BTreeMap;
 use std::io;
-use std::net::{SocketAddr, ToSocketAddrs};
+use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, AtomicU16, Ordering};
@@ -31,16 +32,17 @@ use mavlink::dialects::ardupilotmega::{MavMessage, MavMissionResult, MavResult};
 use mavlink::{MavHeader, Message};
 use tokio::io::{AsyncWrite, AsyncWriteExt};
 use tokio::net::{TcpListener, UdpSocket};
+use tokio::runtime::Handle;
 use tokio::sync::{mpsc, oneshot};
 
 use super::encode::{encode_raw_command_ack, encode_raw_mission_ack, encode_v2};
-use super::endpoint::{Endpoint, LinkEndpoint};
 use super::frame::{FrameStats, ReceivedFrame};
 use super::peers::Peers;
 use super::router::Router;
 use super::sign_policy::{Admission, DropReason, LinkSecurity, admit, makes_peer};
 use super::signing::{KeyChange, SecretKey, SigningState, TimestampSaver, Verdict};
-use super::tlog::{self, TlogRecord};
+use super::sockets::{BoundAddresses, LinkSocket, LinkSockets};
+use super::tlog::TlogRecord;
 use crate::storage::signing_key::{self, KeyFileWriter, StoredSigning};
 use crate::vehicle::{COMPONENT_ID, Destination, Inbound, LinkEvent, LinkId, Outbound, PeerId, UndecodableItem};
 
@@ -208,17 +210,10 @@ pub enum ToCore {
     UndecodableItem(UndecodableItem),
 }
 
-/// Which links to open.
+/// What the hub needs besides the sockets.
 #[derive(Clone, Debug, Default)]
-pub struct LinkConfig {
+pub struct HubConfig {
     pub sysid: u8,
-    /// The TCP server (stream slot 0): `host:port`, port 0 for any.
-    pub tcp_server: Option<String>,
-    /// The UDP link (stream slot 1): where to send until someone answers.
-    pub udp_out: Option<String>,
-    /// Extra endpoints (stream slots 2, 3, then 3 again), some secure.
-    pub extra: Vec<LinkEndpoint>,
-    pub tlog: Option<PathBuf>,
     /// Where the signing key is kept (the data directory). `None`: no key
     /// is loaded and a new one lasts until exit.
     pub signing_dir: Option<PathBuf>,
@@ -233,16 +228,6 @@ pub struct CoreChannels {
     pub outbound: mpsc::Sender<Outbound>,
 }
 
-/// Addresses actually bound (ports may have been 0).
-#[derive(Clone, Debug, Default)]
-pub struct BoundAddresses {
-    pub tcp: Option<SocketAddr>,
-    pub udp_local: Option<SocketAddr>,
-    /// The secure endpoints, in endpoint syntax with the port a listener
-    /// actually bound (`tcpin:127.0.0.1:40123`).
-    pub secure: Vec<String>,
-}
-
 /// The running link layer. Dropping it saves the signing timestamp and
 /// stops the hub.
 pub struct LinkRuntime {
@@ -250,7 +235,6 @@ pub struct LinkRuntime {
     sign_require: Arc<AtomicU8>,
     stop: Option<oneshot::Sender<()>>,
     stopped: std::sync::mpsc::Receiver<()>,
-    _thread: std::thread::JoinHandle<()>,
 }
 
 impl LinkRuntime {
@@ -293,137 +277,43 @@ fn load_signing(dir: Option<&std::path::Path>, now: Duration) -> SigningState {
     }
 }
 
-fn resolve(spec: &str) -> io::Result<SocketAddr> {
-    spec.to_socket_addrs()?
-        .next()
-        .ok_or_else(|| io::Error::new(io::ErrorKind::NotFound, format!("{spec}: no address")))
-}
-
-/// Binds every configured endpoint (so a busy port is an error now, not
-/// later) and starts the runtime thread.
-pub fn start(config: LinkConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
-    let runtime = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
+/// Starts the hub and one task per link on `runtime` (the sockets were
+/// bound by the caller). Dropping the returned [`LinkRuntime`] stops them.
+pub fn spawn(runtime: &Handle, sockets: LinkSockets, config: HubConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
     let (hub_tx, hub_rx) = mpsc::channel::<HubEvent>(1024);
     let (core_tx, core_rx) = mpsc::channel::<ToCore>(CORE_QUEUE);
     let (out_tx, out_rx) = mpsc::channel::<Outbound>(CORE_QUEUE);
-    let ids = LinkIds::default();
-    let sysid = config.sysid;
-    let mut bound = BoundAddresses::default();
     let signing = load_signing(config.signing_dir.as_deref(), wall_clock());
     let key_writer = config.signing_dir.clone().map(KeyFileWriter::start).transpose()?;
     let sign_require = Arc::new(AtomicU8::new(config.sign_require_mask));
-
-    let setup = runtime.block_on(async {
-        let mut tasks: Vec<std::pin::Pin<Box<dyn std::future::Future<Output = ()> + Send>>> = Vec::new();
-        if let Some(spec) = &config.tcp_server {
-            let listener = TcpListener::bind(resolve(spec)?).await?;
-            bound.tcp = Some(listener.local_addr()?);
-            tasks.push(Box::pin(super::tcp::serve(
-                listener,
-                LinkRole { slot: 0, secure: false },
-                ids.clone(),
-                hub_tx.clone(),
-            )));
-        }
-        if let Some(spec) = &config.udp_out {
-            let peer = resolve(spec)?;
-            let socket = UdpSocket::bind(unspecified_like(peer)).await?;
-            bound.udp_local = Some(socket.local_addr()?);
-            let name = format!("udp to {peer}");
-            tasks.push(Box::pin(super::udp::run(
-                socket,
-                Some(peer),
-                ids.next(),
-                LinkRole { slot: 1, secure: false },
-                name,
-                hub_tx.clone(),
-            )));
-        }
-        for (i, LinkEndpoint { endpoint, secure }) in config.extra.iter().enumerate() {
-            let role = LinkRole {
-                slot: (2 + i).min(3) as u8,
-                secure: *secure,
-            };
-            let mut shown = endpoint.to_string();
-            match endpoint {
-                Endpoint::UdpOut { host, port } => {
-                    let peer = resolve(&format!("{host}:{port}"))?;
-                    let socket = UdpSocket::bind(unspecified_like(peer)).await?;
-                    tasks.push(Box::pin(super::udp::run(
-                        socket,
-                        Some(peer),
-                        ids.next(),
-                        role,
-                        endpoint.to_string(),
-                        hub_tx.clone(),
-                    )));
-                }
-                Endpoint::UdpIn { host, port } => {
-                    let socket = UdpSocket::bind(resolve(&format!("{host}:{port}"))?).await?;
-                    shown = format!("udpin:{}", socket.local_addr()?);
-                    tasks.push(Box::pin(super::udp::run(
-                        socket,
-                        None,
-                        ids.next(),
-                        role,
-                        endpoint.to_string(),
-                        hub_tx.clone(),
-                    )));
-                }
-                Endpoint::TcpServer { host, port } => {
-                    let listener = TcpListener::bind(resolve(&format!("{host}:{port}"))?).await?;
-                    shown = format!("tcpin:{}", listener.local_addr()?);
-                    tasks.push(Box::pin(super::tcp::serve(listener, role, ids.clone(), hub_tx.clone())));
-                }
-                Endpoint::TcpClient { host, port } => {
-                    tasks.push(Box::pin(super::tcp::connect_forever(
-                        format!("{host}:{port}"),
-                        role,
-                        ids.clone(),
-                        hub_tx.clone(),
-                    )));
-                }
-                Endpoint::Serial { device, baud } => {
-                    super::serial::spawn(device.clone(), *baud, role, ids.clone(), hub_tx.clone());
-                }
-            }
-            if *secure {
-                bound.secure.push(shown);
-            }
-        }
-        let tlog = match &config.tlog {
-            Some(path) => {
-                let (tx, task) =
-                    tlog::open(path).map_err(|e| io::Error::new(e.kind(), format!("tlog {}: {e}", path.display())))?;
-                tasks.push(Box::pin(task));
-                Some(tx)
-            }
-            None => None,
-        };
-        Ok::<_, io::Error>((tasks, tlog))
+    let LinkSockets { links, tlog, bound } = sockets;
+    let tlog = tlog.map(|(tx, task)| {
+        runtime.spawn(task);
+        tx
     });
-    let (tasks, tlog) = setup?;
+    let ids = LinkIds::default();
+    {
+        // Sockets become tokio's inside the runtime's context.
+        let _context = runtime.enter();
+        for (socket, role) in links {
+            spawn_link(socket, role, &ids, &hub_tx)?;
+        }
+    }
     drop(hub_tx);
 
     let (stop_tx, stop_rx) = oneshot::channel();
     let (stopped_tx, stopped_rx) = std::sync::mpsc::channel();
-    let hub = Hub::new(sysid, core_tx, tlog, signing, key_writer, sign_require.clone());
-    let thread = std::thread::Builder::new().name("links".into()).spawn(move || {
-        runtime.block_on(async move {
-            for task in tasks {
-                tokio::spawn(task);
-            }
-            hub.run(hub_rx, out_rx, stop_rx).await;
-        });
+    let hub = Hub::new(config.sysid, core_tx, tlog, signing, key_writer, sign_require.clone());
+    runtime.spawn(async move {
+        hub.run(hub_rx, out_rx, stop_rx).await;
         let _ = stopped_tx.send(());
-    })?;
+    });
     Ok((
         LinkRuntime {
             bound,
             sign_require,
             stop: Some(stop_tx),
             stopped: stopped_rx,
-            _thread: thread,
         },
         CoreChannels {
             inbound: core_rx,
@@ -432,15 +322,27 @@ pub fn start(config: LinkConfig) -> io::Result<(LinkRuntime, CoreChannels)> {
     ))
 }
 
-/// Binds loopback for a loopback peer (so nothing else on the network can
-/// inject), any address otherwise.
-fn unspecified_like(peer: SocketAddr) -> SocketAddr {
-    match peer {
-        SocketAddr::V4(a) if a.ip().is_loopback() => "127.0.0.1:0".parse().expect("literal"),
-        SocketAddr::V4(_) => "0.0.0.0:0".parse().expect("literal"),
-        SocketAddr::V6(a) if a.ip().is_loopback() => "[::1]:0".parse().expect("literal"),
-        SocketAddr::V6(_) => "[::]:0".parse().expect("literal"),
+/// Starts one link's task (a serial port: its thread).
+fn spawn_link(socket: LinkSocket, role: LinkRole, ids: &LinkIds, hub: &mpsc::Sender<HubEvent>) -> io::Result<()> {
+    match socket {
+        LinkSocket::TcpServer(listener) => {
+            listener.set_nonblocking(true)?;
+            let listener = TcpListener::from_std(listener)?;
+            tokio::spawn(super::tcp::serve(listener, role, ids.clone(), hub.clone()));
+        }
+        LinkSocket::Udp { socket, fixed, name } => {
+            socket.set_nonblocking(true)?;
+            let socket = UdpSocket::from_std(socket)?;
+            tokio::spawn(super::udp::run(socket, fixed, ids.next(), role, name, hub.clone()));
+        }
+        LinkSocket::TcpClient(address) => {
+            tokio::spawn(super::tcp::connect_forever(address, role, ids.clone(), hub.clone()));
+        }
+        LinkSocket::Serial { device, baud } => {
+            super::serial::spawn(device, baud, role, ids.clone(), hub.clone());
+        }
     }
+    Ok(())
 }
 
 /// Frames a link dropped for their signature, by reason.
@@ -961,7 +863,9 @@ mod tests {
 
     use std::net::UdpSocket as StdUdpSocket;
 
-    use mavlink::dialects::ardupilotmega::{HEARTBEAT_DATA, MavSeverity, MavType, RADIO_STATUS_DATA, STATUSTEXT_DATA};
+    use mavlink::dialects::ardupilotmega::{
+        COMMAND_LONG_DATA, HEARTBEAT_DATA, MavCmd, MavSeverity, MavType, RADIO_STATUS_DATA, STATUSTEXT_DATA,
+    };
 
     use super::super::frame::frame_datagram;
     use super::*;
@@ -978,19 +882,32 @@ mod tests {
         socket
     }
 
-    fn start_hub(
-        fixed: &StdUdpSocket,
-        sign_require_mask: u8,
-        signing_dir: Option<PathBuf>,
-    ) -> (LinkRuntime, CoreChannels) {
-        start(LinkConfig {
+    /// The hub on a runtime of its own; dropping it stops both.
+    struct Running {
+        links: LinkRuntime,
+        _runtime: tokio::runtime::Runtime,
+    }
+
+    fn start_hub(fixed: &StdUdpSocket, sign_require_mask: u8, signing_dir: Option<PathBuf>) -> (Running, CoreChannels) {
+        let runtime = crate::edge::runtime().expect("runtime");
+        let mut sockets = LinkSockets::default();
+        let udp = StdUdpSocket::bind("127.0.0.1:0").expect("bind");
+        sockets
+            .udp(udp, Some(fixed.local_addr().expect("addr")))
+            .expect("udp link");
+        let config = HubConfig {
             sysid: 1,
-            udp_out: Some(fixed.local_addr().expect("addr").to_string()),
             sign_require_mask,
             signing_dir,
-            ..LinkConfig::default()
-        })
-        .expect("links start")
+        };
+        let (links, channels) = spawn(runtime.handle(), sockets, config).expect("links start");
+        (
+            Running {
+                links,
+                _runtime: runtime,
+            },
+            channels,
+        )
     }
 
     fn frame_of(message: &MavMessage, sequence: u8) -> Vec<u8> {
@@ -1073,8 +990,8 @@ mod tests {
     #[test]
     fn every_udp_peer_gets_what_the_core_sends_to_all() {
         let fixed = gcs_socket();
-        let (runtime, mut channels) = start_hub(&fixed, 0, None);
-        let udp = runtime.bound.udp_local.expect("udp bound");
+        let (hub, mut channels) = start_hub(&fixed, 0, None);
+        let udp = hub.links.bound.udp_local.expect("udp bound");
         let (link, _) = joined(&mut channels);
         let (a, b) = (gcs_socket(), gcs_socket());
         a.send_to(&gcs_heartbeat(), udp).expect("send");
@@ -1092,8 +1009,8 @@ mod tests {
     #[test]
     fn a_strangers_datagrams_never_divert_the_telemetry() {
         let fixed = gcs_socket();
-        let (runtime, mut channels) = start_hub(&fixed, 0, None);
-        let udp = runtime.bound.udp_local.expect("udp bound");
+        let (hub, mut channels) = start_hub(&fixed, 0, None);
+        let udp = hub.links.bound.udp_local.expect("udp bound");
         joined(&mut channels);
         let gcs = gcs_socket();
         gcs.send_to(&gcs_heartbeat(), udp).expect("send");
@@ -1130,8 +1047,8 @@ mod tests {
     #[test]
     fn a_new_peer_is_reported_once_and_a_message_for_it_goes_to_it_alone() {
         let fixed = gcs_socket();
-        let (runtime, mut channels) = start_hub(&fixed, 0, None);
-        let udp = runtime.bound.udp_local.expect("udp bound");
+        let (hub, mut channels) = start_hub(&fixed, 0, None);
+        let udp = hub.links.bound.udp_local.expect("udp bound");
         let (link, fixed_peer) = joined(&mut channels);
         let (a, b) = (gcs_socket(), gcs_socket());
         a.send_to(&gcs_heartbeat(), udp).expect("send");
@@ -1187,8 +1104,8 @@ mod tests {
         let dir = KeyDir::new(KEY);
         let fixed = gcs_socket();
         // SIGN_REQUIRE bit 1: the UDP link's stream slot.
-        let (runtime, mut channels) = start_hub(&fixed, 0b10, Some(dir.0.clone()));
-        let udp = runtime.bound.udp_local.expect("udp bound");
+        let (hub, mut channels) = start_hub(&fixed, 0b10, Some(dir.0.clone()));
+        let udp = hub.links.bound.udp_local.expect("udp bound");
         joined(&mut channels);
         let stranger = gcs_socket();
         let radio_status = frame_of(&MavMessage::RADIO_STATUS(RADIO_STATUS_DATA::DEFAULT), 1);
@@ -1206,5 +1123,239 @@ mod tests {
         from_core(&channels, Destination::AllLinks, text("for the signer"));
         assert!(hears(&gcs, "for the signer", WAIT));
         assert!(!hears(&stranger, "for the signer", QUIET));
+    }
+
+    fn command_long_to(target_system: u8, target_component: u8) -> MavMessage {
+        MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+            target_system,
+            target_component,
+            command: MavCmd::MAV_CMD_REQUEST_MESSAGE,
+            ..COMMAND_LONG_DATA::DEFAULT
+        })
+    }
+
+    fn heartbeat_from(system_id: u8, component_id: u8) -> Vec<u8> {
+        let header = MavHeader {
+            system_id: u32::from(system_id),
+            component_id,
+            sequence: 0,
+        };
+        encode_v2(
+            header,
+            &MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
+                ..HEARTBEAT_DATA::DEFAULT
+            }),
+        )
+    }
+
+    /// The message ids `stream` receives within `wait`.
+    fn ids_heard(stream: &mut std::net::TcpStream, wait: Duration) -> Vec<u32> {
+        use std::io::Read;
+        stream
+            .set_read_timeout(Some(Duration::from_millis(50)))
+            .expect("timeout");
+        let deadline = Instant::now() + wait;
+        let mut framer = super::super::frame::StreamFramer::new();
+        let mut ids = Vec::new();
+        let mut buf = [0u8; 4096];
+        while Instant::now() < deadline {
+            if let Ok(n) = stream.read(&mut buf) {
+                framer.push(&buf[..n], |f| ids.push(f.message_id()));
+            }
+        }
+        ids
+    }
+
+    /// The core's messages of one id within `wait`.
+    fn core_gets(channels: &mut CoreChannels, message_id: u32, wait: Duration) -> usize {
+        let deadline = Instant::now() + wait;
+        let mut count = 0;
+        while Instant::now() < deadline {
+            match channels.inbound.try_recv() {
+                Ok(ToCore::Message(m)) if m.message.message_id() == message_id => count += 1,
+                Ok(_) => {}
+                Err(_) => std::thread::sleep(Duration::from_millis(5)),
+            }
+        }
+        count
+    }
+
+    /// A UDP link to `fixed` and a TCP server on port 0, with one client.
+    fn two_links(fixed: &StdUdpSocket) -> (Running, CoreChannels, std::net::TcpStream) {
+        let runtime = crate::edge::runtime().expect("runtime");
+        let mut sockets = LinkSockets::default();
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
+        let tcp = listener.local_addr().expect("addr");
+        sockets.tcp_server(listener).expect("tcp link");
+        let udp = StdUdpSocket::bind("127.0.0.1:0").expect("bind");
+        sockets
+            .udp(udp, Some(fixed.local_addr().expect("addr")))
+            .expect("udp link");
+        let config = HubConfig {
+            sysid: 1,
+            ..HubConfig::default()
+        };
+        let (links, mut channels) = spawn(runtime.handle(), sockets, config).expect("links start");
+        joined(&mut channels);
+        let client = std::net::TcpStream::connect(tcp).expect("connect");
+        joined(&mut channels);
+        let running = Running {
+            links,
+            _runtime: runtime,
+        };
+        (running, channels, client)
+    }
+
+    #[test]
+    fn a_command_for_another_system_goes_only_to_the_link_that_heard_it() {
+        use std::io::Write;
+        const COMMAND_LONG: u32 = 76;
+        let gcs = gcs_socket();
+        let (hub, mut channels, mut companion) = two_links(&gcs);
+        let udp = hub.links.bound.udp_local.expect("udp bound");
+        // System 42 speaks on the TCP link; the router learns where it is.
+        companion.write_all(&heartbeat_from(42, 1)).expect("send");
+        std::thread::sleep(Duration::from_millis(100));
+
+        gcs.send_to(&frame_of(&command_long_to(42, 1), 1), udp).expect("send");
+        let heard = ids_heard(&mut companion, Duration::from_millis(500));
+        assert_eq!(
+            heard.iter().filter(|&&id| id == COMMAND_LONG).count(),
+            1,
+            "heard {heard:?}"
+        );
+        assert_eq!(
+            core_gets(&mut channels, COMMAND_LONG, QUIET),
+            0,
+            "not ours, not the core's"
+        );
+
+        gcs.send_to(&frame_of(&command_long_to(1, 1), 2), udp).expect("send");
+        assert_eq!(core_gets(&mut channels, COMMAND_LONG, WAIT), 1, "ours goes to the core");
+        let heard = ids_heard(&mut companion, QUIET);
+        assert!(!heard.contains(&COMMAND_LONG), "ours is not forwarded: {heard:?}");
+    }
+
+    #[test]
+    fn a_client_that_stops_reading_holds_up_neither_the_others_nor_the_core() {
+        let gcs = gcs_socket();
+        let (hub, mut channels, stalled) = two_links(&gcs);
+        let udp = hub.links.bound.udp_local.expect("udp bound");
+        socket2::SockRef::from(&stalled)
+            .set_recv_buffer_size(4096)
+            .expect("SO_RCVBUF");
+        // Far more than the kernel buffers and the link's queue hold.
+        for k in 0..3 * LINK_QUEUE {
+            from_core(&channels, Destination::AllLinks, text(&format!("flood {k}")));
+        }
+        // What the kernel kept of the flood for the UDP GCS is read first.
+        hears(&gcs, "nothing", QUIET);
+        from_core(&channels, Destination::AllLinks, text("after the flood"));
+        assert!(hears(&gcs, "after the flood", WAIT), "the UDP GCS lost its telemetry");
+        gcs.send_to(&gcs_heartbeat(), udp).expect("send");
+        assert_eq!(
+            core_gets(&mut channels, 0, WAIT),
+            1,
+            "the core lost the GCS's heartbeat"
+        );
+        drop(stalled);
+    }
+
+    /// A hub with no sockets: link events and frames are handed to it as
+    /// its link tasks would.
+    struct BareHub {
+        hub: Hub,
+        core: mpsc::Receiver<ToCore>,
+        link_queue: mpsc::Receiver<LinkFrame>,
+    }
+
+    const LINK: LinkId = LinkId(0);
+
+    impl BareHub {
+        async fn open(core_queue: usize, signing: SigningState, sign_require_mask: u8) -> BareHub {
+            let (core_tx, core) = mpsc::channel(core_queue);
+            let sign_require = Arc::new(AtomicU8::new(sign_require_mask));
+            let mut hub = Hub::new(1, core_tx, None, signing, None, sign_require);
+            let (tx, link_queue) = mpsc::channel(LINK_QUEUE);
+            let role = LinkRole { slot: 1, secure: false };
+            let (peers, name) = (PeerPolicy::FirstFrame, "test".to_string());
+            hub.on_event(HubEvent::Opened {
+                link: LINK,
+                role,
+                peers,
+                name,
+                tx,
+            })
+            .await;
+            let mut bare = BareHub { hub, core, link_queue };
+            bare.core_items();
+            bare
+        }
+
+        fn frame(&mut self, bytes: &[u8]) {
+            let mut frames = Vec::new();
+            frame_datagram(bytes, &mut FrameStats::default(), |f| frames.push(f));
+            assert_eq!(frames.len(), 1, "one valid frame");
+            for frame in frames {
+                self.hub.on_frame(LINK, frame, None);
+            }
+        }
+
+        /// Messages (not events) the core got.
+        fn core_items(&mut self) -> usize {
+            let mut n = 0;
+            while let Ok(item) = self.core.try_recv() {
+                n += usize::from(matches!(item, ToCore::Message(_)));
+            }
+            n
+        }
+
+        fn entry(&self) -> &LinkEntry {
+            self.hub.links.get(&LINK).expect("link open")
+        }
+    }
+
+    #[tokio::test]
+    async fn a_full_link_queue_drops_and_counts_and_a_full_core_queue_too() {
+        let mut bare = BareHub::open(8, SigningState::start(None, 0, wall_clock()), 0).await;
+        for k in 0..LINK_QUEUE + 100 {
+            bare.hub.on_outbound(Outbound {
+                dest: Destination::AllLinks,
+                message: text(&format!("m{k}")),
+            });
+        }
+        assert_eq!(bare.link_queue.len(), LINK_QUEUE);
+        assert_eq!(bare.entry().dropped_out, 100);
+
+        for _ in 0..20 {
+            bare.frame(&gcs_heartbeat());
+        }
+        assert_eq!(bare.core_items(), 8, "the core queue holds 8");
+        assert_eq!(bare.hub.dropped_to_core, 12);
+    }
+
+    #[tokio::test]
+    async fn frames_signing_rejects_are_counted_by_reason_and_never_reach_the_core() {
+        const KEY: [u8; 32] = [7; 32];
+        let signing = SigningState::start(Some(SecretKey::new(KEY)), 0, wall_clock());
+        // SIGN_REQUIRE bit 1: the link's stream slot.
+        let mut bare = BareHub::open(64, signing, 0b10).await;
+        let mut ours = SigningState::start(Some(SecretKey::new(KEY)), 0, wall_clock());
+        let mut strangers = SigningState::start(Some(SecretKey::new([9; 32])), 0, wall_clock());
+
+        bare.frame(&gcs_heartbeat());
+        let forged = strangers.sign(&gcs_heartbeat(), 0, wall_clock()).expect("signed");
+        bare.frame(&forged);
+        let signed = ours.sign(&gcs_heartbeat(), 0, wall_clock()).expect("signed");
+        bare.frame(&signed);
+        assert_eq!(bare.core_items(), 1, "only the signed frame");
+        bare.frame(&signed);
+        assert_eq!(bare.core_items(), 0, "a replay is dropped");
+        let drops = bare.entry().signing_drops;
+        assert_eq!(
+            (drops.unsigned, drops.bad_signature, drops.replayed, drops.out_of_window),
+            (1, 1, 1, 0)
+        );
     }
 }

@@ -8,8 +8,9 @@
 //! - [`signing`]: MAVLink 2 signing: key, timestamps, verify and sign (no I/O).
 //! - [`sign_policy`]: which frames a link acts on once a key is set (no I/O).
 //! - [`peers`]: which ground stations a link answers (no I/O).
-//! - [`hub`]: the tokio runtime: one task per link, a hub that routes frames
-//!   and fans the core's messages out, and the tlog recorder. A slow or dead
+//! - [`sockets`]: the endpoints bound before anything runs (port 0 picks).
+//! - [`hub`]: the tasks: one per link, a hub that routes frames and fans
+//!   the core's messages out, and the tlog recorder. A slow or dead
 //!   link only ever fills its own bounded queue; the core never waits.
 
 pub mod encode;
@@ -21,6 +22,14 @@ pub mod router;
 mod serial;
 pub mod sign_policy;
 pub mod signing;
+pub mod sockets;
 mod tcp;
 pub mod tlog;
 mod udp;
+
+/// The wait before a TCP client or serial link tries again: soon after a
+/// short outage, at most once a second.
+fn reconnect_backoff() -> drivers::backoff::Backoff {
+    use std::time::Duration;
+    drivers::backoff::Backoff::new(Duration::from_millis(100), Duration::from_secs(1))
+}

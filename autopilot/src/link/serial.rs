@@ -9,12 +9,13 @@ use tokio::sync::mpsc;
 use super::frame::StreamFramer;
 use super::hub::{HubEvent, LinkFrame, LinkIds, LinkRole, PeerPolicy};
 
-/// Opens the port, retrying every second until it exists (a USB radio
-/// plugged in later), and serves it; reopens after an unplug.
+/// Opens the port, retrying until it exists (a USB radio plugged in later),
+/// and serves it; reopens after an unplug.
 pub(super) fn spawn(device: String, baud: u32, role: LinkRole, ids: LinkIds, hub: mpsc::Sender<HubEvent>) {
     std::thread::Builder::new()
         .name(format!("serial {device}"))
         .spawn(move || {
+            let mut backoff = super::reconnect_backoff();
             loop {
                 match serialport::new(&device, baud)
                     .timeout(Duration::from_millis(100))
@@ -22,6 +23,7 @@ pub(super) fn spawn(device: String, baud: u32, role: LinkRole, ids: LinkIds, hub
                 {
                     Ok(port) => {
                         tracing::info!("serial {device} at {baud} baud: open");
+                        backoff.reset();
                         serve(port, &device, role, ids.next(), &hub);
                         tracing::warn!("serial {device}: closed; reopening");
                     }
@@ -30,7 +32,7 @@ pub(super) fn spawn(device: String, baud: u32, role: LinkRole, ids: LinkIds, hub
                 if hub.is_closed() {
                     return;
                 }
-                std::thread::sleep(Duration::from_secs(1));
+                std::thread::sleep(backoff.next_delay());
             }
         })
         .expect("spawn serial thread");

@@ -30,17 +30,19 @@ pub(super) async fn serve(listener: TcpListener, role: LinkRole, ids: LinkIds, h
 
 /// Connects to `addr`, and again after every disconnect.
 pub(super) async fn connect_forever(addr: String, role: LinkRole, ids: LinkIds, hub: mpsc::Sender<HubEvent>) {
+    let mut backoff = super::reconnect_backoff();
     loop {
         match TcpStream::connect(&addr).await {
             Ok(stream) => {
                 let _ = stream.set_nodelay(true);
                 tracing::info!("tcp connected to {addr}");
+                backoff.reset();
                 run_stream(stream, ids.next(), role, format!("tcp to {addr}"), hub.clone()).await;
                 tracing::info!("tcp to {addr} closed; reconnecting");
             }
             Err(e) => tracing::debug!("tcp connect {addr}: {e}"),
         }
-        tokio::time::sleep(Duration::from_secs(1)).await;
+        tokio::time::sleep(backoff.next_delay()).await;
     }
 }
 

@@ -3,6 +3,10 @@
 //! are fixed by ArduPilot (`Rover/mode.h`). Furrow adds one of its own,
 //! MAGNETIC (magnetic-tape following, seed 002), on a number ArduPilot
 //! leaves unused (20); a ground station shows it by number.
+//!
+//! What each mode does each tick, one file per mode, is in `vehicle/modes/`.
+//!
+//! Sources: docs/references.md §Seed 002.
 
 use std::fmt;
 

@@ -30,6 +30,8 @@
 //! returns are further apart than a range-dependent gap or where a beam
 //! between them had no echo. See [`cluster_points`] for the centroid
 //! correction a one-sided view of a round object needs.
+//!
+//! Sources: docs/references.md §Seed 004.
 
 use std::f64::consts::FRAC_PI_4;
 

@@ -54,6 +54,8 @@
 //! the last seen point is; the caller should re-plan as more of it comes
 //! into view. The detour is planned relative to the leg, from the vehicle's
 //! position along it: the vehicle is assumed to be on (or near) the line.
+//!
+//! Sources: docs/references.md §Seed 004.
 
 use std::fmt;
 

@@ -1,4 +1,4 @@
-//! The speed-dependent protective and warning fields (DESIGN §5.5; the SICK
+//! The speed-dependent protective and warning fields (docs/architecture.md §Obstacles; the SICK
 //! stopping-distance sizing of reference B.4), checked against raw scan
 //! points every scan.
 //!

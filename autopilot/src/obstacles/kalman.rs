@@ -41,6 +41,8 @@
 //! Inputs that are NaN or infinite, a negative interval, or an innovation
 //! covariance that is not positive definite are refused with an error and
 //! leave the filter unchanged.
+//!
+//! Sources: docs/references.md §Seed 004.
 
 use nalgebra::{Matrix2, Matrix2x4, Matrix4, Matrix4x2, Vector2, Vector4};
 

@@ -1,4 +1,4 @@
-//! Obstacles (DESIGN §5.5, seed 004 §III): a 2D laser scan turned into
+//! Obstacles (docs/architecture.md §Obstacles, seed 004 §III): a 2D laser scan turned into
 //! points in the local frame, clusters, and one Kalman filter per tracked
 //! object; collision prediction against the vehicle's footprint; and the
 //! policy that stops (or passes first) and resumes.
@@ -10,6 +10,8 @@
 //! - [`outline`]: the shape of what is not a walking person;
 //! - [`swept`]: the outline swept along the path ahead;
 //! - [`prediction`], [`field`], [`policy`], [`detour`]: decisions.
+//!
+//! Sources: docs/references.md §Seed 004.
 
 pub mod cluster;
 pub mod detour;

@@ -2,6 +2,8 @@
 //! outline (`VEH_LEN_*`, `VEH_WIDTH`) and the avoidance policy (`OA_*`).
 //! ArduPilot has `OA_TYPE` for its path planners; here 0 is "stop only" and
 //! 1 the tangent-bug detour of seed 004 §III.D.
+//!
+//! Sources: docs/references.md §Seed 004.
 
 use params::declare_params;
 
@@ -66,7 +68,7 @@ declare_params! {
 }
 
 declare_params! {
-    /// Obstacle avoidance (DESIGN §5.5).
+    /// Obstacle avoidance (docs/architecture.md §Obstacles).
     pub struct AvoidanceParams {
         enable: bool = "OA_ENABLE" => {
             default: 1, range: 0, 1, unit: "",
@@ -98,15 +100,15 @@ declare_params! {
         },
         pass_first: bool = "OA_PASS" => {
             default: 0, range: 0, 1, unit: "",
-            desc: "Seed 004's pass-first rule (eq. 18): speed up past a crossing obstacle when there is time",
+            desc: "Pass-first rule (Pratama et al.): speed up past a crossing obstacle when there is time",
         },
         pass_speed_mps: f32 = "OA_PASS_SPEED" => {
             default: 3.0, range: 0.1, 10.0, unit: "m/s",
-            desc: "The speed OA_PASS may accelerate to, to pass before a crossing obstacle (seed 004's V_Amax)",
+            desc: "The speed OA_PASS may accelerate to, to pass before a crossing obstacle",
         },
         margin_m: f32 = "OA_MARGIN" => {
             default: 0.3, range: 0.0, 5.0, unit: "m",
-            desc: "Safe distance kept from predicted obstacle paths (seed 004's delta L)",
+            desc: "Safe distance kept from predicted obstacle paths",
         },
         horizon_s: f32 = "OA_HORIZON" => {
             default: 3.0, range: 0.0, 30.0, unit: "s",
@@ -138,7 +140,7 @@ declare_params! {
         },
         track_accel: f32 = "OA_TRK_ACC" => {
             default: 1.5, range: 0.01, 50.0, unit: "m2/s3",
-            desc: "Obstacle tracker process noise: white-acceleration spectral density (seed 004 eq. 6's a)",
+            desc: "Obstacle tracker process noise: white-acceleration spectral density",
         },
         velocity_gate_mps: f32 = "OA_TRK_VEL_SD" => {
             default: 0.5, range: 0.01, 10.0, unit: "m/s",

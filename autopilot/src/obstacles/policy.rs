@@ -1,4 +1,4 @@
-//! What to do about obstacles (DESIGN §5.5, seed 004 §III.D): stop, slow,
+//! What to do about obstacles (docs/architecture.md §Obstacles, seed 004 §III.D): stop, slow,
 //! pass first, and when to resume.
 //!
 //! Rules, in order:
@@ -13,6 +13,15 @@
 //!    - otherwise: stop.
 //! 4. Points in the warning field: slow to the speed that keeps them out of
 //!    the protective field.
+//!
+//! Without `pass_first` (which decides on the first prediction), a
+//! collision predicted further off than the vehicle needs to stop
+//! (`reaction_s` + v/`decel_mps2`) plus [`DECIDE_LEAD_S`] does not stop it
+//! yet: it holds its speed (no acceleration) and decides again next tick,
+//! with a track velocity that has had longer to settle. The stop, if it is
+//! still needed, comes with at least that lead; the tracker's velocity
+//! error over the last second of a 3 s horizon (a few tenths of a metre)
+//! would otherwise stop it for people about to pass clear of it.
 //!
 //! A stop is held until the way has been clear *as if already moving at the
 //! planned speed* (`field_at_resume`, `predictions_at_resume`) continuously
@@ -31,6 +40,15 @@
 //!
 //! At rest the current-velocity inputs describe a vehicle going nowhere, so
 //! whether it may start is judged on the at-resume inputs there as well.
+//! Starting (from rest, or resuming a held stop) is refused besides while
+//! any object is within the margin of the outline now, closing or not,
+//! confirmed, coasting or just lost from view (a prediction at time 0 for
+//! a track that is not tentative): someone standing against the side, or
+//! one who walked into the scanners' blind zone beside the body, is driven
+//! into by the first metre of a turn, and a gap that "is not closing" at
+//! rest says nothing about the motion about to begin.
+//!
+//! Sources: docs/references.md §Seed 004.
 
 use std::cmp::Ordering;
 use std::fmt;
@@ -48,6 +66,9 @@ const MIN_FOLLOW_SPEED_MPS: f64 = 0.1;
 pub const CYCLE_WINDOW_S: f64 = 5.0;
 /// The protective field as the "object" of a stop/go cycle.
 const FIELD_OBJECT: u32 = u32::MAX;
+/// A moving vehicle stops for a predicted collision no later than this
+/// long before it would need to (s).
+pub const DECIDE_LEAD_S: f64 = 1.0;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PolicyConfig {
@@ -70,6 +91,9 @@ pub struct PolicyConfig {
     /// OA_STOP_CYCLES: stop/go cycles for one object before the stop turns
     /// patient; 0 never.
     pub stop_cycles: u32,
+    /// OA_REACT_TIME and OA_DECEL: the time to stop from a speed.
+    pub reaction_s: f64,
+    pub decel_mps2: f64,
 }
 
 impl Default for PolicyConfig {
@@ -84,6 +108,8 @@ impl Default for PolicyConfig {
             stop_horizon_s: 3.0,
             scan_timeout_s: 0.2,
             stop_cycles: 3,
+            reaction_s: 0.15,
+            decel_mps2: 1.0,
         }
     }
 }
@@ -274,7 +300,11 @@ struct HeldStop {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Response {
     Ignore,
-    Follow { limit_mps: f64 },
+    Follow {
+        limit_mps: f64,
+    },
+    /// Too far off to stop for yet: hold the current speed.
+    Hold,
     PassFirst,
     Stop,
 }
@@ -449,16 +479,33 @@ impl ObstaclePolicy {
         if let Some(cause) = field_stop(&[field]) {
             return Verdict::Stop(cause);
         }
+        if at_rest && let Some(prediction) = start_blocker(inputs) {
+            return Verdict::Stop(collision_cause(prediction));
+        }
 
         let mut stop: Option<&CollisionPrediction> = None;
         let mut passes: Vec<&CollisionPrediction> = Vec::new();
         let mut slow_mps = inputs.warning_limit_mps.map(|l| l.max(0.0));
         let allow_pass = config.pass_first && !at_rest;
+        // Pass-first (seed 004) decides on the first prediction.
+        let defer = !at_rest && !config.pass_first;
         for prediction in predictions {
-            match respond(prediction, inputs, config, allow_pass) {
+            let response = match respond(prediction, inputs, config, allow_pass) {
+                Response::Stop
+                    if defer && prediction.time_s > stopping_time_s(inputs.speed_mps, config) + DECIDE_LEAD_S =>
+                {
+                    Response::Hold
+                }
+                response => response,
+            };
+            match response {
                 Response::Ignore => {}
                 Response::Stop => stop = earliest(stop, prediction),
                 Response::Follow { limit_mps } => slow_mps = Some(slow_mps.map_or(limit_mps, |s| s.min(limit_mps))),
+                Response::Hold => {
+                    let limit_mps = inputs.speed_mps.abs();
+                    slow_mps = Some(slow_mps.map_or(limit_mps, |s| s.min(limit_mps)));
+                }
                 Response::PassFirst => passes.push(prediction),
             }
         }
@@ -522,6 +569,16 @@ impl ObstaclePolicy {
     }
 }
 
+/// Reaction and braking time from `speed_mps` (infinite without a usable
+/// deceleration: then nothing is put off).
+fn stopping_time_s(speed_mps: f64, config: &PolicyConfig) -> f64 {
+    if config.decel_mps2 > 0.0 {
+        config.reaction_s.max(0.0) + speed_mps.abs() / config.decel_mps2
+    } else {
+        f64::INFINITY
+    }
+}
+
 fn stopped(verdict: Verdict, events: Vec<PolicyEvent>) -> PolicyStatus {
     PolicyStatus {
         verdict,
@@ -566,12 +623,33 @@ fn resume_blocker(inputs: &PolicyInputs, config: &PolicyConfig) -> Option<StopCa
     if let Some(cause) = field_stop(&[inputs.field, inputs.field_at_resume]) {
         return Some(cause);
     }
+    if let Some(prediction) = start_blocker(inputs) {
+        return Some(collision_cause(prediction));
+    }
     inputs
         .predictions_at_resume
         .iter()
         .filter(|p| respond(p, inputs, config, false) == Response::Stop)
         .fold(None, earliest)
         .map(collision_cause)
+}
+
+/// An object within the margin of the outline now (a prediction at time 0
+/// for a track that is not tentative, or no longer in the list): the
+/// vehicle may not start.
+fn start_blocker<'p>(inputs: &PolicyInputs<'p>) -> Option<&'p CollisionPrediction> {
+    inputs
+        .predictions_at_resume
+        .iter()
+        .filter(|p| p.time_s <= 0.0)
+        .filter(|p| {
+            inputs
+                .tracks
+                .iter()
+                .find(|t| t.id == p.track_id)
+                .is_none_or(|t| t.status != TrackStatus::Tentative)
+        })
+        .fold(None, earliest)
 }
 
 /// The stricter resume test after too many stop/go cycles: besides the

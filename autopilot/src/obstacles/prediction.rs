@@ -28,6 +28,8 @@
 //!   ray parameter itself.
 //! - Eq. 17, P_c = V_A · t_c, is the vehicle's displacement, not a place; the
 //!   vehicle's current position is added to give the place in the local frame.
+//!
+//! Sources: docs/references.md §Seed 004.
 
 use super::{Footprint, Pose, Track};
 use crate::geo::Ned;

@@ -44,6 +44,8 @@
 //! dip of at most half of it, added to the margin). The first time the gap
 //! is within the margin is the collision time (seed 004 §III.C's t_c, for a
 //! turning vehicle).
+//!
+//! Sources: docs/references.md §Seed 004.
 
 use super::outline::Outline;
 use super::{Footprint, Pose};

@@ -16,6 +16,8 @@
 //! the newest time — the filter never goes back, and the error is the
 //! object's speed times the lateness. A clock that jumps back by more than
 //! [`CLOCK_JUMP`] starts the tracker afresh.
+//!
+//! Sources: docs/references.md §Seed 004.
 
 use std::time::Duration;
 

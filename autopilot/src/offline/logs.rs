@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use crate::bench::plot::{Class, Labels, PlotData, write_svg};
+use super::plot::{Class, Labels, PlotData, write_svg};
 use crate::geo::{GeoPoint, LocalFrame, Ned};
 use crate::logging::reader::{DataFlashLog, Message};
 use crate::logging::store::LogStore;

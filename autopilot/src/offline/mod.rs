@@ -5,3 +5,4 @@ pub mod config;
 pub mod logs;
 pub mod mission;
 pub mod params;
+pub mod plot;

@@ -1,9 +1,8 @@
 //! The real vehicle's sensors, started from the configuration file: each
-//! driver runs on its own thread (or the scanners' small runtime) and the
+//! driver runs on its own thread (or as a task on the edge's runtime) and the
 //! core's loop only polls them, so a device that blocks, vanishes or sends
 //! garbage never delays a tick.
 
-use std::sync::mpsc as std_mpsc;
 use std::time::{Duration, Instant};
 
 use drivers::device::DeviceStatus;
@@ -14,7 +13,8 @@ use drivers::ntrip::{NtripClient, NtripConfig, gga_sentence};
 use drivers::rtcm::RtcmReassembler;
 use drivers::scanner::Scan;
 use drivers::scanner::client::{ScannerClient, ScannerClientConfig};
-use tokio::sync::{mpsc, watch};
+use tokio::runtime::Handle;
+use tokio::sync::mpsc;
 
 use super::config::{GnssLink, HeadingSource, NtripVersion, SerialLine, VehicleConfig};
 use crate::vehicle::{Inputs, ScanInput};
@@ -88,73 +88,40 @@ impl RateMeter {
     }
 }
 
-/// The scanners live on a small runtime of their own (the CoLa-A client is
-/// async); scans come back through bounded channels the loop polls.
+/// The scanners' CoLa-A clients are tasks on the edge's runtime; scans come
+/// back through bounded channels the loop polls. Dropping the set drops the
+/// receivers, which ends the tasks.
 struct ScannerSet {
     receivers: Vec<mpsc::Receiver<Scan>>,
     stats: Vec<std::sync::Arc<drivers::scanner::client::ScannerStats>>,
     addresses: Vec<String>,
     last_scan: Vec<Option<Duration>>,
-    shutdown: watch::Sender<bool>,
-    thread: Option<std::thread::JoinHandle<()>>,
+    _clients: Vec<ScannerClient>,
 }
 
 impl ScannerSet {
-    fn start(addresses: Vec<String>, origin: Instant) -> Result<ScannerSet, String> {
-        let (shutdown, mut shutdown_rx) = watch::channel(false);
-        let (ready_tx, ready_rx) = std_mpsc::channel();
-        let configs: Vec<ScannerClientConfig> = addresses
-            .iter()
-            .map(|address| ScannerClientConfig {
+    fn start(addresses: Vec<String>, origin: Instant, runtime: &Handle) -> ScannerSet {
+        let _context = runtime.enter();
+        let mut clients = Vec::new();
+        let mut receivers = Vec::new();
+        let mut stats = Vec::new();
+        for address in &addresses {
+            let config = ScannerClientConfig {
                 address: address.clone(),
                 ..ScannerClientConfig::default()
-            })
-            .collect();
-        let thread = std::thread::Builder::new()
-            .name("scanners".into())
-            .spawn(move || {
-                let Ok(runtime) = tokio::runtime::Builder::new_current_thread().enable_all().build() else {
-                    return;
-                };
-                runtime.block_on(async move {
-                    let mut clients = Vec::new();
-                    let mut receivers = Vec::new();
-                    for config in configs {
-                        let (client, rx) = ScannerClient::spawn(config, move || origin.elapsed(), SCAN_QUEUE);
-                        receivers.push((rx, std::sync::Arc::clone(client.stats())));
-                        clients.push(client);
-                    }
-                    if ready_tx.send(receivers).is_err() {
-                        return;
-                    }
-                    let _ = shutdown_rx.wait_for(|stop| *stop).await;
-                    for client in clients {
-                        client.stop().await;
-                    }
-                });
-            })
-            .map_err(|e| format!("scanner thread: {e}"))?;
-        let pairs = ready_rx
-            .recv_timeout(Duration::from_secs(5))
-            .map_err(|_| "scanner runtime did not start".to_string())?;
-        let n = pairs.len();
-        let (receivers, stats) = pairs.into_iter().unzip();
-        Ok(ScannerSet {
+            };
+            let (client, rx) = ScannerClient::spawn(config, move || origin.elapsed(), SCAN_QUEUE);
+            stats.push(std::sync::Arc::clone(client.stats()));
+            receivers.push(rx);
+            clients.push(client);
+        }
+        let n = addresses.len();
+        ScannerSet {
             receivers,
             stats,
             addresses,
             last_scan: vec![None; n],
-            shutdown,
-            thread: Some(thread),
-        })
-    }
-}
-
-impl Drop for ScannerSet {
-    fn drop(&mut self) {
-        let _ = self.shutdown.send(true);
-        if let Some(thread) = self.thread.take() {
-            let _ = thread.join();
+            _clients: clients,
         }
     }
 }
@@ -181,10 +148,10 @@ pub struct Devices {
 }
 
 impl Devices {
-    /// Starts every configured device. Opening never fails on a missing
-    /// device (it is retried in the background); only a thread that cannot
-    /// be started is an error.
-    pub fn start(config: &VehicleConfig, origin: Instant) -> Result<Devices, String> {
+    /// Starts every configured device (the async ones on `runtime`).
+    /// Opening never fails on a missing device (it is retried in the
+    /// background); only a thread that cannot be started is an error.
+    pub fn start(config: &VehicleConfig, origin: Instant, runtime: &Handle) -> Result<Devices, String> {
         let (source, gnss_place) = match &config.gnss.link {
             GnssLink::Serial(line) => (serial_source(line), format!("{}@{}", line.path.display(), line.baud)),
             GnssLink::Tcp(hp) => {
@@ -250,7 +217,7 @@ impl Devices {
                 .iter()
                 .map(|s| format!("{}:{}", s.host, s.port))
                 .collect();
-            Some(ScannerSet::start(addresses, origin)?)
+            Some(ScannerSet::start(addresses, origin, runtime))
         };
         Ok(Devices {
             gnss,

@@ -6,8 +6,8 @@
 //!   [`faults`]: the faults some of them inject.
 //! - [`simulation`]: world + NMEA driver + core stepped together, no I/O;
 //!   used by the runner, the benchmarks and the in-process tests.
-//! - [`runner`]: `furrow sitl`: the simulation on its own thread, paced
-//!   against the wall clock by `SIM_SPEEDUP`, wired to the link layer.
+//! - [`runner`]: `furrow sitl`: the simulation as a platform of the edge
+//!   runner ([`crate::edge`]), paced against the wall clock by `SIM_SPEEDUP`.
 
 pub mod faults;
 pub mod gcs;

@@ -15,7 +15,7 @@ use params::{ParamTable, ParamTableBuilder};
 use super::faults::Faults;
 use super::params::SimParams;
 use crate::time::{Now, TaskTimer};
-use crate::vehicle::{Core, CoreParams, Inputs, Outputs, ScanInput};
+use crate::vehicle::{Core, CoreParams, Inputs, Outputs, ScanInput, SimTruth};
 
 /// The simulated vehicle type (`--model`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -187,6 +187,11 @@ impl Simulation {
         sim
     }
 
+    /// The inputs of the next step, as gathered so far.
+    pub fn inputs(&self) -> &Inputs {
+        &self.inputs
+    }
+
     /// The inputs of the next step: add link events and messages here.
     pub fn inputs_mut(&mut self) -> &mut Inputs {
         &mut self.inputs
@@ -201,6 +206,7 @@ impl Simulation {
         self.outputs.log.clear();
         let period = self.core.loop_period();
         let actuators = self.faults.actuate(self.outputs.actuators, self.core.is_armed());
+        let speed_before_mps = self.world.truth().speed_mps;
         self.world.step(period, &actuators);
         self.applied = actuators;
         let now = Now {
@@ -217,6 +223,7 @@ impl Simulation {
             battery.voltage_v = forced_v;
         }
         self.inputs.battery = Some(battery);
+        self.inputs.sim_truth = Some(self.sim_truth(speed_before_mps, period));
         self.inputs.magnetic = self
             .world
             .magnetic_sensors()
@@ -260,6 +267,26 @@ impl Simulation {
             self.params_changed(now.boot);
         }
         &mut self.outputs
+    }
+
+    /// The world's true pose for the core to report (SIMSTATE, a stop's
+    /// true error); the acceleration over the step just taken.
+    fn sim_truth(&self, speed_before_mps: f64, period: Duration) -> SimTruth {
+        let truth = self.world.truth();
+        let at = self.world.truth_geodetic();
+        let dt_s = period.as_secs_f64();
+        SimTruth {
+            lat_deg: at.lat_deg,
+            lon_deg: at.lon_deg,
+            yaw_rad: truth.yaw_rad,
+            yaw_rate_rad_s: truth.yaw_rate_rad_s,
+            speed_mps: truth.speed_mps,
+            accel_mps2: if dt_s > 0.0 {
+                (truth.speed_mps - speed_before_mps) / dt_s
+            } else {
+                0.0
+            },
+        }
     }
 
     fn params_changed(&mut self, now: Duration) {

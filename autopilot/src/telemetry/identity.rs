@@ -1,5 +1,5 @@
 //! HEARTBEAT, AUTOPILOT_VERSION and PROTOCOL_VERSION: how a ground station
-//! recognises Furrow as an ArduPilot Rover (DESIGN §4).
+//! recognises Furrow as an ArduPilot Rover (docs/architecture.md §MAVLink identity).
 //!
 //! PROTOCOL_VERSION is deprecated (2025-11) but QGroundControl still asks for
 //! it and falls back to MAVLink 1 when it gets no answer.
@@ -67,9 +67,13 @@ pub fn capabilities() -> MavProtocolCapability {
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
 }
 
+/// The build's git hash, eight lowercase hex digits (from build.rs).
+pub const GIT_HASH: &str = env!("FURROW_GIT_HASH");
+
 /// `major.minor.patch` of this build in ArduPilot's packing
-/// (`major<<24 | minor<<16 | patch<<8 | type`, type 0 = development).
-fn packed_version() -> u32 {
+/// (`major<<24 | minor<<16 | patch<<8 | type`, type 0 =
+/// FIRMWARE_VERSION_TYPE_DEV).
+pub fn packed_version() -> u32 {
     let part = |s: &str| s.parse::<u32>().unwrap_or(0) & 0xff;
     let major = part(env!("CARGO_PKG_VERSION_MAJOR"));
     let minor = part(env!("CARGO_PKG_VERSION_MINOR"));
@@ -77,10 +81,14 @@ fn packed_version() -> u32 {
     (major << 24) | (minor << 16) | (patch << 8)
 }
 
+/// AUTOPILOT_VERSION as ArduPilot fills it: the git hash's first eight
+/// characters (ASCII, as ArduPilot's `fw_hash_str`) in
+/// `flight_custom_version`.
 pub fn autopilot_version(sysid: u8) -> AUTOPILOT_VERSION_DATA {
-    let mut custom = [0u8; 8];
-    let name = b"furrow";
-    custom[..name.len()].copy_from_slice(name);
+    let mut custom = [b'0'; 8];
+    for (byte, hex) in custom.iter_mut().zip(GIT_HASH.bytes()) {
+        *byte = hex;
+    }
     AUTOPILOT_VERSION_DATA {
         capabilities: capabilities(),
         uid: u64::from(sysid),
@@ -126,6 +134,30 @@ mod tests {
                 .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED | MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED)
         );
         assert_eq!(hb.system_status, MavState::MAV_STATE_ACTIVE);
+    }
+
+    #[test]
+    fn version_is_packed_as_ardupilot_and_the_custom_version_is_the_git_hash() {
+        let v = autopilot_version(1);
+        let [major, minor, patch, kind] = v.flight_sw_version.to_be_bytes();
+        let expect = |s: &str| s.parse::<u8>().unwrap();
+        assert_eq!(major, expect(env!("CARGO_PKG_VERSION_MAJOR")));
+        assert_eq!(minor, expect(env!("CARGO_PKG_VERSION_MINOR")));
+        assert_eq!(patch, expect(env!("CARGO_PKG_VERSION_PATCH")));
+        assert_eq!(kind, 0, "FIRMWARE_VERSION_TYPE_DEV");
+        assert_eq!(GIT_HASH.len(), 8);
+        assert_eq!(&v.flight_custom_version[..], GIT_HASH.as_bytes());
+        assert!(
+            v.flight_custom_version.iter().all(u8::is_ascii_hexdigit),
+            "no NUL bytes"
+        );
+        // Built in a checkout: the hash is the checkout's (a prefix of HEAD).
+        if let Ok(out) = std::process::Command::new("git").args(["rev-parse", "HEAD"]).output() {
+            let head = String::from_utf8_lossy(&out.stdout);
+            if out.status.success() && std::env::var("FURROW_GIT_HASH").is_err() {
+                assert!(head.starts_with(GIT_HASH), "{head} vs {GIT_HASH}");
+            }
+        }
     }
 
     #[test]

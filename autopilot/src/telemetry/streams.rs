@@ -70,8 +70,8 @@ impl StreamGroup {
             StreamGroup::ExtStat => "SYS_STATUS, GPS_RAW_INT, NAV_CONTROLLER_OUTPUT stream rate",
             StreamGroup::RcChan => "SERVO_OUTPUT_RAW stream rate",
             StreamGroup::RawCtrl => "Raw controller stream rate",
-            StreamGroup::Position => "GLOBAL_POSITION_INT stream rate",
-            StreamGroup::Extra1 => "ATTITUDE stream rate",
+            StreamGroup::Position => "GLOBAL_POSITION_INT, LOCAL_POSITION_NED stream rate",
+            StreamGroup::Extra1 => "ATTITUDE (and SIMSTATE in SITL) stream rate",
             StreamGroup::Extra2 => "VFR_HUD stream rate",
             StreamGroup::Extra3 => "SYSTEM_TIME, BATTERY_STATUS, EKF_STATUS_REPORT, OBSTACLE_DISTANCE stream rate",
             StreamGroup::Params => "Parameter streaming rate",
@@ -106,7 +106,9 @@ pub enum StreamMsg {
     PositionTargetGlobalInt,
     ServoOutputRaw,
     GlobalPositionInt,
+    LocalPositionNed,
     Attitude,
+    SimState,
     VfrHud,
     SystemTime,
     BatteryStatus,
@@ -120,7 +122,7 @@ pub enum StreamMsg {
 }
 
 impl StreamMsg {
-    pub const COUNT: usize = 17;
+    pub const COUNT: usize = 19;
     pub const ALL: [StreamMsg; Self::COUNT] = [
         StreamMsg::SysStatus,
         StreamMsg::GpsRawInt,
@@ -128,7 +130,9 @@ impl StreamMsg {
         StreamMsg::PositionTargetGlobalInt,
         StreamMsg::ServoOutputRaw,
         StreamMsg::GlobalPositionInt,
+        StreamMsg::LocalPositionNed,
         StreamMsg::Attitude,
+        StreamMsg::SimState,
         StreamMsg::VfrHud,
         StreamMsg::SystemTime,
         StreamMsg::BatteryStatus,
@@ -147,12 +151,14 @@ impl StreamMsg {
             StreamMsg::SystemTime => 2,
             StreamMsg::GpsRawInt => 24,
             StreamMsg::Attitude => 30,
+            StreamMsg::LocalPositionNed => 32,
             StreamMsg::GlobalPositionInt => 33,
             StreamMsg::ServoOutputRaw => 36,
             StreamMsg::NavControllerOutput => 62,
             StreamMsg::VfrHud => 74,
             StreamMsg::PositionTargetGlobalInt => 87,
             StreamMsg::BatteryStatus => 147,
+            StreamMsg::SimState => 164,
             StreamMsg::EkfStatusReport => 193,
             StreamMsg::HomePosition => 242,
             StreamMsg::ExtendedSysState => 245,
@@ -179,8 +185,10 @@ impl StreamMsg {
             | StreamMsg::FenceStatus
             | StreamMsg::RelayStatus => Some(StreamGroup::ExtStat),
             StreamMsg::ServoOutputRaw => Some(StreamGroup::RcChan),
-            StreamMsg::GlobalPositionInt => Some(StreamGroup::Position),
-            StreamMsg::Attitude => Some(StreamGroup::Extra1),
+            // As ArduPilot: the local position beside the global one, the
+            // simulator's truth beside the attitude.
+            StreamMsg::GlobalPositionInt | StreamMsg::LocalPositionNed => Some(StreamGroup::Position),
+            StreamMsg::Attitude | StreamMsg::SimState => Some(StreamGroup::Extra1),
             StreamMsg::VfrHud => Some(StreamGroup::Extra2),
             StreamMsg::SystemTime
             | StreamMsg::BatteryStatus
@@ -297,6 +305,8 @@ mod tests {
         assert_eq!(count(&mut s, StreamMsg::SysStatus, 10), 10);
         let mut s = LinkStreams::new(0);
         assert_eq!(count(&mut s, StreamMsg::HomePosition, 10), 0);
+        let mut s = LinkStreams::new(0);
+        assert_eq!(count(&mut s, StreamMsg::LocalPositionNed, 10), 40);
     }
 
     #[test]

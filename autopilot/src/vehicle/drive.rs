@@ -1,15 +1,14 @@
-//! Each tick: the mode decides what to do, guidance turns it into a steering
-//! angle and speed, control into normalised actuator commands.
+//! Each tick: the mode decides what to do (`modes/`), guidance turns it into a
+//! steering angle and speed, control into normalised actuator commands.
 
 use drivers::sim::ActuatorDemand;
-use mavlink::dialects::ardupilotmega::MavSeverity;
 
 use super::Core;
 use crate::control::ackermann::{AckermannGeometry, curvature_from_steer, differential_wheel_speeds};
 use crate::control::mixer::{self, DriveTrain, WheelOutputs};
 use crate::control::pid::PidGains;
 use crate::control::speed::SpeedControlConfig;
-use crate::guidance::navigator::{NavConfig, NavDemand, StopReport, StopTolerance};
+use crate::guidance::navigator::{NavConfig, NavDemand, StopTolerance};
 use crate::guidance::speed::SpeedConfig;
 use crate::guidance::tracker::{Direction, TrackerConfig};
 use crate::modes::Mode;
@@ -44,7 +43,7 @@ impl DriveState {
 }
 
 /// What the mode asks of the drive train this tick.
-enum Demand {
+pub(super) enum Demand {
     Stop,
     Manual { steering: f64, throttle: f64 },
     Navigate(NavDemand),
@@ -144,67 +143,8 @@ impl Core {
         }
     }
 
-    /// The mode's work for this tick.
-    pub(super) fn update_mode(&mut self, dt_s: f64) {
-        self.update_failsafes();
-        if self.mode.requires_position() && !self.estimator.estimate().position_valid {
-            // ArduPilot Rover's EKF failsafe: a mode that needs a position
-            // cannot drive without one.
-            self.send_text(MavSeverity::MAV_SEVERITY_CRITICAL, "Position lost: switching to HOLD");
-            self.enter_mode(Mode::Hold);
-        }
-
-        self.check_fence();
-        if self.mode == Mode::Auto {
-            self.run_mission();
-        }
-        let obstacle_stop = self.obstacle_tick();
-        let demand = match self.mode {
-            Mode::Manual => self.manual_demand(),
-            Mode::Guided | Mode::Rtl | Mode::Auto if obstacle_stop => {
-                self.maybe_plan_detour(true);
-                Demand::Stop
-            }
-            Mode::Magnetic if obstacle_stop => Demand::Stop,
-            Mode::Guided | Mode::Rtl | Mode::Auto => {
-                self.maybe_plan_detour(false);
-                let was_arrived = self.navigator.arrived();
-                let config = self.nav_config();
-                let estimate = *self.estimator.estimate();
-                let nav = self.navigator.update(&estimate, &config, dt_s);
-                if let Some(report) = self.navigator.take_stop_report() {
-                    self.report_stop(&report);
-                }
-                self.advance_detour();
-                // AUTO reports its own arrivals (MISSION_ITEM_REACHED).
-                if self.mode != Mode::Auto
-                    && self.navigator.arrived()
-                    && !was_arrived
-                    && self.navigator.target().is_some()
-                {
-                    let text = match self.mode {
-                        Mode::Rtl => "Reached destination: home".to_string(),
-                        _ => format!("Reached destination: {:.2} m", self.navigator.status().wp_dist_m),
-                    };
-                    self.send_text(MavSeverity::MAV_SEVERITY_INFO, &text);
-                }
-                // Arrived (or nothing to do): stop outright, so no integrator
-                // keeps the wheels creeping.
-                let stopped = self.navigator.stopping();
-                if self.navigator.target().is_some() && !stopped {
-                    Demand::Navigate(nav)
-                } else {
-                    Demand::Stop
-                }
-            }
-            Mode::Magnetic => self.magnetic_demand(dt_s).map_or(Demand::Stop, Demand::Navigate),
-            _ => Demand::Stop,
-        };
-        self.apply_demand(demand, dt_s);
-    }
-
     /// The obstacle policy for this tick; true when it stops the vehicle.
-    fn obstacle_tick(&mut self) -> bool {
+    pub(super) fn obstacle_tick(&mut self) -> bool {
         let active = self.armed && self.mode.self_driving();
         let (wants_to_move, direction, planned_mps) = match self.navigator.target() {
             _ if self.mode == Mode::Magnetic => (
@@ -226,46 +166,7 @@ impl Core {
         matches!(verdict, Verdict::Stop(_))
     }
 
-    /// The achieved stop error, as the estimate has it once the vehicle
-    /// rests: what an integrator checks a docking against.
-    fn report_stop(&mut self, report: &StopReport) {
-        self.log_stop_report(report);
-        let which = report.seq.map_or(String::new(), |seq| format!(" #{seq}"));
-        let verdict = if report.within_tolerance {
-            "in tolerance"
-        } else {
-            "OUT of tolerance"
-        };
-        let text = format!(
-            "Stop{which}: {:.1} mm, yaw {:.3} deg, {verdict}",
-            report.position_error_m() * 1000.0,
-            report.yaw_error_rad.to_degrees()
-        );
-        let severity = if report.within_tolerance {
-            MavSeverity::MAV_SEVERITY_INFO
-        } else {
-            MavSeverity::MAV_SEVERITY_WARNING
-        };
-        self.send_text(severity, &text);
-    }
-
-    fn manual_demand(&self) -> Demand {
-        let timeout = f64::from(self.p.system.rc_override_time_s.get(&self.params));
-        let fresh = self
-            .manual
-            .updated_wall
-            .is_some_and(|t| self.now.wall.saturating_sub(t).as_secs_f64() <= timeout);
-        if fresh {
-            Demand::Manual {
-                steering: self.manual.steering,
-                throttle: self.manual.throttle,
-            }
-        } else {
-            Demand::Stop
-        }
-    }
-
-    fn apply_demand(&mut self, demand: Demand, dt_s: f64) {
+    pub(super) fn apply_demand(&mut self, demand: Demand, dt_s: f64) {
         let estimate = self.estimator.estimate();
         // A speed measurement only while the estimate is good.
         let measured = (estimate.position_valid && estimate.heading_valid).then_some(estimate.speed_mps);

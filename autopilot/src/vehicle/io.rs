@@ -93,6 +93,25 @@ pub struct Inputs {
     pub scans: Vec<ScanInput>,
     /// Saves the edge finished (answers to [`Outputs::saves`]).
     pub saved: Vec<super::SaveDone>,
+    /// The simulator's true pose, in SITL only: reported as SIMSTATE and
+    /// beside a stop's estimated error, never used to drive.
+    pub sim_truth: Option<SimTruth>,
+}
+
+/// Where the simulated vehicle really is (its reference point, the rear
+/// axle centre), as the simulator knows it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SimTruth {
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    /// True heading: from true north, clockwise, in [-π, π).
+    pub yaw_rad: f64,
+    /// Clockwise positive.
+    pub yaw_rate_rad_s: f64,
+    /// Signed forward speed: negative in reverse.
+    pub speed_mps: f64,
+    /// Rate of change of the signed forward speed.
+    pub accel_mps2: f64,
 }
 
 /// A scan and which scanner sent it (0 = SCAN1, 1 = SCAN2).
@@ -112,6 +131,7 @@ impl Inputs {
         self.magnetic = None;
         self.scans.clear();
         self.saved.clear();
+        self.sim_truth = None;
     }
 }
 

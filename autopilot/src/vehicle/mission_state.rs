@@ -2,7 +2,7 @@
 //! the plans in force), the mission being executed, the compiled geofence,
 //! and the outputs missions drive.
 
-use mission::{MissionExecutor, MissionProtocol, MissionType, Plan, Plans};
+use mission::{ExecState, MissionExecutor, MissionProtocol, MissionType, Plan, Plans};
 
 use super::LinkId;
 use crate::fence::{Breach, Fence};
@@ -22,8 +22,9 @@ pub struct MissionState {
     pub breach: Option<Breach>,
     pub breach_count: u16,
     pub breach_time_ms: u32,
-    /// The last MISSION_CURRENT seq sent, to send again on change.
-    pub last_current_sent: Option<u16>,
+    /// The last MISSION_CURRENT seq and state sent, to send again on
+    /// change (completion keeps the seq but changes the state).
+    pub last_current_sent: Option<(u16, ExecState)>,
     /// Bumped whenever a plan in force changes.
     pub generation: u64,
 }

@@ -4,14 +4,12 @@
 //! caller hands it this tick's inputs and takes its outputs.
 
 mod arming;
-mod auto;
 mod commands;
 mod drive;
 mod estimation;
 mod failsafe;
 mod geofence;
 mod io;
-mod magnetic;
 mod messages;
 mod mission_protocol;
 mod mission_state;
@@ -21,6 +19,7 @@ mod onboard_log;
 mod param_protocol;
 pub mod params;
 mod persistence;
+mod sim_truth;
 mod telemetry;
 
 use std::collections::BTreeMap;
@@ -45,7 +44,9 @@ use crate::time::{Now, TaskTimer};
 
 pub use drive::DriveState;
 pub use failsafe::{Failsafe, FailsafeAction};
-pub use io::{Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, PeerId, ScanInput, UndecodableItem};
+pub use io::{
+    Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, PeerId, ScanInput, SimTruth, UndecodableItem,
+};
 pub use obstacles::ObstacleStatus;
 pub use params::CoreParams;
 pub use persistence::{SaveDone, SaveRequest, SaveWhat, Storage};
@@ -95,7 +96,9 @@ pub struct Core {
     missions: mission_state::MissionState,
     battery: Option<BatterySample>,
     magnetic_sample: Option<MagneticSample>,
-    magnetic: magnetic::MagneticState,
+    /// The simulator's true pose of this tick (SITL only).
+    sim_truth: Option<SimTruth>,
+    magnetic: modes::magnetic::MagneticState,
     obstacles: obstacles::ObstacleState,
     failsafes: failsafe::FailsafeState,
     /// Since when the drive demand has been neutral.
@@ -146,7 +149,8 @@ impl Core {
             missions: mission_state::MissionState::new(mission::Plans::default()),
             battery: None,
             magnetic_sample: None,
-            magnetic: magnetic::MagneticState::default(),
+            sim_truth: None,
+            magnetic: modes::magnetic::MagneticState::default(),
             obstacles: obstacles::ObstacleState::default(),
             failsafes: failsafe::FailsafeState::default(),
             neutral_since: None,
@@ -392,6 +396,7 @@ impl Core {
         if let Some(m) = inputs.magnetic {
             self.magnetic_sample = Some(m);
         }
+        self.sim_truth = inputs.sim_truth;
         self.read_scans(&inputs.scans);
         if self.home.is_none() && self.estimator.estimate().position_valid {
             self.set_home_to_current(false);

@@ -1,4 +1,4 @@
-//! The obstacle pipeline in the core (DESIGN §5.5): every scan becomes
+//! The obstacle pipeline in the core (docs/architecture.md §Obstacles): every scan becomes
 //! points, clusters and Kalman tracks; every tick the protective field (raw
 //! points), the collision predictions (tracks) and the policy decide whether
 //! the self-driving modes may drive on, slow, or must stop; the stops and
@@ -44,6 +44,17 @@ const ON_PATH_M: f64 = 1.0;
 const ON_PATH_RAD: f64 = 0.35;
 /// Below this speed the yaw rate says nothing about the curvature driven.
 const CURVATURE_MIN_SPEED_MPS: f64 = 0.2;
+/// A track lost from view this near the outline (beyond `OA_MARGIN`) is
+/// remembered: it may have walked into the scanners' blind zone beside the
+/// body, or against it, where no return is taken for an object.
+const HIDDEN_NEAR_M: f64 = 1.0;
+/// A remembered track is forgotten this long after it was lost, or once it
+/// would have walked (at its last velocity) this much beyond the margin.
+const HIDDEN_MAX_S: f64 = 10.0;
+const HIDDEN_CLEAR_M: f64 = 0.3;
+/// A new track this near a remembered one's predicted place is that object
+/// seen again.
+const HIDDEN_SEEN_M: f64 = 0.7;
 
 /// One scanner's latest scan, reduced to what the tick needs.
 #[derive(Clone, Debug)]
@@ -88,6 +99,27 @@ pub struct ObstacleStatus {
     pub detouring: bool,
 }
 
+/// A track lost from view next to the vehicle: where it was, the velocity
+/// it was going at (0 unless settled and moving) and when.
+#[derive(Clone, Copy, Debug)]
+struct HiddenTrack {
+    id: u32,
+    position: Ned,
+    velocity: (f64, f64),
+    radius_m: f64,
+    lost_s: f64,
+}
+
+impl HiddenTrack {
+    fn position_at(&self, t_s: f64) -> Ned {
+        let dt = (t_s - self.lost_s).max(0.0);
+        Ned::new(
+            self.position.north_m + self.velocity.0 * dt,
+            self.position.east_m + self.velocity.1 * dt,
+        )
+    }
+}
+
 /// A detour in progress: the waypoints still to drive through, then the
 /// leg it interrupted.
 #[derive(Clone, Debug)]
@@ -107,6 +139,11 @@ pub(super) struct ObstacleState {
     clusters: Vec<Cluster>,
     /// The outline swept along the path ahead, rebuilt every tick.
     swept: SweptPath,
+    /// Last tick's acted-on tracks, to notice which were lost.
+    last_tracks: Vec<Track>,
+    /// Tracks lost from view next to the body: the vehicle may not start
+    /// while one may still be there.
+    hidden: Vec<HiddenTrack>,
     status: ObstacleStatus,
     /// Since when the vehicle has been held for a static obstacle (s).
     static_stop_since: Option<f64>,
@@ -191,6 +228,8 @@ impl Core {
             stop_horizon_s: f64::from(a.horizon_s.get(t)),
             scan_timeout_s: f64::from(a.scan_timeout_s.get(t)),
             stop_cycles: u32::try_from(a.stop_cycles.get(t)).unwrap_or(0),
+            reaction_s: f64::from(a.reaction_s.get(t)),
+            decel_mps2: f64::from(a.decel_mps2.get(t)),
         }
     }
 
@@ -316,6 +355,8 @@ impl Core {
         if !enabled || !active {
             self.obstacles.policy.reset();
             self.obstacles.static_stop_since = None;
+            self.obstacles.hidden.clear();
+            self.obstacles.last_tracks.clear();
             return Verdict::Go;
         }
 
@@ -365,7 +406,9 @@ impl Core {
         if estimate.position_valid && estimate.heading_valid {
             let vehicle_velocity = (speed * estimate.yaw_rad.cos(), speed * estimate.yaw_rad.sin());
             for track in self.obstacles.tracker.tracks() {
-                if track.status != TrackStatus::Confirmed {
+                // Coasting tracks count only for starting (the policy
+                // ignores their predictions otherwise).
+                if track.status == TrackStatus::Tentative {
                     continue;
                 }
                 // On a detour the obstacle being passed is beside the path
@@ -405,6 +448,23 @@ impl Core {
                     predictions_at_resume.push(to_prediction(c));
                 }
             }
+        }
+        self.remember_hidden_tracks(now_s, &pose, &footprint, margin, velocity_gate_mps);
+        for hidden in &self.obstacles.hidden {
+            let at = hidden.position_at(now_s);
+            let (x, y) = crate::obstacles::prediction::to_body(
+                pose.yaw_rad,
+                at.north_m - pose.position.north_m,
+                at.east_m - pose.position.east_m,
+            );
+            predictions_at_resume.push(CollisionPrediction {
+                track_id: hidden.id,
+                time_s: 0.0,
+                place: pose.position,
+                distance_m: (outline_distance(&footprint, x, y) - hidden.radius_m).max(0.0),
+                relative_speed_mps: hidden.velocity.0.hypot(hidden.velocity.1),
+                closing: true,
+            });
         }
         let config = self.policy_config();
         // At rest the fields that matter are those it would start with.
@@ -461,6 +521,48 @@ impl Core {
             None
         };
         verdict
+    }
+
+    /// Remembers the tracks lost from view within `HIDDEN_NEAR_M` of the
+    /// outline and forgets those that have walked clear, been seen again or
+    /// been gone `HIDDEN_MAX_S`.
+    fn remember_hidden_tracks(&mut self, now_s: f64, pose: &Pose, footprint: &Footprint, margin_m: f64, gate_mps: f64) {
+        let obs = &mut self.obstacles;
+        let tracks = obs.tracker.tracks();
+        let gap_m = |at: Ned, radius_m: f64| {
+            let (x, y) = crate::obstacles::prediction::to_body(
+                pose.yaw_rad,
+                at.north_m - pose.position.north_m,
+                at.east_m - pose.position.east_m,
+            );
+            outline_distance(footprint, x, y) - radius_m
+        };
+        for lost in obs.last_tracks.iter().filter(|l| tracks.iter().all(|t| t.id != l.id)) {
+            if gap_m(lost.position, lost.radius_m) <= margin_m + HIDDEN_NEAR_M {
+                let walking = lost.velocity_sigma_mps <= gate_mps && moving(lost);
+                obs.hidden.push(HiddenTrack {
+                    id: lost.id,
+                    position: lost.position,
+                    velocity: if walking {
+                        (lost.vel_north_mps, lost.vel_east_mps)
+                    } else {
+                        (0.0, 0.0)
+                    },
+                    radius_m: lost.radius_m,
+                    lost_s: now_s,
+                });
+            }
+        }
+        obs.hidden.retain(|h| {
+            let at = h.position_at(now_s);
+            let seen_again = tracks
+                .iter()
+                .any(|t| t.status != TrackStatus::Tentative && t.position.distance_to(&at) <= HIDDEN_SEEN_M);
+            now_s - h.lost_s <= HIDDEN_MAX_S && !seen_again && gap_m(at, h.radius_m) <= margin_m + HIDDEN_CLEAR_M
+        });
+        obs.last_tracks.clear();
+        obs.last_tracks
+            .extend(tracks.iter().filter(|t| t.status != TrackStatus::Tentative).copied());
     }
 
     /// Samples the path the vehicle is about to drive: the navigator's leg

@@ -1,6 +1,8 @@
 //! The core's parameters, declared once per subsystem. ArduPilot Rover's
-//! names, units and meanings where the concept matches (DESIGN §4); Furrow's
+//! names, units and meanings where the concept matches (docs/architecture.md §MAVLink identity); Furrow's
 //! own prefixes otherwise (`PVW_` preview tracker, `VEH_` vehicle geometry).
+//!
+//! Sources: docs/references.md §Seed 000, docs/references.md §Seed 002.
 
 use params::{Param, ParamDef, ParamFlags, ParamName, ParamTableBuilder, ParamType, declare_params};
 
@@ -201,7 +203,7 @@ declare_params! {
         },
         spd_p: f32 = "PVW_SPD_P" => {
             default: 2.0, range: 0.0, 20.0, unit: "m/s/rad",
-            desc: "Speed PID P gain: speed taken off per rad of heading error (seed 002)",
+            desc: "Speed PID P gain: speed taken off per rad of heading error",
         },
         spd_i: f32 = "PVW_SPD_I" => {
             default: 0.0, range: 0.0, 20.0, unit: "",
@@ -239,7 +241,7 @@ declare_params! {
         },
         steer_i: f32 = "MAG_STR_I" => {
             default: 2.0, range: 0.0, 100.0, unit: "rad/m/s",
-            desc: "Steering PID I gain (0 in seed 002)",
+            desc: "Steering PID I gain (0 in the double-magnetic-guide paper)",
         },
         steer_d: f32 = "MAG_STR_D" => {
             default: 6.0, range: 0.0, 100.0, unit: "rad.s/m",

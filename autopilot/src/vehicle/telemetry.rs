@@ -6,15 +6,16 @@
 use drivers::sim::BatterySample;
 use mavlink::dialects::ardupilotmega::{
     ATTITUDE_DATA, BATTERY_STATUS_DATA, EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA, EkfStatusFlags,
-    GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, GpsFixType, HOME_POSITION_DATA, MavBatteryChargeState, MavBatteryFault,
-    MavBatteryFunction, MavBatteryMode, MavBatteryType, MavFrame, MavLandedState, MavMessage, MavSysStatusSensor,
-    MavSysStatusSensorExtended, MavVtolState, NAV_CONTROLLER_OUTPUT_DATA, POSITION_TARGET_GLOBAL_INT_DATA,
-    PositionTargetTypemask, RELAY_STATUS_DATA, SERVO_OUTPUT_RAW_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA,
+    GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, GpsFixType, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA,
+    MavBatteryChargeState, MavBatteryFault, MavBatteryFunction, MavBatteryMode, MavBatteryType, MavFrame,
+    MavLandedState, MavMessage, MavSysStatusSensor, MavSysStatusSensorExtended, MavVtolState,
+    NAV_CONTROLLER_OUTPUT_DATA, POSITION_TARGET_GLOBAL_INT_DATA, PositionTargetTypemask, RELAY_STATUS_DATA,
+    SERVO_OUTPUT_RAW_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA,
 };
 
 use super::failsafe::Failsafe;
 use super::{Core, Destination};
-use crate::geo::{wrap_2pi, wrap_pi};
+use crate::geo::{FrameKind, LocalFrame, wrap_2pi, wrap_pi};
 use crate::modes::Mode;
 use crate::telemetry::identity::{self, VehicleStatus};
 use crate::telemetry::streams::{StreamGroup, StreamMsg};
@@ -92,7 +93,9 @@ impl Core {
             StreamMsg::PositionTargetGlobalInt => MavMessage::POSITION_TARGET_GLOBAL_INT(self.position_target()?),
             StreamMsg::ServoOutputRaw => MavMessage::SERVO_OUTPUT_RAW(self.servo_output_raw()),
             StreamMsg::GlobalPositionInt => MavMessage::GLOBAL_POSITION_INT(self.global_position_int()?),
+            StreamMsg::LocalPositionNed => MavMessage::LOCAL_POSITION_NED(self.local_position_ned()?),
             StreamMsg::Attitude => MavMessage::ATTITUDE(self.attitude()),
+            StreamMsg::SimState => MavMessage::SIMSTATE(self.simstate()?),
             StreamMsg::VfrHud => MavMessage::VFR_HUD(self.vfr_hud()),
             StreamMsg::SystemTime => MavMessage::SYSTEM_TIME(SYSTEM_TIME_DATA {
                 time_unix_usec: self
@@ -157,6 +160,10 @@ impl Core {
         if fence_present {
             present |= MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE;
         }
+        let (heading_present, heading_healthy) = self.heading_sensor_bits();
+        if heading_present {
+            present |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG;
+        }
         let obstacles = self.obstacle_status();
         if obstacles.enabled {
             present |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_PROXIMITY
@@ -180,6 +187,9 @@ impl Core {
         }
         if !gps_ok {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS);
+        }
+        if !heading_healthy {
+            health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG);
         }
         if self.battery_arming_failure().is_some() {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY);
@@ -246,6 +256,22 @@ impl Core {
             onboard_control_sensors_enabled_extended: MavSysStatusSensorExtended::empty(),
             onboard_control_sensors_health_extended: MavSysStatusSensorExtended::empty(),
         }
+    }
+
+    /// The heading sensor (dual antenna or compass) in SYS_STATUS's
+    /// magnetometer slot, the role ArduPilot's compass plays: (present,
+    /// healthy). Present once it has reported; healthy while it reports
+    /// within `FS_HDG_TIMEOUT` and the heading failsafe is off. A vehicle
+    /// steering on its GNSS course has none, and says so. No gyro or
+    /// accelerometer bits: Furrow has no IMU, and a ground station that
+    /// requires one (MAVSDK's `health_all_ok`) is told the truth.
+    fn heading_sensor_bits(&self) -> (bool, bool) {
+        let Some(last) = self.estimator.heading_sensor_last() else {
+            return (false, false);
+        };
+        let timeout = crate::time::duration_from_secs(f64::from(self.p.failsafe.heading_lost_s.get(&self.params)));
+        let fresh = self.now.boot.saturating_sub(last) <= timeout;
+        (true, fresh && !self.failsafe_is_active(Failsafe::HeadingLost))
     }
 
     fn gps_raw_int(&self) -> GPS_RAW_INT_DATA {
@@ -358,6 +384,34 @@ impl Core {
             } else {
                 u16::MAX
             },
+        })
+    }
+
+    /// The estimate in metres north, east and down of the local origin (the
+    /// first fix, as ArduPilot's EKF origin), on the tangent plane there and
+    /// towards true north whatever `GEO_FRAME` the core works in: what a
+    /// ground station checks positions against below GLOBAL_POSITION_INT's
+    /// 1e-7° steps.
+    fn local_position_ned(&self) -> Option<LOCAL_POSITION_NED_DATA> {
+        let frame = self.frame()?;
+        let e = self.estimator.estimate();
+        let origin = frame.origin();
+        let plain_tangent_plane = frame.kind() == FrameKind::TangentPlane && frame.map().is_none();
+        let position = if plain_tangent_plane {
+            e.position
+        } else {
+            LocalFrame::new(origin).to_local(&frame.to_geodetic(&e.position))
+        };
+        let turn = self.true_heading_offset_rad();
+        let (sin, cos) = turn.sin_cos();
+        Some(LOCAL_POSITION_NED_DATA {
+            time_boot_ms: self.now.boot_ms(),
+            x: position.north_m as f32,
+            y: position.east_m as f32,
+            z: -(self.estimator.gnss().alt_msl_m - origin.alt_m) as f32,
+            vx: (e.vel_north_mps * cos - e.vel_east_mps * sin) as f32,
+            vy: (e.vel_north_mps * sin + e.vel_east_mps * cos) as f32,
+            vz: 0.0,
         })
     }
 

@@ -28,6 +28,7 @@ use std::time::{Duration, Instant};
 use serialport::{SerialPort, TTYPort};
 
 use super::{GnssSample, NmeaReader, NmeaStats};
+use crate::backoff::{Backoff, MIN_BACKOFF};
 use crate::device::{DeviceStatus, SharedStatus, shared_status, snapshot, update};
 
 /// Longest a read waits for bytes: also how late a queued correction or a
@@ -50,9 +51,6 @@ pub const MAX_QUEUED_SAMPLES: usize = 1024;
 /// [`IO_POLL`] unless it is inside a TCP connect or name lookup; then it is
 /// left to finish on its own.
 const SHUTDOWN_WAIT: Duration = Duration::from_millis(100);
-
-/// A zero backoff would retry a missing device in a hot loop.
-const MIN_BACKOFF: Duration = Duration::from_millis(1);
 
 /// Where the NMEA comes from.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -267,36 +265,6 @@ impl Shared {
 fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
     // The data behind these locks is valid after any panic mid-update.
     mutex.lock().unwrap_or_else(PoisonError::into_inner)
-}
-
-/// Exponential backoff between attempts to open a device.
-#[derive(Clone, Debug)]
-struct Backoff {
-    initial: Duration,
-    max: Duration,
-    next: Duration,
-}
-
-impl Backoff {
-    fn new(initial: Duration, max: Duration) -> Self {
-        let initial = initial.max(MIN_BACKOFF);
-        Self {
-            initial,
-            max: max.max(initial),
-            next: initial,
-        }
-    }
-
-    /// The wait before the next attempt; the one after is twice as long.
-    fn next_delay(&mut self) -> Duration {
-        let delay = self.next;
-        self.next = self.next.saturating_mul(2).min(self.max);
-        delay
-    }
-
-    fn reset(&mut self) {
-        self.next = self.initial;
-    }
 }
 
 /// Bytes → samples, and how many lines were good or bad, across connections.
@@ -640,23 +608,6 @@ mod tests {
 
     fn sentence(body: &str) -> String {
         format!("${body}*{:02X}\r\n", super::super::nmea_checksum(body.as_bytes()))
-    }
-
-    #[test]
-    fn backoff_doubles_up_to_the_cap_and_resets() {
-        let mut backoff = Backoff::new(ms(100), ms(700));
-        let delays: Vec<_> = (0..6).map(|_| backoff.next_delay()).collect();
-        assert_eq!(delays, [ms(100), ms(200), ms(400), ms(700), ms(700), ms(700)]);
-        backoff.reset();
-        assert_eq!(backoff.next_delay(), ms(100));
-    }
-
-    #[test]
-    fn backoff_never_zero_and_cap_never_below_initial() {
-        let mut zero = Backoff::new(Duration::ZERO, Duration::ZERO);
-        assert!(zero.next_delay() >= MIN_BACKOFF);
-        let mut inverted = Backoff::new(ms(300), ms(50));
-        assert_eq!((inverted.next_delay(), inverted.next_delay()), (ms(300), ms(300)));
     }
 
     #[test]

@@ -19,6 +19,7 @@ use tokio::time::{Instant, sleep, sleep_until, timeout};
 
 use super::Scan;
 use super::cola::{ColaFramer, ColaTelegram, FramerStats, parse_telegram, request_scan, sopas_error_name, subscribe};
+use crate::backoff::Backoff;
 
 /// Where the scanner is and how patient to be with it.
 #[derive(Clone, Debug, PartialEq)]
@@ -168,7 +169,7 @@ pub async fn run_scanner(
     // Held as `&mut` across awaits: that needs only `Send`, where `&` would
     // need the clock to be `Sync` too.
     let mut clock = clock;
-    let mut backoff = config.backoff_initial;
+    let mut backoff = Backoff::new(config.backoff_initial, config.backoff_max);
     loop {
         if *shutdown.borrow() {
             return ScannerExit::Shutdown;
@@ -190,7 +191,7 @@ pub async fn run_scanner(
                         heard_from_scanner,
                     } => {
                         if heard_from_scanner {
-                            backoff = config.backoff_initial;
+                            backoff.reset();
                         }
                         error
                     }
@@ -202,16 +203,13 @@ pub async fn run_scanner(
                 config.address, config.connect_timeout
             ),
         };
-        tracing::warn!(%error, retry_in = ?backoff, "scanner link lost");
+        let wait = backoff.next_delay();
+        tracing::warn!(%error, retry_in = ?wait, "scanner link lost");
         stats.set_last_error(error);
         tokio::select! {
             exit = stop_requested(&mut shutdown, &tx) => return exit,
-            () = sleep(backoff) => {}
+            () = sleep(wait) => {}
         }
-        backoff = backoff
-            .saturating_mul(2)
-            .min(config.backoff_max)
-            .max(config.backoff_initial);
     }
 }
 

@@ -1,5 +1,5 @@
 //! Magnetic guide tape on the ground and the two 16-probe sensors under the
-//! vehicle that read it (seed 002 §2, §4.2; DESIGN §5.4).
+//! vehicle that read it (seed 002 §2, §4.2; docs/architecture.md §Kinematics and the magnetic guide).
 //!
 //! The tape is a chain of straight and circular segments in the home NED
 //! frame. Each sensor is a row of 16 probes across the vehicle (along body y)
@@ -20,6 +20,8 @@
 //! (x_rear = −x_front). With a ±75 mm sensor range this is not a detail: a
 //! sensor 3 m ahead of the rear axle is 0.3 m off a 15 m arc. The defaults
 //! are therefore ±1 m.
+//!
+//! Sources: docs/references.md §Seed 002.
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 

@@ -1,5 +1,5 @@
 //! The obstacles of the SITL world: static shapes and obstacles that walk or
-//! drive along a path at constant speed (DESIGN §5.5).
+//! drive along a path at constant speed (docs/architecture.md §Obstacles).
 //!
 //! Points are `[north, east]` metres about home; bearings are radians from
 //! north, clockwise. Time is simulation seconds (`f64`), passed in: nothing

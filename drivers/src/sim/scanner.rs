@@ -1,5 +1,5 @@
 //! A simulated SICK LMS1xx laser scanner: ray-casts the world's obstacles
-//! from where the scanner sits on the vehicle (DESIGN §5.5).
+//! from where the scanner sits on the vehicle (docs/architecture.md §Obstacles).
 //!
 //! Beam `i` looks `−fov/2 + i·step` clockwise from the scanner's forward
 //! axis, so a scan's `start_angle_rad` is `−fov/2` and its `step_rad` is
@@ -22,6 +22,8 @@
 //!
 //! on (north, east) and (x forward, y right) alike: both pairs are
 //! right-handed in the same sense, so a beam's world bearing is ψ + ψₘ + θ.
+//!
+//! Sources: docs/references.md §Seed 004.
 
 use std::f64::consts::{PI, TAU};
 use std::fmt;

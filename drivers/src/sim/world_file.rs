@@ -211,7 +211,7 @@ impl Checker<'_> {
     fn error(&self, key: String, span: Option<Range<usize>>, message: String) -> WorldFileError {
         WorldFileError {
             path: None,
-            line: span.map(|s| line_of(self.text, s.start)),
+            line: span.map(|s| toml_report::place(self.text, s.start).line),
             key: Some(key),
             message,
         }
@@ -487,77 +487,20 @@ fn wrap_pi(angle_rad: f64) -> f64 {
     (angle_rad + PI).rem_euclid(TAU) - PI
 }
 
-/// 1-based line holding byte `offset`.
-fn line_of(text: &str, offset: usize) -> usize {
-    let end = offset.min(text.len());
-    text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1
-}
-
-/// A TOML or shape error: toml's message, its line, and the key as far as
-/// the line tells (`static[1].radius_m` for a bad value, `static[1]` for a
-/// missing key).
+/// A TOML error (syntax, unknown key, wrong type, missing key), placed by
+/// the workspace's one TOML error locator; the offending line is quoted.
 fn syntax_error(text: &str, error: &toml::de::Error) -> WorldFileError {
-    let Some(span) = error.span() else {
-        return WorldFileError {
-            path: None,
-            line: None,
-            key: None,
-            message: error.message().to_owned(),
-        };
-    };
-    let line = line_of(text, span.start);
-    let entry = entry_at_line(text, line);
-    let source_line = text.lines().nth(line - 1).unwrap_or("").trim();
-    let key_here = source_line
-        .split_once('=')
-        .map(|(k, _)| k.trim().trim_matches('"').to_owned())
-        .filter(|k| !k.is_empty() && !k.starts_with('['));
-    let key = match (entry, key_here) {
-        (Some(entry), Some(k)) => Some(format!("{entry}.{k}")),
-        (Some(entry), None) => Some(entry),
-        (None, k) => k,
+    let problem = toml_report::problem(text, error);
+    let message = match error.span() {
+        Some(span) => format!("{} (`{}`)", problem.message, toml_report::source_line(text, span.start)),
+        None => problem.message,
     };
     WorldFileError {
         path: None,
-        line: Some(line),
-        key,
-        message: format!("{} (`{source_line}`)", error.message()),
+        line: problem.place.map(|p| p.line),
+        key: Some(problem.key).filter(|k| !k.is_empty()),
+        message,
     }
-}
-
-/// The table the 1-based `line` belongs to: `static[2]`, `tape`, or `None`
-/// at the top level.
-fn entry_at_line(text: &str, line: usize) -> Option<String> {
-    let mut counts: Vec<(String, usize)> = Vec::new();
-    let mut current = None;
-    for source_line in text.lines().take(line) {
-        let source_line = source_line.trim();
-        if let Some(name) = source_line
-            .strip_prefix("[[")
-            .and_then(|s| s.split_once("]]"))
-            .map(|s| s.0)
-        {
-            let name = name.trim().to_owned();
-            let index = match counts.iter_mut().find(|(n, _)| *n == name) {
-                Some((_, count)) => {
-                    *count += 1;
-                    *count - 1
-                }
-                None => {
-                    counts.push((name.clone(), 1));
-                    0
-                }
-            };
-            current = Some(format!("{name}[{index}]"));
-        } else if let Some(name) = source_line
-            .strip_prefix('[')
-            .and_then(|s| s.split_once(']'))
-            .map(|s| s.0)
-        {
-            current = Some(name.trim().to_owned());
-        }
-    }
-    current
 }
 
 #[cfg(test)]
@@ -807,7 +750,7 @@ mod tests {
             "[[static]]\nkind = \"circle\"\ncenter = [0, 0]\nradius_m = 1\n\n[[static]]\nkind = \"circle\"\ncenter = [0, 0]\nradus_m = 1\n",
             "static[1].radus_m",
             9,
-            "unknown field",
+            "unknown key",
         );
         let e = error("[[static]]\nkind = \"box\"\ncenter = [0, 0]\nwidth_m = 1\n");
         assert_eq!(e.key.as_deref(), Some("static[0].length_m"), "{e}");
@@ -821,7 +764,7 @@ mod tests {
             5,
             "invalid type",
         );
-        assert_error("[yard]\nsize = 3\n", "yard", 1, "unknown field");
+        assert_error("[yard]\nsize = 3\n", "yard", 1, "unknown key");
     }
 
     #[test]

@@ -1,0 +1,53 @@
+//! Puts the build's git hash into `FURROW_GIT_HASH` (eight hex digits, what
+//! ArduPilot reports in AUTOPILOT_VERSION.flight_custom_version).
+//!
+//! `FURROW_GIT_HASH` in the build's environment wins (a packager building
+//! from a tarball knows the commit); else `git rev-parse HEAD`; else, outside
+//! a checkout or without `git`, eight zeros: a build never fails for want of
+//! a repository.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn git(args: &[&str]) -> Option<String> {
+    let out = Command::new("git").args(args).output().ok()?;
+    if !out.status.success() {
+        return None;
+    }
+    let text = String::from_utf8(out.stdout).ok()?;
+    Some(text.trim().to_owned())
+}
+
+/// Rebuild when HEAD moves: HEAD itself and the branch it points at (loose
+/// or packed). Only files that exist are named: cargo reruns a script
+/// every build for a missing one.
+fn watch_head() {
+    let (Some(git_dir), Some(common_dir)) = (
+        git(&["rev-parse", "--git-dir"]),
+        git(&["rev-parse", "--git-common-dir"]),
+    ) else {
+        return;
+    };
+    let mut watched: Vec<PathBuf> = vec![
+        Path::new(&git_dir).join("HEAD"),
+        Path::new(&common_dir).join("packed-refs"),
+    ];
+    if let Some(branch) = git(&["rev-parse", "--symbolic-full-name", "HEAD"]).filter(|b| b.starts_with("refs/")) {
+        watched.push(Path::new(&common_dir).join(branch));
+    }
+    for path in watched.iter().filter(|p| p.exists()) {
+        println!("cargo:rerun-if-changed={}", path.display());
+    }
+}
+
+fn main() {
+    println!("cargo:rerun-if-env-changed=FURROW_GIT_HASH");
+    watch_head();
+    let from_git = git(&["rev-parse", "HEAD"]);
+    let from_env = std::env::var("FURROW_GIT_HASH").ok();
+    let hash = from_env
+        .or(from_git)
+        .filter(|h| h.len() >= 8 && h.bytes().all(|b| b.is_ascii_hexdigit()))
+        .map_or_else(|| "00000000".to_owned(), |h| h[..8].to_ascii_lowercase());
+    println!("cargo:rustc-env=FURROW_GIT_HASH={hash}");
+}

@@ -1,0 +1,30 @@
+//! The edge runner shared by `furrow sitl` and `furrow run`: one tokio
+//! runtime, the link layer on sockets bound beforehand, the data directory,
+//! and a loop that steps the core and answers link traffic between ticks,
+//! until a shutdown future completes.
+//!
+//! What differs between the simulator and the real vehicle is a
+//! [`runner::Platform`]: the core with its devices (a simulated world, or
+//! real drivers and outputs) and its clock ([`clock::Pacer`] for simulated
+//! time paced against the wall, [`clock::WallTicks`] for a fixed period).
+//!
+//! - [`clock`]: the task timer and the two tick clocks.
+//! - [`persistence`]: stored plans and parameters in, the core's saves out.
+//! - [`shutdown`]: the shutdown future (SIGINT or SIGTERM).
+//! - [`runner`]: the loop.
+
+pub mod clock;
+pub mod persistence;
+pub mod runner;
+pub mod shutdown;
+
+/// The one tokio runtime of a running furrow. The core's loop runs on the
+/// calling thread (`block_on`); links and async devices run on its worker,
+/// so they never wait for a tick and a tick never waits for them.
+pub fn runtime() -> std::io::Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .thread_name("edge")
+        .enable_all()
+        .build()
+}

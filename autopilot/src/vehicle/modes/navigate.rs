@@ -1,0 +1,67 @@
+//! GUIDED, RTL and AUTO: drive to the navigator's target. GUIDED's target
+//! comes from the ground station, RTL's is home, AUTO's the mission's
+//! current item (`auto.rs`); the driving is one and the same.
+
+use mavlink::dialects::ardupilotmega::MavSeverity;
+
+use crate::guidance::navigator::StopReport;
+use crate::modes::Mode;
+use crate::vehicle::Core;
+use crate::vehicle::drive::Demand;
+
+impl Core {
+    /// This tick's demand while no obstacle stops the vehicle.
+    pub(super) fn navigate_demand(&mut self, dt_s: f64) -> Demand {
+        self.maybe_plan_detour(false);
+        let was_arrived = self.navigator.arrived();
+        let config = self.nav_config();
+        let estimate = *self.estimator.estimate();
+        let nav = self.navigator.update(&estimate, &config, dt_s);
+        if let Some(report) = self.navigator.take_stop_report() {
+            self.report_stop(&report);
+        }
+        self.advance_detour();
+        // AUTO reports its own arrivals (MISSION_ITEM_REACHED).
+        if self.mode != Mode::Auto && self.navigator.arrived() && !was_arrived && self.navigator.target().is_some() {
+            let text = match self.mode {
+                Mode::Rtl => "Reached destination: home".to_string(),
+                _ => format!("Reached destination: {:.2} m", self.navigator.status().wp_dist_m),
+            };
+            self.send_text(MavSeverity::MAV_SEVERITY_INFO, &text);
+        }
+        // Arrived (or nothing to do): stop outright, so no integrator
+        // keeps the wheels creeping.
+        let stopped = self.navigator.stopping();
+        if self.navigator.target().is_some() && !stopped {
+            Demand::Navigate(nav)
+        } else {
+            Demand::Stop
+        }
+    }
+
+    /// The achieved stop error, as the estimate has it once the vehicle
+    /// rests: what an integrator checks a docking against.
+    fn report_stop(&mut self, report: &StopReport) {
+        self.log_stop_report(report);
+        let which = report.seq.map_or(String::new(), |seq| format!(" #{seq}"));
+        let verdict = if report.within_tolerance {
+            "in tolerance"
+        } else {
+            "OUT of tolerance"
+        };
+        let text = format!(
+            "Stop{which}: {:.1} mm, yaw {:.3} deg, {verdict}",
+            report.position_error_m() * 1000.0,
+            report.yaw_error_rad.to_degrees()
+        );
+        let severity = if report.within_tolerance {
+            MavSeverity::MAV_SEVERITY_INFO
+        } else {
+            MavSeverity::MAV_SEVERITY_WARNING
+        };
+        self.send_text(severity, &text);
+        if let Some(truth) = self.true_stop_text(report) {
+            self.send_text(MavSeverity::MAV_SEVERITY_INFO, &truth);
+        }
+    }
+}

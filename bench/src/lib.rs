@@ -1,0 +1,30 @@
+//! Benchmarks printed by `furrow-bench …`: figures, not pass/fail tests.
+//! Kept out of the `furrow` binary (and so is rand_chacha; the SVG plot is
+//! `autopilot::offline::plot`, shared with `furrow logs plot`).
+
+pub mod magnetic;
+pub mod obstacles;
+pub mod safety;
+pub mod sitl;
+pub mod tracking;
+
+use std::path::PathBuf;
+
+/// The `furrow` binary the process benchmarks start: `FURROW_BIN` if set
+/// (as the end-to-end tests take it), else the one built beside
+/// `furrow-bench` (both land in the same `target/<profile>/`).
+pub fn furrow_exe() -> Result<PathBuf, String> {
+    if let Some(path) = std::env::var_os("FURROW_BIN") {
+        return Ok(PathBuf::from(path));
+    }
+    let own = std::env::current_exe().map_err(|e| format!("own executable: {e}"))?;
+    let beside = own.with_file_name(format!("furrow{}", std::env::consts::EXE_SUFFIX));
+    if beside.is_file() {
+        Ok(beside)
+    } else {
+        Err(format!(
+            "no furrow binary at {} (build it: cargo build --release -p autopilot --bin furrow, or set FURROW_BIN)",
+            beside.display()
+        ))
+    }
+}

@@ -1,0 +1,477 @@
+//! `furrow-bench magnetic`: MAGNETIC mode's guide getting back on the tape
+//! from the three starts of "Path tracking of a wheeled AGV with double
+//! magnetic guide" (its Fig. 4 a–c: tilted right of the tape, tilted left of
+//! it, off it), on a straight tape and on arcs of several radii, at 0.5, 1.0
+//! and 1.5 m/s, for the bench AGV and for that paper's robot; then whether
+//! the targets of issue 22 are met. `furrow-bench tracking` prints the
+//! 15 m-arc subset ([`report`]).
+//!
+//! A start is the vehicle displaced from a pose with both sensors centred on
+//! the tape: its sensors' midpoint 0.05, 0.10 or 0.15 m to one side, its
+//! heading 2, 5 or 8° towards or away from the tape. Which of the paper's
+//! starts it is follows from what the sensors read at the start: some probe
+//! on the tape, the tilt is the side the vehicle is on; none, off the path.
+//! Off the path heading away, the paper's straight-on search never finds the
+//! tape; those are counted apart.
+
+use autopilot::guidance::magnetic_scenario::{MagneticProfile, MagneticScenario, ScenarioResult, run};
+
+#[derive(clap::Args, Debug)]
+pub struct MagneticBenchArgs {
+    /// Sensor-noise seeds 1..=N per start.
+    #[arg(long, default_value_t = 2)]
+    pub seeds: u64,
+    /// Simulated seconds per run.
+    #[arg(long, default_value_t = 15.0)]
+    pub duration_s: f64,
+    /// Print one run's samples as CSV instead: PROFILE,RADIUS,SPEED,OFFSET,AWAY
+    /// (robot or agv; metres, inf for straight; m/s; metres, positive right;
+    /// degrees, positive away from the tape), seed 1.
+    #[arg(long)]
+    pub trace: Option<String>,
+}
+
+const SPEEDS_MPS: [f64; 3] = [0.5, 1.0, 1.5];
+const OFFSETS_M: [f64; 3] = [0.05, 0.10, 0.15];
+const HEADINGS_DEG: [f64; 3] = [2.0, 5.0, 8.0];
+/// Arc radii; infinite = straight. Arcs curve right; starts on both sides
+/// cover inside and outside.
+const RADII_M: [f64; 4] = [f64::INFINITY, 25.0, 15.0, 10.0];
+/// Starts on the tape meet the arc this far ahead.
+const LEAD_IN_M: f64 = 2.0;
+/// Issue 22's bar for "back on the tape".
+const TOLERANCE_M: f64 = 0.010;
+
+/// One start on one tape.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Start {
+    /// Positive: right of the tape.
+    offset_m: f64,
+    /// Positive: turned away from the tape.
+    away_deg: f64,
+}
+
+impl Start {
+    fn all() -> Vec<Start> {
+        let mut starts = Vec::new();
+        for side in [1.0, -1.0] {
+            for offset_m in OFFSETS_M {
+                for heading_deg in HEADINGS_DEG {
+                    for away in [1.0, -1.0] {
+                        starts.push(Start {
+                            offset_m: side * offset_m,
+                            away_deg: away * heading_deg,
+                        });
+                    }
+                }
+            }
+        }
+        starts
+    }
+
+    /// Clockwise heading change: away from a tape on the left is clockwise.
+    fn heading_rad(&self) -> f64 {
+        (self.offset_m.signum() * self.away_deg).to_radians()
+    }
+}
+
+/// The paper's three starts, and off the path heading away.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Kind {
+    /// Heading towards the tape, or away from it.
+    RightTilted(bool),
+    LeftTilted(bool),
+    OffPath,
+    OffPathAway,
+    /// Centred on the tape: tracking, not re-acquiring.
+    OnTape,
+}
+
+const KINDS: [Kind; 7] = [
+    Kind::RightTilted(true),
+    Kind::LeftTilted(true),
+    Kind::RightTilted(false),
+    Kind::LeftTilted(false),
+    Kind::OffPath,
+    Kind::OffPathAway,
+    Kind::OnTape,
+];
+
+impl Kind {
+    fn label(self) -> &'static str {
+        match self {
+            Kind::RightTilted(true) => "right-tilted, heading towards",
+            Kind::RightTilted(false) => "right-tilted, heading away",
+            Kind::LeftTilted(true) => "left-tilted, heading towards",
+            Kind::LeftTilted(false) => "left-tilted, heading away",
+            Kind::OffPath => "off the path",
+            Kind::OffPathAway => "off the path, heading away",
+            Kind::OnTape => "on the tape",
+        }
+    }
+
+    fn of(start: &Start, result: &ScenarioResult) -> Kind {
+        let off = result.samples.first().is_none_or(|s| s.lost);
+        let towards = start.away_deg < 0.0;
+        if start.offset_m == 0.0 {
+            Kind::OnTape
+        } else if off {
+            if towards { Kind::OffPath } else { Kind::OffPathAway }
+        } else if start.offset_m > 0.0 {
+            Kind::RightTilted(towards)
+        } else {
+            Kind::LeftTilted(towards)
+        }
+    }
+}
+
+/// One run's place in the grid and its result.
+struct Run {
+    profile: &'static str,
+    radius_m: f64,
+    speed_mps: f64,
+    start: Start,
+    kind: Kind,
+    result: ScenarioResult,
+}
+
+fn scenario(
+    profile: &MagneticProfile,
+    radius_m: f64,
+    speed_mps: f64,
+    start: &Start,
+    seed: u64,
+    duration_s: f64,
+) -> MagneticScenario {
+    MagneticScenario {
+        tape_radius_m: radius_m,
+        tape_curves_right: true,
+        start_offset_m: start.offset_m,
+        start_heading_rad: start.heading_rad(),
+        // Off an arc: the vehicle was following it and is knocked off (it
+        // steers the arc's angle). On the tape: it tracks a straight that
+        // runs into the arc 2 m ahead.
+        run_up_on_curve: radius_m.is_finite() && start.offset_m != 0.0,
+        lead_in_m: LEAD_IN_M,
+        duration_s,
+        tolerance_m: TOLERANCE_M,
+        seed,
+        ..profile.scenario(speed_mps)
+    }
+}
+
+fn run_grid(profile: &MagneticProfile, seeds: u64, duration_s: f64) -> Vec<Run> {
+    let mut starts = Start::all();
+    starts.push(Start {
+        offset_m: 0.0,
+        away_deg: 0.0,
+    });
+    let mut runs = Vec::new();
+    for radius_m in RADII_M {
+        for speed_mps in SPEEDS_MPS {
+            for start in &starts {
+                for seed in 1..=seeds {
+                    let result = run(&scenario(profile, radius_m, speed_mps, start, seed, duration_s));
+                    runs.push(Run {
+                        profile: profile.name,
+                        radius_m,
+                        speed_mps,
+                        start: *start,
+                        kind: Kind::of(start, &result),
+                        result,
+                    });
+                }
+            }
+        }
+    }
+    runs
+}
+
+fn shape(radius_m: f64) -> String {
+    if radius_m.is_finite() {
+        format!("{radius_m:.0} m arc")
+    } else {
+        "straight".into()
+    }
+}
+
+/// The table row of a set of runs.
+fn row(runs: &[&Run]) -> String {
+    let mut times: Vec<f64> = runs.iter().filter_map(|r| r.result.reacquire_time_s).collect();
+    times.sort_by(f64::total_cmp);
+    let timing = match times.as_slice() {
+        [] => "–".to_string(),
+        t => format!("{:.2} / {:.2}", t[t.len() / 2], t[t.len() - 1]),
+    };
+    let max = |f: &dyn Fn(&ScenarioResult) -> f64| runs.iter().map(|r| f(&r.result)).fold(0.0, f64::max);
+    let stayed = runs.iter().filter(|r| r.result.lost_after_found_steps == 0).count();
+    format!(
+        "{} | {} | {timing} | {:.1} | {:.1} | {:.1} | {:.2} | {:.1} | {}",
+        runs.len(),
+        times.len(),
+        max(&|r| r.max_steer_reacquiring_rad).to_degrees(),
+        max(&|r| r.max_correction_reacquiring_rad).to_degrees(),
+        max(&|r| r.max_lateral_after_m) * 1000.0,
+        max(&|r| r.max_angle_after_rad).to_degrees(),
+        max(&|r| r.lateral_p99_after_m) * 1000.0,
+        stayed,
+    )
+}
+
+pub fn run_bench(args: &MagneticBenchArgs) -> Result<(), String> {
+    if let Some(spec) = &args.trace {
+        return trace(spec, args.duration_s);
+    }
+    let seeds = args.seeds.max(1);
+    let profiles = [MagneticProfile::double_guide_robot(), MagneticProfile::bench_agv()];
+    let mut all = Vec::new();
+    for profile in &profiles {
+        let runs = run_grid(profile, seeds, args.duration_s);
+        print_table(profile, &runs, seeds, args.duration_s);
+        all.extend(runs);
+    }
+    print_targets(&all);
+    Ok(())
+}
+
+fn print_table(profile: &MagneticProfile, runs: &[Run], seeds: u64, duration_s: f64) {
+    let g = &profile.guide;
+    println!();
+    println!(
+        "## {}: wheelbase {:.2} m, sensors at {:+.2} / {:+.2} m, approach limit {:.1}°, correction limit {:.1}°; seeds 1..={seeds}, {duration_s:.0} s",
+        profile.name,
+        profile.vehicle.wheelbase_m,
+        g.front_x_m,
+        g.rear_x_m,
+        g.approach_limit_rad(0.0).to_degrees(),
+        g.steer_correction_max_rad.min(g.correction_limit_rad()).to_degrees(),
+    );
+    println!();
+    println!(
+        "| tape | m/s | start | runs | re-acquired | time median / max s | max steer re-acquiring ° | max correction ° | max lateral after mm | max angle after ° | lateral p99 after mm | stayed on tape |"
+    );
+    println!("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for radius_m in RADII_M {
+        for speed_mps in SPEEDS_MPS {
+            for kind in KINDS {
+                let set: Vec<&Run> = runs
+                    .iter()
+                    .filter(|r| r.radius_m == radius_m && r.speed_mps == speed_mps && r.kind == kind)
+                    .collect();
+                if !set.is_empty() {
+                    println!(
+                        "| {} | {speed_mps:.1} | {} | {} |",
+                        shape(radius_m),
+                        kind.label(),
+                        row(&set)
+                    );
+                }
+            }
+        }
+    }
+    println!();
+    println!(
+        "re-acquired: both sensors within {:.0} mm of the tape from then to the end (true geometry); after: from then on; \
+         stayed on tape: never both sensors off once one had read it",
+        TOLERANCE_M * 1000.0
+    );
+}
+
+fn trace(spec: &str, duration_s: f64) -> Result<(), String> {
+    let bad = || format!("--trace {spec:?}: PROFILE,RADIUS,SPEED,OFFSET,AWAY (e.g. robot,inf,1.5,0.1,5)");
+    let fields: Vec<&str> = spec.split(',').collect();
+    let [profile, numbers @ ..] = fields.as_slice() else {
+        return Err(bad());
+    };
+    let profile = match *profile {
+        "robot" => MagneticProfile::double_guide_robot(),
+        "agv" => MagneticProfile::bench_agv(),
+        _ => return Err(bad()),
+    };
+    let numbers: Vec<f64> = numbers
+        .iter()
+        .map(|n| n.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| bad())?;
+    let [radius_m, speed_mps, offset_m, away_deg] = numbers.as_slice() else {
+        return Err(bad());
+    };
+    let start = Start {
+        offset_m: *offset_m,
+        away_deg: *away_deg,
+    };
+    let result = run(&scenario(&profile, *radius_m, *speed_mps, &start, 1, duration_s));
+    println!(
+        "time_s,front_offset_m,rear_offset_m,lateral_m,angle_deg,steer_cmd_deg,steer_deg,speed_cmd_mps,speed_mps,lost"
+    );
+    for s in &result.samples {
+        println!(
+            "{:.2},{:.4},{:.4},{:.4},{:.2},{:.2},{:.2},{:.2},{:.2},{}",
+            s.time_s,
+            s.front_offset_m,
+            s.rear_offset_m,
+            s.lateral_m,
+            s.angle_rad.to_degrees(),
+            s.steer_cmd_rad.to_degrees(),
+            s.steer_rad.to_degrees(),
+            s.speed_cmd_mps,
+            s.speed_mps,
+            u8::from(s.lost)
+        );
+    }
+    println!("# re-acquired {:?}", result.reacquire_time_s);
+    Ok(())
+}
+
+/// Issue 22's targets, each from the runs it is about.
+fn print_targets(all: &[Run]) {
+    let robot = MagneticProfile::double_guide_robot().name;
+    let agv = MagneticProfile::bench_agv().name;
+    println!();
+    println!("## targets");
+    println!();
+    println!("| target | runs | worst | met |");
+    println!("|---|---:|---:|---|");
+    for kind in &KINDS[..5] {
+        let set: Vec<&Run> = all
+            .iter()
+            .filter(|r| r.profile == robot && r.speed_mps == 1.5 && r.kind == *kind)
+            .collect();
+        let worst_t = set
+            .iter()
+            .map(|r| r.result.reacquire_time_s.unwrap_or(f64::INFINITY))
+            .fold(0.0, f64::max);
+        let worst_s = set
+            .iter()
+            .map(|r| r.result.max_steer_reacquiring_rad)
+            .fold(0.0, f64::max);
+        let worst_c = set
+            .iter()
+            .map(|r| r.result.max_correction_reacquiring_rad)
+            .fold(0.0, f64::max);
+        println!(
+            "| {robot}, {}, 1.5 m/s, all tapes: re-acquired ≤ 2 s, correction (steering beyond the curve's) within ±10° | {} | {worst_t:.2} s, {:.1}° (steering {:.1}°) | {} |",
+            kind.label(),
+            set.len(),
+            worst_c.to_degrees(),
+            worst_s.to_degrees(),
+            yes(worst_t <= 2.0 && worst_c <= 10f64.to_radians() + 1e-9)
+        );
+    }
+    let paper_start = |r: &&Run| {
+        let towards = r.start.away_deg == -5.0;
+        let tilted = (r.start.offset_m.abs() - 0.10).abs() < 1e-9 && towards;
+        let off_path = (r.start.offset_m.abs() - 0.15).abs() < 1e-9 && towards;
+        tilted || off_path
+    };
+    let set: Vec<&Run> = all
+        .iter()
+        .filter(|r| r.profile == robot && r.speed_mps == 1.5 && r.kind != Kind::OnTape)
+        .filter(paper_start)
+        .collect();
+    let worst_t = set
+        .iter()
+        .map(|r| r.result.reacquire_time_s.unwrap_or(f64::INFINITY))
+        .fold(0.0, f64::max);
+    let worst_c = set
+        .iter()
+        .map(|r| r.result.max_correction_reacquiring_rad)
+        .fold(0.0, f64::max);
+    println!(
+        "| {robot}, the paper's figure (0.1 m / 5° towards either side, 0.15 m / 5° towards off the path), 1.5 m/s, all tapes: re-acquired ≤ 2 s, correction within ±10° | {} | {worst_t:.2} s, {:.1}° | {} |",
+        set.len(),
+        worst_c.to_degrees(),
+        yes(worst_t <= 2.0 && worst_c <= 10f64.to_radians() + 1e-9)
+    );
+    for (towards, label) in [(true, "towards"), (false, "away")] {
+        let set: Vec<&Run> = all
+            .iter()
+            .filter(|r| {
+                r.profile == agv
+                    && r.speed_mps == 1.5
+                    && (r.start.offset_m.abs() - 0.10).abs() < 1e-9
+                    && r.start.away_deg == if towards { -5.0 } else { 5.0 }
+            })
+            .collect();
+        let worst_t = set
+            .iter()
+            .map(|r| r.result.reacquire_time_s.unwrap_or(f64::INFINITY))
+            .fold(0.0, f64::max);
+        let within = set
+            .iter()
+            .filter(|r| r.result.reacquire_time_s.is_some_and(|t| t <= 3.0))
+            .count();
+        println!(
+            "| {agv}, 0.1 m / 5° {label}, both sides, all tapes, 1.5 m/s: re-acquired ≤ 3 s | {} | {worst_t:.2} s ({within} within) | {} |",
+            set.len(),
+            yes(worst_t <= 3.0)
+        );
+    }
+    let set: Vec<&Run> = all
+        .iter()
+        .filter(|r| r.profile == agv && r.radius_m.is_finite() && r.radius_m >= 10.0 && r.kind == Kind::OnTape)
+        .collect();
+    let lost = set.iter().filter(|r| r.result.lost_after_found_steps > 0).count();
+    println!(
+        "| {agv}, on the tape into arcs ≥ 10 m, all speeds: never loses it | {} | {lost} lost | {} |",
+        set.len(),
+        yes(lost == 0)
+    );
+    let set: Vec<&Run> = all
+        .iter()
+        .filter(|r| r.profile == agv && !r.radius_m.is_finite() && r.kind == Kind::OnTape)
+        .collect();
+    let worst = set.iter().map(|r| r.result.lateral_p99_after_m).fold(0.0, f64::max);
+    println!(
+        "| {agv}, straight, on the tape, all speeds: lateral p99 ≤ 10 mm | {} | {:.1} mm | {} |",
+        set.len(),
+        worst * 1000.0,
+        yes(worst <= 0.010)
+    );
+}
+
+fn yes(met: bool) -> &'static str {
+    if met { "yes" } else { "NO" }
+}
+
+/// The 15 m-arc re-acquisition for `furrow-bench tracking`: both profiles at
+/// 1.5 m/s from 0.1 m and 5° either way.
+pub fn report(seeds: u64) {
+    let profiles = [MagneticProfile::double_guide_robot(), MagneticProfile::bench_agv()];
+    println!();
+    println!(
+        "## magnetic guide: 1.5 m/s, 15 m arc, 0.1 m / 5° starts, seeds 1..={seeds} (all starts: furrow-bench magnetic)"
+    );
+    println!();
+    println!(
+        "| profile | start | runs | re-acquired | time median / max s | max steer re-acquiring ° | max correction ° | max lateral after mm | max angle after ° | lateral p99 after mm | stayed on tape |"
+    );
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for profile in &profiles {
+        for away_deg in [-5.0, 5.0] {
+            let runs: Vec<Run> = [0.1, -0.1]
+                .into_iter()
+                .flat_map(|offset_m| (1..=seeds.max(1)).map(move |seed| (offset_m, seed)))
+                .map(|(offset_m, seed)| {
+                    let start = Start { offset_m, away_deg };
+                    let result = run(&scenario(profile, 15.0, 1.5, &start, seed, 15.0));
+                    Run {
+                        profile: profile.name,
+                        radius_m: 15.0,
+                        speed_mps: 1.5,
+                        start,
+                        kind: Kind::of(&start, &result),
+                        result,
+                    }
+                })
+                .collect();
+            let set: Vec<&Run> = runs.iter().collect();
+            let label = if away_deg > 0.0 {
+                "0.1 m, 5° away"
+            } else {
+                "0.1 m, 5° towards"
+            };
+            println!("| {} | {label} | {} |", profile.name, row(&set));
+        }
+    }
+}

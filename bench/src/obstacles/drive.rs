@@ -1,0 +1,508 @@
+//! One bench run: a mission driven in AUTO in-process (world, simulated
+//! scanners, the whole core) with or without obstacles, logging the true
+//! poses and judging the run against the empty run's course (see
+//! [`super::truth`]).
+
+use std::time::Duration;
+
+use drivers::sim::{ObstacleWorld, VehicleOutline};
+use mavlink::dialects::ardupilotmega::MavMessage;
+use mission::{ExecState, MissionType, Plan};
+
+use super::truth::{Judge, Limits, MOVING_MPS, Pose, STALL_S, TruthLog, on_its_line_s, rectangle};
+use autopilot::edge::clock::InstantTimer;
+use autopilot::geo::{GeoPoint, LocalFrame, Ned};
+use autopilot::obstacles::TrackStatus;
+use autopilot::sitl::gcs;
+use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
+
+/// The simulator warms up (fix, filter) this long before arming.
+const WARM_UP_S: f64 = 5.0;
+/// A run is cut off this long after the empty run's completion.
+const OVERTIME_S: f64 = 150.0;
+/// A course that is blocked by design is watched this long at rest.
+const BLOCKED_WATCH_S: f64 = 15.0;
+/// The way is judged this often while the vehicle is at rest.
+const REST_CHECK_S: f64 = 0.5;
+
+/// A waypoint of a course, metres about home.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Waypoint {
+    pub north_m: f64,
+    pub east_m: f64,
+    pub reverse: bool,
+}
+
+/// A mission: waypoints after home, the cruise speed and parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Course {
+    pub waypoints: Vec<Waypoint>,
+    pub speed_mps: f64,
+    pub params: Vec<(String, f64)>,
+}
+
+/// A mover that steps aside when the vehicle comes within `at_m` (a person
+/// walking head-on does): it turns `side_m` to its right over `side_m` of
+/// walk and carries on.
+#[derive(Clone, Copy, Debug)]
+pub struct Yield {
+    pub mover: usize,
+    pub at_m: f64,
+    pub side_m: f64,
+}
+
+/// The obstacles of a run.
+#[derive(Clone, Debug, Default)]
+pub struct Setup {
+    pub world: ObstacleWorld,
+    pub yields: Vec<Yield>,
+    /// Something stays on the course for good (no detour): the run ends
+    /// after a while at rest instead of completing.
+    pub blocked_by_design: bool,
+    /// Print the true pose and clearance every 0.2 s (`--replay --verbose`).
+    pub trace: bool,
+}
+
+/// One run's figures, all from the truth.
+#[derive(Clone, Debug, Default)]
+pub struct RunResult {
+    pub completion_s: Option<f64>,
+    pub collisions: u32,
+    /// Of the collisions, those the vehicle could not have stopped for
+    /// (see [`super::truth`]).
+    pub unavoidable: u32,
+    /// Smallest gap between the outline and an object while moving.
+    pub min_clearance_m: f64,
+    pub stops: u32,
+    pub false_stops: u32,
+    pub stalls: u32,
+    /// Distance run from each stop decision to rest, m.
+    pub braking_m: Vec<f64>,
+    /// Clearance when at rest after a stop, m.
+    pub rest_clearance_m: Vec<f64>,
+    /// |v_track − v_true| once a track is 1 s old, m/s.
+    pub kf_velocity_error_mps: Vec<f64>,
+    pub time_lost_s: Option<f64>,
+    pub malformed_scans: u64,
+    /// What happened, for `--verbose` and `--replay`.
+    pub events: Vec<String>,
+}
+
+/// The vehicle's outline and the judge's limits from the parameters.
+pub fn outline_and_limits(sim: &Simulation) -> (VehicleOutline, Limits) {
+    let h = sim.core().param_handles().obstacles;
+    let p = sim.core().params();
+    let outline = VehicleOutline {
+        front_m: f64::from(h.footprint.front_m.get(p)),
+        rear_m: f64::from(h.footprint.rear_m.get(p)),
+        half_width_m: f64::from(h.footprint.width_m.get(p)) / 2.0,
+    };
+    let a = h.avoidance;
+    let limits = Limits {
+        margin_m: f64::from(a.margin_m.get(p)),
+        horizon_s: f64::from(a.horizon_s.get(p)),
+        reaction_s: f64::from(a.reaction_s.get(p)),
+        decel_mps2: f64::from(a.decel_mps2.get(p)),
+    };
+    (outline, limits)
+}
+
+/// The simulation with the course loaded as the mission.
+pub fn build_sim(course: &Course, seed: u64, params: &[(String, f64)]) -> Result<Simulation, String> {
+    let config = SimulationConfig {
+        model: ModelKind::Ackermann,
+        seed,
+        ..SimulationConfig::default()
+    };
+    let mut table = SimulationParams::new(config.model);
+    table.apply(&course.params)?;
+    table.apply(params)?;
+    let mut sim = Simulation::new(&config, table);
+    let world = sim.world();
+    let home = world.local_to_geodetic(0.0, 0.0);
+    let mut wpl = format!(
+        "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t{:.9}\t{:.9}\t0\t1\n",
+        home.lat_deg, home.lon_deg
+    );
+    let mut seq = 1;
+    wpl += &format!("{seq}\t0\t2\t178\t1\t{:.3}\t-1\t0\t0\t0\t0\t1\n", course.speed_mps);
+    seq += 1;
+    let mut reversing = false;
+    for wp in &course.waypoints {
+        if wp.reverse != reversing {
+            reversing = wp.reverse;
+            wpl += &format!("{seq}\t0\t2\t194\t{}\t0\t0\t0\t0\t0\t0\t1\n", u8::from(wp.reverse));
+            seq += 1;
+        }
+        let p = world.local_to_geodetic(wp.north_m, wp.east_m);
+        wpl += &format!(
+            "{seq}\t0\t3\t16\t0\t0\t0\t0\t{:.9}\t{:.9}\t0\t1\n",
+            p.lat_deg, p.lon_deg
+        );
+        seq += 1;
+    }
+    let items = mission::files::wpl::parse(&wpl).map_err(|e| format!("bench mission: {e}"))?;
+    sim.core_mut()
+        .load_plan(MissionType::Mission, Plan::new(MissionType::Mission, items));
+    Ok(sim)
+}
+
+/// The true pose now (world time).
+fn true_pose(sim: &Simulation) -> Pose {
+    let truth = sim.world().truth();
+    Pose {
+        t_s: sim.time().as_secs_f64(),
+        north_m: truth.north_m,
+        east_m: truth.east_m,
+        yaw_rad: truth.yaw_rad,
+        speed_mps: truth.speed_mps,
+    }
+}
+
+/// The empty run: no obstacles; its log is the course of the runs with.
+pub fn drive_empty(course: &Course, seed: u64, params: &[(String, f64)]) -> Result<TruthLog, String> {
+    let mut sim = build_sim(course, seed, params)?;
+    let start_s = arm(&mut sim);
+    let mut log = TruthLog::default();
+    let timeout_s = 40.0 + 4.0 * course_length_m(course) / course.speed_mps.max(0.1);
+    while sim.time().as_secs_f64() - start_s < timeout_s {
+        sim.step(Duration::ZERO, &mut InstantTimer::default()).mavlink.clear();
+        let pose = true_pose(&sim);
+        log.poses.push(pose);
+        if sim.core().mission_state() == ExecState::Complete && pose.speed_mps.abs() < 0.02 {
+            log.completion_s = Some(pose.t_s - start_s);
+            break;
+        }
+    }
+    Ok(log)
+}
+
+fn course_length_m(course: &Course) -> f64 {
+    let mut at = (0.0, 0.0);
+    let mut length_m = 0.0;
+    for wp in &course.waypoints {
+        length_m += (wp.north_m - at.0).hypot(wp.east_m - at.1);
+        at = (wp.north_m, wp.east_m);
+    }
+    length_m
+}
+
+/// Warms up, switches to AUTO and arms; returns the simulation time then.
+fn arm(sim: &mut Simulation) -> f64 {
+    gcs::connect(sim);
+    let mut timer = InstantTimer::default();
+    while sim.time().as_secs_f64() < WARM_UP_S {
+        sim.step(Duration::ZERO, &mut timer).mavlink.clear();
+    }
+    gcs::send(sim, gcs::set_mode(10));
+    gcs::send(sim, gcs::arm());
+    sim.time().as_secs_f64()
+}
+
+/// A run with the obstacles of `setup`, judged against `course_log` (the
+/// empty run of the same course and seed).
+pub fn drive_with(
+    course: &Course,
+    seed: u64,
+    params: &[(String, f64)],
+    setup: &Setup,
+    course_log: &TruthLog,
+) -> Result<RunResult, String> {
+    let mut sim = build_sim(course, seed, params)?;
+    let (outline, limits) = outline_and_limits(&sim);
+    let mut world = setup.world.clone();
+    sim.world_mut().set_obstacles(Some(world.clone()));
+    let start_s = arm(&mut sim);
+    let mut judge = Judge::new(course_log, outline, limits);
+    let mut timer = InstantTimer::default();
+    let mut result = RunResult {
+        min_clearance_m: f64::INFINITY,
+        ..RunResult::default()
+    };
+    let mut yielded = vec![false; setup.yields.len()];
+    let mut in_contact = false;
+    let mut braking: Option<(Pose, bool)> = None;
+    let mut rest = RestWatch::default();
+    let mut kf_recorded: Vec<u32> = Vec::new();
+    // The true speed at every tick, to judge collisions by.
+    let mut speeds: Vec<(f64, f64)> = Vec::new();
+    let timeout_s = course_log.completion_s.unwrap_or(120.0) + OVERTIME_S;
+    loop {
+        let texts = statustexts(sim.step(Duration::ZERO, &mut timer));
+        let pose = true_pose(&sim);
+        let t_world = pose.t_s;
+        speeds.push((t_world, pose.speed_mps));
+        if t_world - start_s > timeout_s {
+            result.events.push(format!("t {t_world:.1} cut off"));
+            break;
+        }
+        judge.follow(&pose);
+        for text in texts
+            .iter()
+            .filter(|t| t.starts_with("Obstacle") && !t.starts_with("Obstacle stop:"))
+        {
+            result.events.push(format!(
+                "t {:.2} {text} at {:.2},{:.2} v {:.2}",
+                pose.t_s, pose.north_m, pose.east_m, pose.speed_mps
+            ));
+        }
+        for text in texts.iter().filter(|t| t.starts_with("Obstacle stop:")) {
+            result.stops += 1;
+            let nearest_m = judge.nearest_m(&world, t_world, &pose);
+            let blocked = limits.within_margin(nearest_m);
+            if !blocked {
+                result.false_stops += 1;
+            }
+            result.events.push(format!(
+                "t {:.2} {text} at {:.2},{:.2} v {:.2}: {} (nearest {nearest_m:.4} m from the swept outline)",
+                pose.t_s,
+                pose.north_m,
+                pose.east_m,
+                pose.speed_mps,
+                if blocked { "way blocked" } else { "FALSE STOP" }
+            ));
+            braking = Some((pose, false));
+        }
+        let rect = rectangle(&outline, &pose);
+        let clearance_m = world.clearance_m(&rect, t_world);
+        if setup.trace && (pose.t_s * 50.0).round() as i64 % 10 == 0 {
+            println!(
+                "  t {:.2} at {:.3},{:.3} yaw {:.1}° v {:.4} clearance {:.3} m{}",
+                pose.t_s,
+                pose.north_m,
+                pose.east_m,
+                pose.yaw_rad.to_degrees(),
+                pose.speed_mps,
+                clearance_m,
+                if sim.core().obstacle_status().stopped {
+                    " (obstacle stop)"
+                } else {
+                    ""
+                }
+            );
+        }
+        let moving = pose.speed_mps.abs() > MOVING_MPS;
+        if moving {
+            result.min_clearance_m = result.min_clearance_m.min(clearance_m);
+        }
+        let contact = moving && clearance_m <= 0.0;
+        if contact && !in_contact {
+            result.collisions += 1;
+            let why = unavoidable(&world, &rect, t_world, &speeds, &limits);
+            if why.is_some() {
+                result.unavoidable += 1;
+            }
+            result.events.push(format!(
+                "t {:.2} COLLISION at {:.2},{:.2} yaw {:.1}° v {:.2}{}",
+                pose.t_s,
+                pose.north_m,
+                pose.east_m,
+                pose.yaw_rad.to_degrees(),
+                pose.speed_mps,
+                why.unwrap_or_default()
+            ));
+        }
+        in_contact = contact;
+        if let Some((from, done)) = &mut braking
+            && !*done
+            && !moving
+        {
+            *done = true;
+            result.braking_m.push(from.distance_to(pose.north_m, pose.east_m));
+            result.rest_clearance_m.push(clearance_m);
+        }
+        if apply_yields(setup, &mut yielded, &mut world, &rect, t_world) {
+            sim.world_mut().set_obstacles(Some(world.clone()));
+        }
+        record_kf_errors(&sim, &world, t_world, &mut kf_recorded, &mut result);
+
+        let complete = sim.core().mission_state() == ExecState::Complete;
+        if complete && !moving {
+            result.completion_s = Some(t_world - start_s);
+            break;
+        }
+        match rest.update(&pose, moving || complete, || judge.way_blocked(&world, t_world, &pose)) {
+            RestVerdict::Stall => {
+                result.stalls += 1;
+                result
+                    .events
+                    .push(format!("t {:.1} STALL: at rest 30 s with the way clear", pose.t_s));
+                break;
+            }
+            RestVerdict::Blocked(at_rest_s) if setup.blocked_by_design && at_rest_s > BLOCKED_WATCH_S => break,
+            _ => {}
+        }
+    }
+    result.time_lost_s = result
+        .completion_s
+        .zip(course_log.completion_s)
+        .map(|(with, without)| with - without);
+    result.malformed_scans = sim.malformed_scans();
+    Ok(result)
+}
+
+/// Why a collision starting now was unavoidable (the object touching the
+/// outline had been on its line for less than the stopping time), or
+/// `None` when the vehicle could have stopped for it.
+fn unavoidable(
+    world: &ObstacleWorld,
+    rect: &drivers::sim::Rectangle,
+    t_s: f64,
+    speeds: &[(f64, f64)],
+    limits: &Limits,
+) -> Option<String> {
+    let touching = world.movers.iter().enumerate().filter(|(_, m)| {
+        m.shape_at(t_s)
+            .is_some_and(|shape| shape.distance_to_rectangle_m(rect) <= 0.0)
+    });
+    let statics_touch = world.statics.iter().any(|s| s.distance_to_rectangle_m(rect) <= 0.0);
+    let mut why = None;
+    for (index, mover) in touching {
+        let line_s = on_its_line_s(mover, t_s);
+        let since_s = t_s - line_s;
+        let speed_then = speeds
+            .iter()
+            .rev()
+            .find(|(t, _)| *t <= since_s)
+            .map_or(0.0, |(_, v)| *v);
+        let stopping_s = limits.stopping_s(speed_then);
+        if line_s >= stopping_s {
+            return None;
+        }
+        why = Some(format!(
+            " (unavoidable: mover {index} on its line {line_s:.2} s < stopping time {stopping_s:.2} s)"
+        ));
+    }
+    if statics_touch { None } else { why }
+}
+
+/// Watches the vehicle at rest: how long, and how long with the way clear.
+#[derive(Default)]
+struct RestWatch {
+    since_s: Option<f64>,
+    clear_since_s: Option<f64>,
+    next_check_s: f64,
+}
+
+enum RestVerdict {
+    Moving,
+    /// At rest this long, the way blocked or not yet judged clear for long.
+    Blocked(f64),
+    Stall,
+}
+
+impl RestWatch {
+    fn update(&mut self, pose: &Pose, moving: bool, way_blocked: impl FnOnce() -> bool) -> RestVerdict {
+        if moving {
+            *self = RestWatch::default();
+            return RestVerdict::Moving;
+        }
+        let since_s = *self.since_s.get_or_insert(pose.t_s);
+        if pose.t_s >= self.next_check_s {
+            self.next_check_s = pose.t_s + REST_CHECK_S;
+            if way_blocked() {
+                self.clear_since_s = None;
+            } else {
+                self.clear_since_s.get_or_insert(pose.t_s);
+            }
+        }
+        match self.clear_since_s {
+            Some(clear_s) if pose.t_s - clear_s > STALL_S => RestVerdict::Stall,
+            _ => RestVerdict::Blocked(pose.t_s - since_s),
+        }
+    }
+}
+
+fn statustexts(outputs: &mut autopilot::vehicle::Outputs) -> Vec<String> {
+    outputs
+        .mavlink
+        .drain(..)
+        .filter_map(|o| match o.message {
+            MavMessage::STATUSTEXT(t) => t.text.to_str().ok().map(str::to_string),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Yielding movers step aside when the vehicle comes close; true when the
+/// world changed.
+fn apply_yields(
+    setup: &Setup,
+    yielded: &mut [bool],
+    world: &mut ObstacleWorld,
+    rect: &drivers::sim::Rectangle,
+    t_s: f64,
+) -> bool {
+    let mut changed = false;
+    for (k, y) in setup.yields.iter().enumerate() {
+        if yielded[k] {
+            continue;
+        }
+        let Some((pos, vel)) = world.mover_state(y.mover, t_s) else {
+            continue;
+        };
+        let mover = &mut world.movers[y.mover];
+        let d = mover.shape.translated(pos).distance_to_rectangle_m(rect);
+        if d < y.at_m {
+            yielded[k] = true;
+            let speed = vel[0].hypot(vel[1]).max(0.5);
+            let dir = [vel[0] / speed, vel[1] / speed];
+            // Its right: the walking direction turned 90° clockwise.
+            let right = [-dir[1], dir[0]];
+            let side = [
+                pos[0] + (dir[0] + right[0]) * y.side_m,
+                pos[1] + (dir[1] + right[1]) * y.side_m,
+            ];
+            let end = [side[0] + dir[0] * 40.0, side[1] + dir[1] * 40.0];
+            mover.path = vec![pos, side, end];
+            mover.start_s = t_s;
+            changed = true;
+        }
+    }
+    changed
+}
+
+/// The tracker's velocity error once a track has followed a walking person
+/// for 1 s (a track born while its person stood is measured 1 s into the
+/// walk).
+fn record_kf_errors(sim: &Simulation, world: &ObstacleWorld, t: f64, recorded: &mut Vec<u32>, result: &mut RunResult) {
+    let Some(frame) = sim.core().estimator().frame().copied() else {
+        return;
+    };
+    let offset = sim_to_core(sim, &frame, 0.0, 0.0);
+    for track in sim.core().obstacle_tracks() {
+        if track.status != TrackStatus::Confirmed || track.age_s < 1.0 || recorded.contains(&track.id) {
+            continue;
+        }
+        let at = [
+            track.position.north_m - offset.north_m,
+            track.position.east_m - offset.east_m,
+        ];
+        let nearest = (0..world.movers.len())
+            .filter_map(|i| world.mover_state(i, t).map(|(p, v)| (i, p, v)))
+            .map(|(i, p, v)| (i, (p[0] - at[0]).hypot(p[1] - at[1]), v))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        let Some((mover, _, v)) = nearest.filter(|n| n.1 < 1.0) else {
+            // Not a mover's track (structure, a ghost): never measured.
+            recorded.push(track.id);
+            continue;
+        };
+        let walking = |at_s: f64| {
+            world
+                .mover_state(mover, at_s)
+                .is_some_and(|(_, v)| v[0].hypot(v[1]) > 0.1)
+        };
+        if walking(t) && walking(t - 1.0) {
+            recorded.push(track.id);
+            result
+                .kf_velocity_error_mps
+                .push((track.vel_north_mps - v[0]).hypot(track.vel_east_mps - v[1]));
+        }
+    }
+}
+
+/// The simulator's point in the autopilot's frame, through WGS-84.
+fn sim_to_core(sim: &Simulation, frame: &LocalFrame, north_m: f64, east_m: f64) -> Ned {
+    let g = sim.world().local_to_geodetic(north_m, east_m);
+    frame.to_local(&GeoPoint::new(g.lat_deg, g.lon_deg, g.alt_m))
+}

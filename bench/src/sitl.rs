@@ -1,0 +1,288 @@
+//! `furrow-bench sitl`: how fast SITL runs with nothing pacing it, how long a
+//! core tick takes, and how much memory `furrow sitl` holds.
+//!
+//! Two measurements:
+//! 1. in-process: world + core stepped as fast as possible (no sockets), for
+//!    the simulated-per-wall ratio and the core tick distribution;
+//! 2. the real process: `furrow sitl --speedup max` started as a child with a
+//!    ground station connected over TCP, for its simulated-per-wall ratio
+//!    (from SYSTEM_TIME), tick figures (from its exit report) and RSS.
+//!
+//! Each runs with the onboard log off and at full rate (every tick;
+//! in-process the core encodes the records, the process also writes them),
+//! so the logger's cost shows (`--log` picks one).
+
+use std::io::{BufRead, BufReader};
+use std::net::TcpStream;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use mavlink::MavlinkReader;
+use mavlink::dialects::ardupilotmega::MavMessage;
+
+use autopilot::edge::clock::InstantTimer;
+use autopilot::sitl::gcs;
+use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
+
+#[derive(clap::Args, Debug)]
+pub struct SitlBenchArgs {
+    /// Simulated seconds for the in-process run.
+    #[arg(long, default_value_t = 3600.0)]
+    pub seconds: f64,
+    /// Wall seconds to watch the `furrow sitl --speedup max` process.
+    #[arg(long, default_value_t = 10.0)]
+    pub process_seconds: f64,
+    /// The onboard log: off, on at full rate (LOG_FILE_RATEMAX 0), or both runs one after the other.
+    #[arg(long, value_enum, default_value_t = LogRuns::Both)]
+    pub log: LogRuns,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum LogRuns {
+    Off,
+    On,
+    Both,
+}
+
+impl LogRuns {
+    fn runs(self) -> &'static [bool] {
+        match self {
+            LogRuns::Off => &[false],
+            LogRuns::On => &[true],
+            LogRuns::Both => &[false, true],
+        }
+    }
+}
+
+fn log_label(logging: bool) -> &'static str {
+    if logging {
+        "onboard log at full rate"
+    } else {
+        "onboard log off"
+    }
+}
+
+pub fn run(args: &SitlBenchArgs) -> Result<(), String> {
+    if !(args.seconds > 0.0 && args.seconds <= 86_400.0) {
+        return Err(format!(
+            "--seconds {}: must be a positive number up to a day",
+            args.seconds
+        ));
+    }
+    if !(args.process_seconds > 0.0 && args.process_seconds <= 86_400.0) {
+        return Err(format!(
+            "--process-seconds {}: must be a positive number up to a day",
+            args.process_seconds
+        ));
+    }
+    for &logging in args.log.runs() {
+        in_process(args.seconds, logging);
+    }
+    for &logging in args.log.runs() {
+        real_process(args.process_seconds, logging)?;
+    }
+    Ok(())
+}
+
+/// Drives a 40 m GUIDED square over and over, so the tick includes
+/// estimation, tracking and control, not an idle HOLD.
+fn in_process(seconds: f64, logging: bool) {
+    let config = SimulationConfig {
+        model: ModelKind::Ackermann,
+        ..SimulationConfig::default()
+    };
+    let mut sim = Simulation::new(&config, SimulationParams::new(config.model));
+    let backend = if logging { 1.0 } else { 0.0 };
+    let set = sim.core_mut().params_mut().set_by_name("LOG_BACKEND_TYPE", backend);
+    set.expect("LOG_BACKEND_TYPE is declared");
+    let mut log_bytes = 0usize;
+    gcs::connect(&mut sim);
+    let mut timer = InstantTimer::default();
+    // Wait for the first fixes, as an operator would.
+    while sim.time().as_secs_f64() < 2.0 {
+        sim.step(Duration::ZERO, &mut timer).mavlink.clear();
+    }
+    gcs::send(&mut sim, gcs::set_mode(15));
+    gcs::send(&mut sim, gcs::arm());
+    let corners = [(40.0, 0.0), (40.0, 40.0), (0.0, 40.0), (0.0, 0.0)];
+    let mut corner = 0;
+    let start = Instant::now();
+    let mut driving = false;
+    let mut odometer_m = 0.0;
+    while sim.time().as_secs_f64() < seconds {
+        if !driving || sim.core().navigator().arrived() {
+            let (n, e) = corners[corner % corners.len()];
+            let target = gcs::local_target(&sim, n, e);
+            gcs::send(&mut sim, target);
+            corner += 1;
+            driving = true;
+        }
+        let wall = start.elapsed();
+        let before = *sim.world().truth();
+        let out = sim.step(wall, &mut timer);
+        out.mavlink.clear();
+        log_bytes += log_records_bytes(&out.log);
+        let after = sim.world().truth();
+        odometer_m += (after.north_m - before.north_m).hypot(after.east_m - before.east_m);
+    }
+    let wall = start.elapsed().as_secs_f64();
+    let ticks = sim.core().scheduler().tick_stats();
+    let us = |ns: u64| ns as f64 / 1000.0;
+    println!(
+        "in-process simulation (world + NMEA + core, no links), {seconds:.0} s simulated driving a 40 m GUIDED square, {}:",
+        log_label(logging)
+    );
+    if logging {
+        println!(
+            "  log records encoded by the core: {:.1} MB ({:.1} kB per simulated second)",
+            log_bytes as f64 / 1e6,
+            log_bytes as f64 / 1e3 / sim.time().as_secs_f64()
+        );
+    }
+    println!(
+        "  {:.0}x real time ({:.3} s wall), {} corners reached, odometer {:.0} m",
+        sim.time().as_secs_f64() / wall,
+        wall,
+        corner - 1,
+        odometer_m
+    );
+    println!(
+        "  core tick: {} ticks, median {:.2} us, p99 {:.2} us, max {:.1} us",
+        ticks.runs,
+        us(ticks.histogram.quantile_ns(0.5)),
+        us(ticks.histogram.quantile_ns(0.99)),
+        us(ticks.histogram.max_ns())
+    );
+}
+
+/// Bytes of records in a step's log commands.
+fn log_records_bytes(commands: &[autopilot::logging::LogCommand]) -> usize {
+    commands
+        .iter()
+        .map(|c| match c {
+            autopilot::logging::LogCommand::Records(bytes) => bytes.len(),
+            _ => 0,
+        })
+        .sum()
+}
+
+fn real_process(seconds: f64, logging: bool) -> Result<(), String> {
+    let exe = crate::furrow_exe()?;
+    let data = std::env::temp_dir().join(format!("furrow-bench-{}", std::process::id()));
+    let mut child = Command::new(exe)
+        .args([
+            "sitl",
+            "--speedup",
+            "max",
+            "--tcp-port",
+            "0",
+            "--udp-port",
+            "9",
+            "--data-dir",
+        ])
+        .arg(&data)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("starting furrow sitl: {e}"))?;
+    let result = watch(&mut child, seconds, logging);
+    // SIGINT so it prints its tick report, then collect stderr.
+    let _ = Command::new("kill").args(["-INT", &child.id().to_string()]).status();
+    let output = child.wait_with_output().map_err(|e| format!("furrow sitl: {e}"))?;
+    let logs = autopilot::logging::store::LogStore::new(&data).list();
+    let log_bytes: u64 = logs.iter().map(|l| l.size_bytes).sum();
+    let _ = std::fs::remove_dir_all(&data);
+    let (sim_ratio, rss_kb, peak_kb) = result?;
+    println!(
+        "furrow sitl --speedup max, a ground station on TCP, {seconds:.0} s wall, {}:",
+        log_label(logging)
+    );
+    if logging {
+        println!(
+            "  {} log file(s), {:.1} MB written (LOG_DISARMED 1: logging from the start)",
+            logs.len(),
+            log_bytes as f64 / 1e6
+        );
+    }
+    println!("  {sim_ratio:.0}x real time (SYSTEM_TIME.time_boot_ms over wall time)");
+    println!(
+        "  RSS {:.1} MB (peak {:.1} MB)",
+        rss_kb as f64 / 1024.0,
+        peak_kb as f64 / 1024.0
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    if let Some(line) = stderr.lines().find(|l| l.contains("SITL stopped after")) {
+        let report = line.split("SITL stopped after").nth(1).unwrap_or("");
+        println!("  exit report: SITL stopped after{report}");
+    }
+    if let Some(line) = stderr.lines().find(|l| l.contains("onboard log:")) {
+        println!("  {}", line.split("onboard log:").nth(1).map_or("", str::trim));
+    }
+    Ok(())
+}
+
+/// Sets a parameter over the bench's connection (no reply awaited: the
+/// telemetry read next shows its effect).
+fn param_set(stream: &mut TcpStream, name: &str, value: f32) -> Result<(), String> {
+    let msg = MavMessage::PARAM_SET(mavlink::dialects::ardupilotmega::PARAM_SET_DATA {
+        param_value: value,
+        target_system: 1,
+        target_component: 1,
+        param_id: crate::safety::gcs_client::param_id(name).into(),
+        param_type: mavlink::dialects::ardupilotmega::MavParamType::MAV_PARAM_TYPE_REAL32,
+    });
+    mavlink::write_v2_msg(stream, gcs::GCS_HEADER, &msg).map_err(|e| format!("PARAM_SET {name}: {e}"))?;
+    Ok(())
+}
+
+/// Connects, sets the log on or off, measures simulated time over `seconds`
+/// of wall time, reads RSS.
+fn watch(child: &mut std::process::Child, seconds: f64, logging: bool) -> Result<(f64, u64, u64), String> {
+    let stdout = child.stdout.take().ok_or("no stdout")?;
+    let mut line = String::new();
+    BufReader::new(stdout)
+        .read_line(&mut line)
+        .map_err(|e| format!("reading ready line: {e}"))?;
+    let port = line
+        .split("tcp ")
+        .nth(1)
+        .and_then(|rest| rest.split(',').next())
+        .and_then(|addr| addr.rsplit(':').next())
+        .and_then(|p| p.parse::<u16>().ok())
+        .ok_or_else(|| format!("unexpected ready line {line:?}"))?;
+    let stream = TcpStream::connect(("127.0.0.1", port)).map_err(|e| format!("connect: {e}"))?;
+    stream
+        .set_read_timeout(Some(Duration::from_secs(5)))
+        .map_err(|e| e.to_string())?;
+    let mut control = stream.try_clone().map_err(|e| e.to_string())?;
+    param_set(&mut control, "LOG_BACKEND_TYPE", if logging { 1.0 } else { 0.0 })?;
+    param_set(&mut control, "LOG_DISARMED", if logging { 1.0 } else { 0.0 })?;
+    let mut reader = MavlinkReader::new(stream);
+    // Read everything as it comes (telemetry queued in the socket would be
+    // stale) and keep the newest SYSTEM_TIME at the start and at the end.
+    let mut latest = |until: Instant| -> Result<(Instant, u32), String> {
+        let mut newest = None;
+        while newest.is_none() || Instant::now() < until {
+            let (_, msg) = reader
+                .read_any_message::<MavMessage>()
+                .map_err(|e| format!("reading telemetry: {e}"))?;
+            if let MavMessage::SYSTEM_TIME(t) = msg {
+                newest = Some((Instant::now(), t.time_boot_ms));
+            }
+        }
+        newest.ok_or_else(|| "no SYSTEM_TIME".to_string())
+    };
+    let (t0, b0) = latest(Instant::now() + Duration::from_secs(1))?;
+    let (t1, b1) = latest(t0 + autopilot::time::duration_from_secs(seconds))?;
+    let ratio = f64::from(b1.wrapping_sub(b0)) / 1000.0 / (t1 - t0).as_secs_f64();
+    let status = std::fs::read_to_string(format!("/proc/{}/status", child.id())).unwrap_or_default();
+    let field = |name: &str| {
+        status
+            .lines()
+            .find(|l| l.starts_with(name))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|v| v.parse::<u64>().ok())
+            .unwrap_or(0)
+    };
+    Ok((ratio, field("VmRSS:"), field("VmHWM:")))
+}

@@ -1,0 +1,733 @@
+//! `furrow-bench tracking`: the accuracy of the navigation core on the
+//! reference courses in `tests/data/bench` (their README gives the vehicle and receiver).
+//!
+//! Each course runs in AUTO for every seed, in-process at full speed (world,
+//! simulated NMEA GNSS and heading, the real driver and the whole core), and
+//! the error is measured from the simulator's *true* pose, not the
+//! estimate: against the path the autopilot planned from the mission (its
+//! straights and corner arcs, mapped from the simulator's frame through
+//! WGS-84 into the autopilot's), on straights from 3 m after a turn ends, on
+//! arcs, and at each precision stop once the vehicle rests there.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use drivers::sim::GeoPoint as SimGeoPoint;
+use mavlink::dialects::ardupilotmega::MavMessage;
+use mission::{ExecState, MissionType, Plan};
+
+use autopilot::edge::clock::InstantTimer;
+use autopilot::geo::{GeoPoint, LocalFrame, Ned, wrap_pi};
+use autopilot::guidance::path::Piece;
+use autopilot::guidance::tracker::Direction;
+use autopilot::offline::plot::{self, PlotData};
+use autopilot::sitl::gcs;
+use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
+
+/// The reference courses, built in so the benchmark runs from anywhere.
+const BUILT_IN: [(&str, &str); 2] = [
+    (
+        "agv_course",
+        include_str!("../../tests/data/bench/agv_course.waypoints"),
+    ),
+    (
+        "square_40m",
+        include_str!("../../tests/data/bench/square_40m.waypoints"),
+    ),
+];
+
+/// Straights count from this far after a turn ends (bench README).
+const AFTER_TURN_M: f64 = 3.0;
+/// A stop's settling time runs from the vehicle first coming this close to
+/// the point (true pose) to the stop report.
+const SETTLE_WINDOW_M: f64 = 0.03;
+
+#[derive(clap::Args, Debug)]
+pub struct TrackingBenchArgs {
+    /// A course (QGC WPL 110); repeat for several. Default: the two
+    /// reference courses.
+    #[arg(long = "course")]
+    pub courses: Vec<PathBuf>,
+    /// Seeds 1..=N.
+    #[arg(long, default_value_t = 20)]
+    pub seeds: u64,
+    /// Where the SVG plots go.
+    #[arg(long, default_value = "target/bench")]
+    pub out_dir: PathBuf,
+    /// A run that has not finished after this many simulated seconds fails.
+    #[arg(long, default_value_t = 1200.0)]
+    pub timeout_s: f64,
+    /// Heading at the start, degrees (the courses start facing north).
+    #[arg(long, default_value_t = 0.0)]
+    pub heading_deg: f64,
+    /// Also write seed 1's tick-by-tick trace as CSV next to the plots (for
+    /// tuning).
+    #[arg(long)]
+    pub trace: bool,
+    /// Run with a parameter changed, NAME=VALUE (repeatable): to see what a
+    /// gain does to the figures.
+    #[arg(long = "param", value_parser = parse_param)]
+    pub params: Vec<(String, f64)>,
+    /// Vehicle models to run each course with (repeatable). Default: both.
+    #[arg(long = "model", value_enum)]
+    pub models: Vec<BenchModel>,
+}
+
+/// `--model` of the tracking bench.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BenchModel {
+    Ackermann,
+    Differential,
+}
+
+impl BenchModel {
+    fn kind(self) -> ModelKind {
+        match self {
+            BenchModel::Ackermann => ModelKind::Ackermann,
+            BenchModel::Differential => ModelKind::Differential,
+        }
+    }
+}
+
+pub(crate) fn parse_param(text: &str) -> Result<(String, f64), String> {
+    let (name, value) = text
+        .split_once('=')
+        .ok_or_else(|| format!("{text:?}: expected NAME=VALUE"))?;
+    let value: f64 = value
+        .trim()
+        .parse()
+        .map_err(|_| format!("{text:?}: {value:?} is not a number"))?;
+    Ok((name.trim().to_ascii_uppercase(), value))
+}
+
+/// One course with its mission.
+pub(crate) struct Course {
+    pub(crate) name: String,
+    pub(crate) items: Vec<mission::MissionItem>,
+    pub(crate) home: SimGeoPoint,
+}
+
+/// Where the vehicle stopped, from the truth, when the autopilot reported
+/// the stop.
+#[derive(Clone, Copy, Debug)]
+pub struct StopRecord {
+    pub seq: u16,
+    pub position_m: f64,
+    pub along_m: f64,
+    pub crosstrack_m: f64,
+    pub yaw_rad: f64,
+    /// The autopilot's own figure (from its estimate), for comparison.
+    pub reported_mm: f64,
+    pub reported_yaw_deg: f64,
+    /// How far the estimate was from the truth then.
+    pub estimate_error_m: f64,
+    pub estimate_yaw_error_rad: f64,
+    /// From first coming within [`SETTLE_WINDOW_M`] of the point (truth) to
+    /// the report; None if it never came that close.
+    pub settle_s: Option<f64>,
+    pub direction: Direction,
+}
+
+/// One run of one course with one seed.
+#[derive(Default)]
+pub struct RunRecord {
+    pub completion_s: Option<f64>,
+    /// time, true/estimated crosstrack, steering, speeds… (seed 1 with --trace).
+    pub trace: Vec<String>,
+    pub straight_m: Vec<f64>,
+    pub arc_m: Vec<f64>,
+    /// The same samples as `straight_m`/`arc_m`, split by the direction the
+    /// leg is driven in.
+    pub forward_straight_m: Vec<f64>,
+    pub reverse_straight_m: Vec<f64>,
+    pub forward_arc_m: Vec<f64>,
+    pub reverse_arc_m: Vec<f64>,
+    pub stops: Vec<StopRecord>,
+    pub plot: PlotData,
+    pub core_tick_overruns: u64,
+}
+
+pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
+    if args.seeds == 0 {
+        return Err("--seeds must be at least 1".into());
+    }
+    if !(args.timeout_s.is_finite() && args.timeout_s > 0.0) {
+        return Err(format!("--timeout-s {}: must be a positive number", args.timeout_s));
+    }
+    let courses = load_courses(&args.courses)?;
+    // Refuse a bad --param before running anything.
+    let mut probe = SimulationParams::new(ModelKind::Ackermann);
+    probe.apply(&args.params)?;
+    let value = |name: &str| probe.table.value_of(name).unwrap_or(f64::NAN);
+    let (noise_mm, walk_mm) = (value("SIM_GPS_NOISE") * 1000.0, value("SIM_GPS_WALK") * 1000.0);
+    let (rate_hz, heading_deg) = (value("SIM_GPS_RATE"), value("SIM_HDG_NOISE"));
+    std::fs::create_dir_all(&args.out_dir).map_err(|e| format!("{}: {e}", args.out_dir.display()))?;
+    let models = if args.models.is_empty() {
+        vec![BenchModel::Ackermann, BenchModel::Differential]
+    } else {
+        args.models.clone()
+    };
+    println!(
+        "furrow-bench tracking: seeds 1..={}, bench vehicle {models:?}, RTK GNSS σ {noise_mm:.1} mm white + \
+         {walk_mm:.1} mm walk (τ 60 s) per axis at {rate_hz:.0} Hz, dual-antenna heading σ {heading_deg:.3}°; \
+         errors are of the true pose",
+        args.seeds
+    );
+    // The walk is a slow bias of every fix: no filter of these fixes can see
+    // it, so it alone sets how often even a perfect stop lands within 10 mm
+    // (a 2-D Gaussian of σ per axis: Rayleigh).
+    let ceiling = 1.0 - (-(10.0f64 * 10.0) / (2.0 * walk_mm * walk_mm)).exp();
+    println!(
+        "noise floor: the walk alone puts a perfectly estimated-and-controlled stop within 10 mm in {:.1} % of cases",
+        100.0 * ceiling
+    );
+    for (course, model) in courses.iter().flat_map(|c| models.iter().map(move |m| (c, *m))) {
+        let started = std::time::Instant::now();
+        let runs: Vec<RunRecord> = (1..=args.seeds)
+            .map(|seed| {
+                run_course(
+                    course,
+                    &RunOptions {
+                        seed,
+                        model: model.kind(),
+                        heading_deg: args.heading_deg,
+                        timeout_s: args.timeout_s,
+                        keep_plot: seed == 1,
+                        trace: args.trace && seed == 1,
+                        params: &args.params,
+                    },
+                )
+            })
+            .collect();
+        println!();
+        println!("# {:?}", model.kind());
+        report(course, &runs, started.elapsed());
+        report_directions(&runs);
+        report_settling(&runs);
+        let name = match model {
+            BenchModel::Ackermann => course.name.clone(),
+            BenchModel::Differential => format!("{}-differential", course.name),
+        };
+        let svg = args.out_dir.join(format!("tracking-{name}.svg"));
+        plot::write_svg(&svg, &format!("{} (seed 1)", course.name), &runs[0].plot)?;
+        println!("  plot: {}", svg.display());
+        if args.trace {
+            let csv = args.out_dir.join(format!("tracking-{name}.csv"));
+            let mut text = String::from(TRACE_HEADER);
+            for line in &runs[0].trace {
+                text.push_str(line);
+                text.push('\n');
+            }
+            std::fs::write(&csv, text).map_err(|e| format!("{}: {e}", csv.display()))?;
+            println!("  trace: {}", csv.display());
+        }
+    }
+    if args.courses.is_empty() {
+        super::magnetic::report(args.seeds.min(4));
+    }
+    Ok(())
+}
+
+pub(crate) fn load_courses(paths: &[PathBuf]) -> Result<Vec<Course>, String> {
+    let texts: Vec<(String, String)> = if paths.is_empty() {
+        BUILT_IN.iter().map(|(n, t)| (n.to_string(), t.to_string())).collect()
+    } else {
+        paths
+            .iter()
+            .map(|p| {
+                let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
+                let name = p
+                    .file_stem()
+                    .map_or("course".into(), |s| s.to_string_lossy().into_owned());
+                Ok((name, text))
+            })
+            .collect::<Result<_, String>>()?
+    };
+    texts
+        .into_iter()
+        .map(|(name, text)| {
+            let items = mission::files::wpl::parse(&text).map_err(|e| format!("{name}: {e}"))?;
+            let home = items
+                .first()
+                .filter(|i| i.x != 0 || i.y != 0)
+                .map(|i| SimGeoPoint {
+                    lat_deg: f64::from(i.x) * 1e-7,
+                    lon_deg: f64::from(i.y) * 1e-7,
+                    alt_m: f64::from(i.z),
+                })
+                .ok_or_else(|| format!("{name}: item 0 (home) has no position"))?;
+            mission::validate_plan(MissionType::Mission, items.clone())
+                .map_err(|(seq, why)| format!("{name}: item {seq} refused: {why:?}"))?;
+            Ok(Course { name, items, home })
+        })
+        .collect()
+}
+
+/// The leg being driven, to notice a new one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct LegKey {
+    seq: Option<u16>,
+    from: Option<Ned>,
+    point: Ned,
+}
+
+const TRACE_HEADER: &str = "t_s,seq,piece,class,true_xtrack_mm,est_xtrack_mm,est_minus_true_along_mm,steer_deg,ff_deg,lat_err_mm,yaw_err_deg,speed_cmd_mps,true_speed_mps,true_steer_deg,capturing\n";
+
+struct RunOptions<'a> {
+    seed: u64,
+    model: ModelKind,
+    heading_deg: f64,
+    timeout_s: f64,
+    keep_plot: bool,
+    trace: bool,
+    params: &'a [(String, f64)],
+}
+
+fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
+    let RunOptions {
+        seed,
+        model,
+        heading_deg,
+        timeout_s,
+        keep_plot,
+        trace,
+        params,
+    } = *options;
+    let config = SimulationConfig {
+        home: course.home,
+        home_heading_deg: heading_deg,
+        model,
+        seed,
+        ..SimulationConfig::default()
+    };
+    let mut sim_params = SimulationParams::new(config.model);
+    sim_params.apply(params).expect("checked before the runs");
+    let mut sim = Simulation::new(&config, sim_params);
+    sim.core_mut().load_plan(
+        MissionType::Mission,
+        Plan::new(MissionType::Mission, course.items.clone()),
+    );
+    gcs::connect(&mut sim);
+    let mut timer = InstantTimer::default();
+    // Let the estimate settle on the first fixes, as an operator would.
+    while sim.time().as_secs_f64() < 5.0 {
+        sim.step(Duration::ZERO, &mut timer).mavlink.clear();
+    }
+    gcs::send(&mut sim, gcs::set_mode(10));
+    gcs::send(&mut sim, gcs::arm());
+    let start_s = sim.time().as_secs_f64();
+
+    let mut record = RunRecord::default();
+    let mut leg: Option<LegKey> = None;
+    let mut piece = 0usize;
+    let mut last_pos: Option<Ned> = None;
+    let mut odometer_m = 0.0;
+    let mut turn_end_odometer_m = 0.0;
+    let mut last_heading: Option<f64> = None;
+    let mut within_since_s: Option<f64> = None;
+    let mut ticks = 0u64;
+    while sim.time().as_secs_f64() - start_s < timeout_s {
+        let outputs = sim.step(Duration::ZERO, &mut timer);
+        let texts: Vec<String> = outputs
+            .mavlink
+            .drain(..)
+            .filter_map(|o| match o.message {
+                MavMessage::STATUSTEXT(t) => t.text.to_str().ok().map(str::to_string),
+                _ => None,
+            })
+            .collect();
+        ticks += 1;
+        let core = sim.core();
+        let Some(frame) = core.estimator().frame().copied() else {
+            continue;
+        };
+        let truth = *sim.world().truth();
+        let position = true_local(&sim, &frame, truth.north_m, truth.east_m);
+        let yaw = wrap_pi(truth.yaw_rad + frame_rotation(&sim, &frame));
+        if let Some(last) = last_pos {
+            odometer_m += last.distance_to(&position);
+        }
+        last_pos = Some(position);
+
+        let nav = core.navigator();
+        let (Some(target), Some(path)) = (nav.target().copied(), nav.path()) else {
+            if core.mission_state() == ExecState::Complete {
+                record.completion_s = Some(sim.time().as_secs_f64() - start_s);
+                break;
+            }
+            continue;
+        };
+        let key = LegKey {
+            seq: target.seq,
+            from: nav.leg_start(),
+            point: target.point,
+        };
+        if leg != Some(key) {
+            leg = Some(key);
+            piece = 0;
+            within_since_s = None;
+            // A leg that starts with a change of heading and no arc is a
+            // turn too (a corner too tight for an arc).
+            let start_heading = path.heading_at(0.0);
+            if last_heading.is_some_and(|h| wrap_pi(h - start_heading).abs() > 1f64.to_radians())
+                && !matches!(path.pieces()[0], Piece::Arc(_))
+            {
+                turn_end_odometer_m = odometer_m;
+            }
+            if keep_plot {
+                record.plot.add_leg(path);
+            }
+        }
+        let projection = path.project(&position, piece);
+        piece = projection.piece;
+        last_heading = Some(path.heading_at(path.end_m()));
+        let error = projection.crosstrack_m;
+        let on_arc = matches!(path.pieces()[piece], Piece::Arc(_));
+        if on_arc {
+            turn_end_odometer_m = odometer_m;
+        }
+        // Only while the vehicle drives the leg (not resting at a stop).
+        let moving = truth.speed_mps.abs() > 0.01;
+        let reverse = target.direction == Direction::Reverse;
+        let class = if !moving {
+            plot::Class::Other
+        } else if on_arc {
+            record.arc_m.push(error);
+            if reverse {
+                record.reverse_arc_m.push(error);
+            } else {
+                record.forward_arc_m.push(error);
+            }
+            plot::Class::Arc
+        } else if odometer_m - turn_end_odometer_m >= AFTER_TURN_M {
+            record.straight_m.push(error);
+            if reverse {
+                record.reverse_straight_m.push(error);
+            } else {
+                record.forward_straight_m.push(error);
+            }
+            plot::Class::Straight
+        } else {
+            plot::Class::Other
+        };
+        if trace {
+            let st = nav.status();
+            let est = core.estimator().estimate().position;
+            let along_true = path.project(&position, piece).along_m;
+            let along_est = path.project(&est, piece).along_m;
+            record.trace.push(format!(
+                "{:.2},{},{},{:?},{:.1},{:.1},{:.1},{:.3},{:.3},{:.1},{:.4},{:.3},{:.3},{:.3},{}",
+                sim.time().as_secs_f64(),
+                target.seq.unwrap_or(0),
+                piece,
+                class,
+                error * 1000.0,
+                st.crosstrack_m * 1000.0,
+                (along_est - along_true) * 1000.0,
+                st.tracker.steer_rad.to_degrees(),
+                st.tracker.feedforward_rad.to_degrees(),
+                st.tracker.lateral_error_m * 1000.0,
+                st.tracker.yaw_error_rad.to_degrees(),
+                st.speed.speed_mps,
+                truth.speed_mps,
+                truth.steer_rad.to_degrees(),
+                st.tracker.capturing as u8,
+            ));
+        }
+        if keep_plot && ticks.is_multiple_of(5) {
+            record.plot.add_sample(position, odometer_m, error, class);
+        }
+
+        let to_go_m = (path.end_m() - projection.along_m).hypot(error);
+        if target.stop && to_go_m <= SETTLE_WINDOW_M && within_since_s.is_none() {
+            within_since_s = Some(sim.time().as_secs_f64());
+        }
+        for text in texts.iter().filter(|t| t.starts_with("Stop")) {
+            let (reported_mm, reported_yaw_deg) = parse_reported(text).unwrap_or((f64::NAN, f64::NAN));
+            let flip = if target.direction == Direction::Reverse {
+                std::f64::consts::PI
+            } else {
+                0.0
+            };
+            let along = path.end_m() - projection.along_m;
+            record.stops.push(StopRecord {
+                seq: target.seq.unwrap_or(0),
+                position_m: along.hypot(error),
+                along_m: along,
+                crosstrack_m: error,
+                yaw_rad: wrap_pi(yaw - path.heading_at(path.end_m()) - flip),
+                reported_mm,
+                reported_yaw_deg,
+                estimate_error_m: core.estimator().estimate().position.distance_to(&position),
+                estimate_yaw_error_rad: wrap_pi(core.estimator().estimate().yaw_rad - yaw),
+                settle_s: within_since_s.map(|t| sim.time().as_secs_f64() - t),
+                direction: target.direction,
+            });
+        }
+        if core.mission_state() == ExecState::Complete && core.navigator().target().is_none() {
+            record.completion_s = Some(sim.time().as_secs_f64() - start_s);
+            break;
+        }
+    }
+    record.core_tick_overruns = sim.core().scheduler().tick_stats().overruns;
+    record
+}
+
+/// The simulator's point in the autopilot's frame, through WGS-84.
+fn true_local(sim: &Simulation, frame: &LocalFrame, north_m: f64, east_m: f64) -> Ned {
+    let g = sim.world().local_to_geodetic(north_m, east_m);
+    frame.to_local(&GeoPoint::new(g.lat_deg, g.lon_deg, g.alt_m))
+}
+
+/// How much the autopilot's north axis is turned from the simulator's at
+/// the vehicle (zero for the same tangent plane; a projection's grid
+/// convergence otherwise).
+fn frame_rotation(sim: &Simulation, frame: &LocalFrame) -> f64 {
+    let truth = sim.world().truth();
+    let a = true_local(sim, frame, truth.north_m, truth.east_m);
+    let b = true_local(sim, frame, truth.north_m + 10.0, truth.east_m);
+    a.bearing_to(&b)
+}
+
+/// "Stop #8: 3.2 mm, yaw 0.010 deg, …" → (3.2, 0.010).
+fn parse_reported(text: &str) -> Option<(f64, f64)> {
+    let rest = text.split(": ").nth(1)?;
+    let mm = rest.split(" mm").next()?.trim().parse().ok()?;
+    let yaw = rest.split("yaw ").nth(1)?.split(" deg").next()?.trim().parse().ok()?;
+    Some((mm, yaw))
+}
+
+fn quantile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let rank = (q * (sorted.len() - 1) as f64).round() as usize;
+    sorted[rank.min(sorted.len() - 1)]
+}
+
+/// RMS, p95, p99, max of |error|, in mm.
+fn error_figures(errors: impl Iterator<Item = f64>) -> Option<(f64, f64, f64, f64)> {
+    let mut abs: Vec<f64> = errors.map(f64::abs).collect();
+    if abs.is_empty() {
+        return None;
+    }
+    abs.sort_by(f64::total_cmp);
+    let rms = (abs.iter().map(|e| e * e).sum::<f64>() / abs.len() as f64).sqrt();
+    Some((
+        rms * 1000.0,
+        quantile(&abs, 0.95) * 1000.0,
+        quantile(&abs, 0.99) * 1000.0,
+        abs[abs.len() - 1] * 1000.0,
+    ))
+}
+
+fn report(course: &Course, runs: &[RunRecord], wall: Duration) {
+    let seeds = runs.len();
+    println!();
+    println!("## {} ({} seeds, {:.1} s wall)", course.name, seeds, wall.as_secs_f64());
+    println!();
+    println!("| lateral error (true pose) | samples | RMS mm | p95 mm | p99 mm | max mm |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    for (label, pick) in [
+        (
+            "straights (≥ 3 m after a turn)",
+            (|r: &RunRecord| &r.straight_m) as fn(&RunRecord) -> &Vec<f64>,
+        ),
+        ("arcs", |r: &RunRecord| &r.arc_m),
+    ] {
+        let n: usize = runs.iter().map(|r| pick(r).len()).sum();
+        match error_figures(runs.iter().flat_map(|r| pick(r).iter().copied())) {
+            Some((rms, p95, p99, max)) => {
+                println!("| {label} | {n} | {rms:.1} | {p95:.1} | {p99:.1} | {max:.1} |")
+            }
+            None => println!("| {label} | 0 | – | – | – | – |"),
+        }
+    }
+    println!();
+
+    let mut seqs: Vec<u16> = runs.iter().flat_map(|r| r.stops.iter().map(|s| s.seq)).collect();
+    seqs.sort_unstable();
+    seqs.dedup();
+    let (tol_m, tol_deg) = (0.010, 0.05);
+    if !seqs.is_empty() {
+        println!(
+            "| stop (item) | stops | within 10 mm & 0.05° | p95 mm | worst mm | worst along / across mm | p95 yaw ° | worst yaw ° | autopilot's own p95 mm / worst yaw ° | estimate error p95 mm / worst yaw ° |"
+        );
+        println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    }
+    let mut all_within = 0;
+    let mut all = 0;
+    for seq in &seqs {
+        let stops: Vec<&StopRecord> = runs
+            .iter()
+            .flat_map(|r| r.stops.iter().filter(|s| s.seq == *seq))
+            .collect();
+        let within = stops
+            .iter()
+            .filter(|s| s.position_m <= tol_m && s.yaw_rad.to_degrees().abs() <= tol_deg)
+            .count();
+        all_within += within;
+        all += stops.len();
+        let mut pos: Vec<f64> = stops.iter().map(|s| s.position_m * 1000.0).collect();
+        pos.sort_by(f64::total_cmp);
+        let mut yaw: Vec<f64> = stops.iter().map(|s| s.yaw_rad.to_degrees().abs()).collect();
+        yaw.sort_by(f64::total_cmp);
+        let mut own: Vec<f64> = stops.iter().map(|s| s.reported_mm).collect();
+        own.sort_by(f64::total_cmp);
+        let mut estimate: Vec<f64> = stops.iter().map(|s| s.estimate_error_m * 1000.0).collect();
+        estimate.sort_by(f64::total_cmp);
+        let worst = stops
+            .iter()
+            .max_by(|a, b| a.position_m.total_cmp(&b.position_m))
+            .expect("a stop");
+        println!(
+            "| #{seq} | {} | {within} ({:.0} %) | {:.1} | {:.1} | {:.1} / {:.1} | {:.3} | {:.3} | {:.1} / {:.3} | {:.1} / {:.3} |",
+            stops.len(),
+            100.0 * within as f64 / stops.len() as f64,
+            quantile(&pos, 0.95),
+            pos[pos.len() - 1],
+            worst.along_m * 1000.0,
+            worst.crosstrack_m * 1000.0,
+            quantile(&yaw, 0.95),
+            yaw[yaw.len() - 1],
+            quantile(&own, 0.95),
+            stops.iter().map(|s| s.reported_yaw_deg.abs()).fold(0.0, f64::max),
+            quantile(&estimate, 0.95),
+            stops
+                .iter()
+                .map(|s| s.estimate_yaw_error_rad.to_degrees().abs())
+                .fold(0.0, f64::max),
+        );
+    }
+    if all > 0 {
+        println!();
+        println!(
+            "stops within 10 mm and 0.05°: {all_within} of {all} ({:.1} %)",
+            100.0 * all_within as f64 / all as f64
+        );
+    }
+    let mut times: Vec<f64> = runs.iter().filter_map(|r| r.completion_s).collect();
+    times.sort_by(f64::total_cmp);
+    let failed = seeds - times.len();
+    if times.is_empty() {
+        println!("completion: no run finished");
+    } else {
+        println!(
+            "completion time: median {:.1} s (min {:.1}, max {:.1}){}",
+            quantile(&times, 0.5),
+            times[0],
+            times[times.len() - 1],
+            if failed > 0 {
+                format!(", {failed} runs did NOT finish")
+            } else {
+                String::new()
+            }
+        );
+    }
+    let overruns: u64 = runs.iter().map(|r| r.core_tick_overruns).sum();
+    println!("core tick overruns: {overruns}");
+}
+
+/// Cross-track error by the direction each leg is driven in (the main table
+/// mixes both).
+fn report_directions(runs: &[RunRecord]) {
+    println!();
+    println!("| lateral error by direction (true pose) | samples | RMS mm | p95 mm | p99 mm | max mm |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    type Pick = fn(&RunRecord) -> &Vec<f64>;
+    let rows: [(&str, Pick); 4] = [
+        ("straights forward", |r| &r.forward_straight_m),
+        ("straights reverse", |r| &r.reverse_straight_m),
+        ("arcs forward", |r| &r.forward_arc_m),
+        ("arcs reverse", |r| &r.reverse_arc_m),
+    ];
+    for (label, pick) in rows {
+        let errors: Vec<f64> = runs.iter().flat_map(|r| pick(r).iter().copied()).collect();
+        match error_figures(errors.iter().copied()) {
+            Some((rms, p95, p99, max)) => println!(
+                "| {label} | {} | {rms:.1} | {p95:.1} | {p99:.1} | {max:.1} |",
+                errors.len()
+            ),
+            None => println!("| {label} | 0 | – | – | – | – |"),
+        }
+    }
+}
+
+/// How long stops take to settle: from first coming within 30 mm of the
+/// point (true pose) to the stop report, by direction of the approach.
+fn report_settling(runs: &[RunRecord]) {
+    println!();
+    println!(
+        "| stop settling (within 30 mm → report) | stops | median s | p95 s | max s | worst stop | never within 30 mm |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|");
+    for (label, direction) in [("forward", Direction::Forward), ("reverse", Direction::Reverse)] {
+        let stops: Vec<&StopRecord> = runs
+            .iter()
+            .flat_map(|r| r.stops.iter())
+            .filter(|s| s.direction == direction)
+            .collect();
+        let never = stops.iter().filter(|s| s.settle_s.is_none()).count();
+        let mut times: Vec<(f64, u16)> = stops.iter().filter_map(|s| s.settle_s.map(|t| (t, s.seq))).collect();
+        times.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let Some(&(max_s, worst_seq)) = times.last() else {
+            println!("| {label} | {} | – | – | – | – | {never} |", stops.len());
+            continue;
+        };
+        let seconds: Vec<f64> = times.iter().map(|t| t.0).collect();
+        println!(
+            "| {label} | {} | {:.1} | {:.1} | {max_s:.1} | #{worst_seq} | {never} |",
+            stops.len(),
+            quantile(&seconds, 0.5),
+            quantile(&seconds, 0.95),
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reported_stop_error_is_parsed() {
+        assert_eq!(
+            parse_reported("Stop #8: 3.2 mm, yaw 0.010 deg, in tolerance"),
+            Some((3.2, 0.01))
+        );
+        assert_eq!(
+            parse_reported("Stop: 12.0 mm, yaw -0.1 deg, OUT of tolerance"),
+            Some((12.0, -0.1))
+        );
+    }
+
+    #[test]
+    fn built_in_courses_load() {
+        let courses = load_courses(&[]).unwrap();
+        assert_eq!(courses.len(), 2);
+        assert_eq!(courses[0].items.len(), 26);
+        assert!((courses[0].home.lat_deg - 29.133).abs() < 1e-9);
+    }
+
+    /// The whole measurement on one short run: the AGV course finishes and
+    /// every precision stop is seen.
+    #[test]
+    fn one_agv_course_run_finishes_with_its_stops() {
+        let courses = load_courses(&[]).unwrap();
+        let record = run_course(
+            &courses[0],
+            &RunOptions {
+                seed: 1,
+                model: ModelKind::Ackermann,
+                heading_deg: 0.0,
+                timeout_s: 900.0,
+                keep_plot: false,
+                trace: false,
+                params: &[],
+            },
+        );
+        assert!(record.completion_s.is_some());
+        let seqs: Vec<u16> = record.stops.iter().map(|s| s.seq).collect();
+        assert_eq!(seqs, vec![4, 8, 15, 19, 25], "direction changes, pickup, release, end");
+        assert!(!record.straight_m.is_empty() && !record.arc_m.is_empty());
+    }
+}
