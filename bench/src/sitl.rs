@@ -228,7 +228,7 @@ fn param_set(stream: &mut TcpStream, name: &str, value: f32) -> Result<(), Strin
         param_value: value,
         target_system: 1,
         target_component: 1,
-        param_id: super::safety::gcs_client::param_id(name).into(),
+        param_id: crate::safety::gcs_client::param_id(name).into(),
         param_type: mavlink::dialects::ardupilotmega::MavParamType::MAV_PARAM_TYPE_REAL32,
     });
     mavlink::write_v2_msg(stream, gcs::GCS_HEADER, &msg).map_err(|e| format!("PARAM_SET {name}: {e}"))?;
