@@ -979,48 +979,6 @@ fn hours_of_driving_keep_the_covariance_positive_definite() {
 }
 
 #[test]
-fn cost_per_step() {
-    // Measured, not asserted: a debug build is many times slower than the
-    // release figures quoted in the module documentation.
-    let mut ekf = running_filter();
-    let n = if cfg!(debug_assertions) { 2_000 } else { 200_000 };
-    let s = ekf.state();
-    let (an, ae) = (s.north_m + 0.5 * s.yaw_rad.cos(), s.east_m + 0.5 * s.yaw_rad.sin());
-    let time = |label: &str, ekf: &mut Ekf, f: &mut dyn FnMut(&mut Ekf)| {
-        let start = std::time::Instant::now();
-        for _ in 0..n {
-            f(ekf);
-        }
-        let ns = start.elapsed().as_nanos() as f64 / n as f64;
-        println!(
-            "cost ({}): {label} {ns:.0} ns",
-            if cfg!(debug_assertions) { "debug" } else { "release" }
-        );
-        ns
-    };
-    time("predict(0.02)", &mut ekf, &mut |e| {
-        let _ = e.predict(0.0);
-        let _ = e.predict(std::hint::black_box(0.02));
-    });
-    let mut ekf2 = ekf.clone();
-    time("update_gnss_position", &mut ekf2, &mut |e| {
-        std::hint::black_box(e.update_gnss_position(an, ae, GNSS_SIGMA_M, GNSS_SIGMA_M));
-    });
-    let mut ekf3 = ekf.clone();
-    time("update_gnss_velocity", &mut ekf3, &mut |e| {
-        std::hint::black_box(e.update_gnss_velocity(1.0, Some(s.yaw_rad), VELOCITY_SIGMA_MPS));
-    });
-    let mut ekf4 = ekf.clone();
-    time("update_heading", &mut ekf4, &mut |e| {
-        std::hint::black_box(e.update_heading(s.yaw_rad, HEADING_SIGMA_RAD));
-    });
-    let mut ekf5 = ekf.clone();
-    time("status", &mut ekf5, &mut |e| {
-        std::hint::black_box(e.status());
-    });
-}
-
-#[test]
 #[ignore = "tuning sweep: EKF_SWEEP='0.3,0.1;0.5,0.1' cargo test --release --test ekf tuning -- --ignored --nocapture"]
 fn tuning() {
     // Pairs of (longitudinal accel σ, curvature rate σ); how the defaults

@@ -2,6 +2,7 @@
 //! Kept out of the `furrow` binary (and so is rand_chacha; the SVG plot is
 //! `autopilot::offline::plot`, shared with `furrow logs plot`).
 
+pub mod ekf_cost;
 pub mod magnetic;
 pub mod obstacles;
 pub mod safety;

@@ -3,7 +3,8 @@
 //!
 //! Two measurements:
 //! 1. in-process: world + core stepped as fast as possible (no sockets), for
-//!    the simulated-per-wall ratio and the core tick distribution;
+//!    the simulated-per-wall ratio and the core tick distribution, then the
+//!    cost of each EKF operation on the filter that drove;
 //! 2. the real process: `furrow sitl --speedup max` started as a child with a
 //!    ground station connected over TCP, for its simulated-per-wall ratio
 //!    (from SYSTEM_TIME), tick figures (from its exit report) and RSS.
@@ -153,6 +154,10 @@ fn in_process(seconds: f64, logging: bool) {
         us(ticks.histogram.quantile_ns(0.99)),
         us(ticks.histogram.max_ns())
     );
+    match sim.core().estimator().ekf() {
+        Some(ekf) => crate::ekf_cost::print(ekf),
+        None => println!("EKF cost: the filter never started"),
+    }
 }
 
 /// Bytes of records in a step's log commands.

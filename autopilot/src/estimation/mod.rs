@@ -171,6 +171,11 @@ impl Estimator {
         self.healthy
     }
 
+    /// The filter itself, once it runs (the benchmarks time it).
+    pub fn ekf(&self) -> Option<&Ekf> {
+        self.ekf.as_ref()
+    }
+
     /// The filter's own report (innovations, σ, counters), once it runs.
     pub fn ekf_status(&self) -> Option<EkfStatus> {
         self.ekf.as_ref().map(Ekf::status)

@@ -1,8 +1,8 @@
 //! An extended Kalman filter for a wheeled ground vehicle (docs/architecture.md §Estimation).
 //!
 //! Pure: no clocks, no I/O, no allocation. The caller owns time and feeds the
-//! filter explicit inputs. Cost measured by the `cost_per_step` test in
-//! `autopilot/tests/ekf.rs` (release, x86-64, one core of a shared machine):
+//! filter explicit inputs. Cost printed by `furrow-bench sitl` (release,
+//! x86-64, one core of a shared machine):
 //! 0.14–0.55 µs per predict, 0.06–0.45 µs per update (heading cheapest,
 //! GNSS position and velocity with their second-order terms dearest), under
 //! 0.1 µs for `status()`, the spread being the machine's load; a debug build
