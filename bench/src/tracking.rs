@@ -729,5 +729,12 @@ mod tests {
         let seqs: Vec<u16> = record.stops.iter().map(|s| s.seq).collect();
         assert_eq!(seqs, vec![4, 8, 15, 19, 25], "direction changes, pickup, release, end");
         assert!(!record.straight_m.is_empty() && !record.arc_m.is_empty());
+        // The course drives legs both ways, and every stop came within 30 mm.
+        assert!(!record.reverse_straight_m.is_empty() && !record.forward_straight_m.is_empty());
+        assert_eq!(
+            record.forward_straight_m.len() + record.reverse_straight_m.len(),
+            record.straight_m.len()
+        );
+        assert!(record.stops.iter().all(|s| s.settle_s.is_some_and(|t| t >= 0.0)));
     }
 }

@@ -135,6 +135,8 @@ pub struct Estimator {
     position_rejecting: bool,
     heading_rejecting: bool,
     healthy: bool,
+    /// Held still with the GNSS agreeing, as of the last update.
+    at_rest: bool,
 }
 
 impl Estimator {
@@ -190,6 +192,9 @@ impl Estimator {
     /// `held_still`: the vehicle is commanded to stand (no drive demand for a
     /// while), so a GNSS speed near zero means it is at rest.
     pub fn update(&mut self, now: Duration, config: &EstimatorConfig, samples: &[GnssSample], held_still: bool) {
+        // At rest as the last samples saw it: the vehicle is not commanded to
+        // move and the GNSS agrees.
+        self.at_rest = held_still && self.gnss_still(now);
         let tuning = self.tuning(config);
         let mut ekf = match self.ekf.take() {
             Some(mut ekf) => {
@@ -213,14 +218,17 @@ impl Estimator {
         }
         // Every tick while at rest, or the speed's process noise between
         // GNSS epochs lets the (unobservable) curvature turn the vehicle.
-        let gnss_still =
-            self.gnss.has_fix(now, Duration::from_secs(1)) && self.gnss.speed_mps.abs() < AT_REST_GNSS_SPEED_MPS;
-        if held_still && gnss_still && ekf.is_initialised() {
+        if held_still && self.gnss_still(now) && ekf.is_initialised() {
             let _ = ekf.update_odometry_speed(0.0, AT_REST_SPEED_SIGMA_MPS);
             let _ = ekf.update_yaw_rate(0.0, AT_REST_YAW_RATE_SIGMA_RAD_S);
         }
         self.publish(&ekf);
         self.ekf = Some(ekf);
+    }
+
+    /// A current fix whose speed says the vehicle stands.
+    fn gnss_still(&self, now: Duration) -> bool {
+        self.gnss.has_fix(now, Duration::from_secs(1)) && self.gnss.speed_mps.abs() < AT_REST_GNSS_SPEED_MPS
     }
 
     /// Advances the filter to the sample's time (or keeps it where it is for
@@ -327,12 +335,31 @@ impl Estimator {
         frame
     }
 
-    /// The filter's tuning for the current fix: the slowly wandering part of
-    /// the GNSS error is `EKF_GPS_WALK` with RTK fixed, and most of the error
-    /// of a float or single fix (which averaging does not remove).
+    /// The filter's tuning for the current fix and motion: the slowly
+    /// wandering part of the GNSS error is `EKF_GPS_WALK` with RTK fixed, and
+    /// most of the error of a float or single fix (which averaging does not
+    /// remove). At rest a vehicle that can turn on the spot does not start
+    /// pivoting unannounced (that takes a drive demand, which ends the rest):
+    /// without pivot noise its heading averages down like a car's instead of
+    /// following the heading sensor's noise.
     fn tuning(&self, config: &EstimatorConfig) -> EkfConfig {
         let slow = 0.7 * GnssStatus::quality_sigma_floor_m(self.fix_quality);
         EkfConfig {
+            pivot_yaw_accel_sigma_radps2: if self.at_rest {
+                0.0
+            } else {
+                config.ekf.pivot_yaw_accel_sigma_radps2
+            },
+            curvature_rate_sigma_per_m_s: if self.at_rest {
+                0.0
+            } else {
+                config.ekf.curvature_rate_sigma_per_m_s
+            },
+            long_accel_sigma_mps2: if self.at_rest {
+                0.0
+            } else {
+                config.ekf.long_accel_sigma_mps2
+            },
             gnss_walk_sigma_m: if self.fix_quality == Some(FixQuality::RtkFixed) || self.fix_quality.is_none() {
                 config.ekf.gnss_walk_sigma_m
             } else {
