@@ -147,7 +147,7 @@ pub fn plan(start: &Pose, goal: Ned, yaw_rad: Option<f64>, config: &ManoeuvreCon
     .iter()
     .chain(yaw_rad.as_ref())
     .all(|v| v.is_finite());
-    if !finite || !(config.radius_m > 0.0 && config.approach_m >= 0.0) {
+    if !(finite && config.radius_m > 0.0 && config.approach_m >= 0.0) {
         return Err(Refusal::Invalid);
     }
     let headings: Vec<f64> = match yaw_rad {
