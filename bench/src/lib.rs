@@ -4,6 +4,7 @@
 
 pub mod ekf_cost;
 pub mod magnetic;
+pub mod manoeuvre;
 pub mod obstacles;
 pub mod safety;
 pub mod sitl;

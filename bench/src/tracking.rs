@@ -64,6 +64,10 @@ pub struct TrackingBenchArgs {
     /// tuning).
     #[arg(long)]
     pub trace: bool,
+    /// Only the manoeuvre section (pose goals 1–10 m away and RTL from
+    /// them, both models), with this many seeds.
+    #[arg(long)]
+    pub manoeuvres_only: Option<u64>,
     /// Run with a parameter changed, NAME=VALUE (repeatable): to see what a
     /// gain does to the figures.
     #[arg(long = "param", value_parser = parse_param)]
@@ -154,6 +158,10 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
     if !(args.timeout_s.is_finite() && args.timeout_s > 0.0) {
         return Err(format!("--timeout-s {}: must be a positive number", args.timeout_s));
     }
+    if let Some(seeds) = args.manoeuvres_only {
+        super::manoeuvre::report(seeds.max(1));
+        return Ok(());
+    }
     let courses = load_courses(&args.courses)?;
     // Refuse a bad --param before running anything.
     let mut probe = SimulationParams::new(ModelKind::Ackermann);
@@ -224,6 +232,7 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
     }
     if args.courses.is_empty() {
         super::magnetic::report(args.seeds.min(4));
+        super::manoeuvre::report(1);
     }
     Ok(())
 }

@@ -1,0 +1,161 @@
+//! The manoeuvre section of `furrow bench tracking`: GUIDED pose goals 1–10 m
+//! away in eight directions (ahead, beside, behind, inside the turning
+//! circle), all to be reached facing north as the vehicle starts, then RTL
+//! back home from there, on both vehicle models. Everything is measured
+//! from the simulator's truth: the final pose against the goal
+//! (`WP_STOP_TOL_MM` / `WP_STOP_TOL_DEG`, the defaults 10 mm and 0.05°),
+//! the changes of direction the wheels really made, failsafes, and
+//! "Reached" claims made for a stop the truth has out of tolerance.
+
+use std::time::Duration;
+
+use mavlink::dialects::ardupilotmega::MavMessage;
+
+use autopilot::edge::clock::InstantTimer;
+use autopilot::geo::wrap_pi;
+use autopilot::sitl::gcs;
+use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
+
+const DISTANCES_M: [f64; 4] = [1.0, 3.0, 6.0, 10.0];
+const BEARINGS: usize = 8;
+const TOL_M: f64 = 0.010;
+const TOL_DEG: f64 = 0.05;
+/// A goal not decided within this long counts as not reached.
+const TIMEOUT_S: f64 = 300.0;
+
+/// One goal driven to: what the truth says and what the vehicle claimed.
+#[derive(Clone, Copy, Debug, Default)]
+struct Outcome {
+    within: bool,
+    claimed: bool,
+    position_mm: f64,
+    yaw_deg: f64,
+    direction_changes: usize,
+    failsafes: usize,
+    duration_s: f64,
+}
+
+struct Run {
+    sim: Simulation,
+    timer: InstantTimer,
+}
+
+impl Run {
+    fn new(model: ModelKind, seed: u64) -> Run {
+        let config = SimulationConfig {
+            model,
+            seed,
+            ..SimulationConfig::default()
+        };
+        let mut sim = Simulation::new(&config, SimulationParams::new(model));
+        gcs::connect(&mut sim);
+        let mut run = Run {
+            sim,
+            timer: InstantTimer::default(),
+        };
+        run.drive_until(5.0, |_| false);
+        gcs::send(&mut run.sim, gcs::set_mode(15));
+        gcs::send(&mut run.sim, gcs::arm());
+        run
+    }
+
+    /// Steps until a text satisfies `done` or `seconds` pass; every text.
+    fn drive_until(&mut self, seconds: f64, mut done: impl FnMut(&str) -> bool) -> (Vec<String>, usize, bool) {
+        let end = self.sim.time().as_secs_f64() + seconds;
+        let mut texts = Vec::new();
+        let mut changes = 0;
+        let mut last_sign = 0.0;
+        while self.sim.time().as_secs_f64() < end {
+            let out = self.sim.step(Duration::ZERO, &mut self.timer);
+            for o in out.mavlink.drain(..) {
+                if let MavMessage::STATUSTEXT(t) = o.message {
+                    texts.push(t.text.to_str().unwrap_or("").to_string());
+                }
+            }
+            let speed = self.sim.world().truth().speed_mps;
+            if speed.abs() > 0.02 {
+                if last_sign != 0.0 && speed.signum() != last_sign {
+                    changes += 1;
+                }
+                last_sign = speed.signum();
+            }
+            if texts.last().is_some_and(|t| done(t)) {
+                return (texts, changes, true);
+            }
+        }
+        (texts, changes, false)
+    }
+
+    fn goal(&mut self, message: MavMessage, north_m: f64, east_m: f64) -> Outcome {
+        let start_s = self.sim.time().as_secs_f64();
+        gcs::send(&mut self.sim, message);
+        let verdict = |t: &str| t.starts_with("Reached destination") || t.starts_with("Destination NOT reached");
+        let (texts, direction_changes, _) = self.drive_until(TIMEOUT_S, verdict);
+        // Let the claim's stop be measured at rest.
+        self.drive_until(1.0, |_| false);
+        let t = self.sim.world().truth();
+        let position_mm = (t.north_m - north_m).hypot(t.east_m - east_m) * 1000.0;
+        let yaw_deg = wrap_pi(t.yaw_rad).to_degrees();
+        Outcome {
+            within: position_mm <= TOL_M * 1000.0 && yaw_deg.abs() <= TOL_DEG,
+            claimed: texts.iter().any(|t| t.starts_with("Reached destination")),
+            position_mm,
+            yaw_deg,
+            direction_changes,
+            failsafes: texts.iter().filter(|t| t.contains("ailsafe")).count(),
+            duration_s: self.sim.time().as_secs_f64() - start_s,
+        }
+    }
+}
+
+/// Runs every goal (and RTL from it) on both models with `seeds` seeds
+/// each and prints the table.
+pub fn report(seeds: u64) {
+    println!();
+    println!(
+        "## manoeuvres: GUIDED to a pose {DISTANCES_M:?} m away in {BEARINGS} directions, facing north as at the start, then RTL (seeds 1..={seeds}; truth)"
+    );
+    println!();
+    println!(
+        "| model | leg | goals | reached within 10 mm & 0.05° | false \"Reached\" | most direction changes | failsafes | p95 mm | worst mm | worst yaw ° | median s |"
+    );
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for model in [ModelKind::Ackermann, ModelKind::Differential] {
+        let (mut guided, mut rtl) = (Vec::new(), Vec::new());
+        for seed in 1..=seeds {
+            for (i, &distance) in DISTANCES_M.iter().enumerate() {
+                for b in 0..BEARINGS {
+                    let bearing = (b as f64 * 360.0 / BEARINGS as f64).to_radians();
+                    let (north, east) = (distance * bearing.cos(), distance * bearing.sin());
+                    let mut run = Run::new(model, seed * 100 + (i * BEARINGS + b) as u64);
+                    let target = gcs::local_pose_target(&run.sim, north, east, 0.0);
+                    guided.push(run.goal(target, north, east));
+                    rtl.push(run.goal(gcs::set_mode(11), 0.0, 0.0));
+                }
+            }
+        }
+        print_row(model, "GUIDED", &guided);
+        print_row(model, "RTL", &rtl);
+    }
+}
+
+fn print_row(model: ModelKind, leg: &str, outcomes: &[Outcome]) {
+    let n = outcomes.len();
+    let within = outcomes.iter().filter(|o| o.within).count();
+    let false_claims = outcomes.iter().filter(|o| o.claimed && !o.within).count();
+    let changes = outcomes.iter().map(|o| o.direction_changes).max().unwrap_or(0);
+    let failsafes: usize = outcomes.iter().map(|o| o.failsafes).sum();
+    let mut mm: Vec<f64> = outcomes.iter().map(|o| o.position_mm).collect();
+    mm.sort_by(f64::total_cmp);
+    let mut secs: Vec<f64> = outcomes.iter().map(|o| o.duration_s).collect();
+    secs.sort_by(f64::total_cmp);
+    let worst_yaw = outcomes.iter().map(|o| o.yaw_deg.abs()).fold(0.0, f64::max);
+    let at = |v: &[f64], q: f64| v[((q * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
+    println!(
+        "| {model:?} | {leg} | {n} | {within} ({:.0} %) | {false_claims} | {changes} | {failsafes} | {:.1} | {:.1} | {worst_yaw:.3} | {:.0} |",
+        100.0 * within as f64 / n as f64,
+        at(&mm, 0.95),
+        mm[n - 1],
+        at(&secs, 0.5),
+    );
+}
