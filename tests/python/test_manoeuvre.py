@@ -1,0 +1,59 @@
+"""A pose goal beside the rover and RTL with home behind it, as a ground
+station drives them: DO_REPOSITION with a heading (param 4), then RTL; the
+final pose is checked from the telemetry (GLOBAL_POSITION_INT, ATTITUDE),
+and every "Reached destination" against it."""
+
+import math
+import time
+
+from gcs import command, distance, mavlink, offset, position, recv, wait_mode
+
+
+def wait_verdict(m, seconds):
+    """STATUSTEXTs until GUIDED/RTL says whether it got there."""
+    texts = []
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        msg = recv(m, "STATUSTEXT", 2)
+        if msg is None:
+            continue
+        texts.append(msg.text)
+        if msg.text.startswith("Reached destination") or msg.text.startswith("Destination NOT reached"):
+            return msg.text, texts
+    raise AssertionError(f"no verdict: {texts}")
+
+
+def yaw_deg(m):
+    return math.degrees(recv(m, "ATTITUDE").yaw)
+
+
+def test_rtl_with_home_behind_ends_on_home_facing_the_start_heading(start_sitl):
+    m = start_sitl().tcp()
+    lat0, lon0 = position(m)
+    start_yaw = yaw_deg(m)
+    ack = command(m, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+    assert ack.result == mavlink.MAV_RESULT_ACCEPTED
+
+    # 4 m ahead and 5 m to the right, facing east: beside the rover.
+    target = offset(lat0, lon0, 4, 5)
+    m.mav.command_int_send(
+        m.target_system, m.target_component, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_DO_REPOSITION, 0, 0,
+        -1, mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, 0, 90, int(target[0] * 1e7), int(target[1] * 1e7), 0)
+    ack = recv(m, "COMMAND_ACK", 5, lambda a: a.command == mavlink.MAV_CMD_DO_REPOSITION)
+    assert ack.result == mavlink.MAV_RESULT_ACCEPTED
+    assert wait_mode(m, "GUIDED")
+    verdict, texts = wait_verdict(m, 120)
+    assert verdict.startswith("Reached destination"), texts
+    assert distance(*position(m), *target) < 0.03
+    assert abs((yaw_deg(m) - 90 + 180) % 360 - 180) < 0.2
+
+    # Home is now behind-left of a rover facing east: RTL manoeuvres back
+    # onto it, facing north as it started.
+    m.set_mode("RTL")
+    assert wait_mode(m, "RTL")
+    verdict, texts = wait_verdict(m, 120)
+    assert verdict == "Reached destination: home", texts
+    assert not any("ailsafe" in t for t in texts), texts
+    # GLOBAL_POSITION_INT's 1e-7° steps are about 1 cm.
+    assert distance(*position(m), lat0, lon0) < 0.03
+    assert abs((yaw_deg(m) - start_yaw + 180) % 360 - 180) < 0.2
