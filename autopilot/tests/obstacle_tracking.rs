@@ -2,6 +2,8 @@
 //! (radius 0.25 m) and walls ray-cast by a 270°, 0.5° scanner at 50 Hz with
 //! 10 mm of range noise.
 
+mod common;
+
 use std::f64::consts::PI;
 use std::time::Duration;
 
@@ -9,41 +11,13 @@ use autopilot::geo::Ned;
 use autopilot::obstacles::cluster::{Cluster, ClusterConfig, ScanPoint, cluster_points, scan_points};
 use autopilot::obstacles::tracking::{ObstacleTracker, TrackingConfig, TrackingStatus};
 use autopilot::obstacles::{Pose, ScannerMount, Track, TrackStatus};
+use common::noise::Noise;
 use drivers::scanner::Scan;
 
 const STEP_RAD: f64 = 0.5 * PI / 180.0;
 const SCAN_PERIOD_MS: u64 = 20;
 const RANGE_NOISE_M: f64 = 0.010;
 const MAX_RANGE_M: f64 = 20.0;
-
-/// SplitMix64 + Box–Muller: deterministic noise without extra crates.
-struct Rng(u64, Option<f64>);
-
-impl Rng {
-    fn new(seed: u64) -> Self {
-        Rng(seed, None)
-    }
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn uniform(&mut self) -> f64 {
-        ((self.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-    fn gauss(&mut self) -> f64 {
-        if let Some(v) = self.1.take() {
-            return v;
-        }
-        let (u1, u2) = (self.uniform(), self.uniform());
-        let m = (-2.0 * u1.ln()).sqrt();
-        let a = std::f64::consts::TAU * u2;
-        self.1 = Some(m * a.sin());
-        m * a.cos()
-    }
-}
 
 /// A round object moving at constant velocity.
 #[derive(Clone, Copy, Debug)]
@@ -85,7 +59,7 @@ fn ray_cast(
     mount: &ScannerMount,
     people: &[Person],
     walls: &[(Ned, Ned)],
-    rng: &mut Rng,
+    rng: &mut Noise,
 ) -> Scan {
     // Local (north, east) as a complex number n + i·e: a clockwise yaw ψ
     // from north multiplies by e^{iψ}.
@@ -120,7 +94,7 @@ fn ray_cast(
                 }
             }
             if best <= MAX_RANGE_M {
-                (best + RANGE_NOISE_M * rng.gauss()) as f32
+                (best + RANGE_NOISE_M * rng.normal()) as f32
             } else {
                 f32::NAN
             }
@@ -173,7 +147,7 @@ fn a_walking_persons_velocity_converges_within_a_second() {
     let runs = 40;
     let (mut sq_err, mut worst, mut sq_pos) = (0.0f64, 0.0f64, 0.0f64);
     for run in 0..runs {
-        let mut rng = Rng::new(1000 + run);
+        let mut rng = Noise::new(1000 + run);
         let depth = 3.0 + 0.1 * run as f64;
         let person = Person::walking(Ned::new(depth, -2.0 + 0.013 * run as f64), 0.0, 1.5);
         let mut pipeline = Pipeline::default();
@@ -217,7 +191,7 @@ fn a_walking_persons_velocity_converges_within_a_second() {
 fn follow_two(seed: u64, a: Person, b: Person, close: (f64, f64)) -> Vec<Vec<Track>> {
     let pose = Pose::default();
     let mount = ScannerMount::default();
-    let mut rng = Rng::new(seed);
+    let mut rng = Noise::new(seed);
     let mut pipeline = Pipeline::default();
     let mut ids: Option<(u32, u32)> = None;
     let mut history = Vec::new();
@@ -302,7 +276,7 @@ fn a_standing_person_seen_from_a_moving_turning_vehicle_stands_still() {
         yaw_rad: -0.6,
     };
     let person = Person::walking(Ned::new(6.0, 1.0), 0.0, 0.0);
-    let mut rng = Rng::new(5);
+    let mut rng = Noise::new(5);
     let mut pipeline = Pipeline::default();
     for k in 0..150u64 {
         let t = time_s(k);
@@ -340,7 +314,7 @@ fn two_scanners_seeing_one_person_make_one_track() {
         yaw_rad: 3.0 * PI / 4.0,
     };
     let person = Person::walking(Ned::new(0.0, 3.0), 1.0, 0.0);
-    let mut rng = Rng::new(9);
+    let mut rng = Noise::new(9);
     let mut pipeline = Pipeline::default();
     let mut births = 0;
     for k in 0..100u64 {
@@ -372,7 +346,7 @@ fn a_track_is_confirmed_after_n_scans_and_deleted_after_the_timeout() {
     person.from_s = 0.5;
     person.until_s = 1.5;
     let wall = (Ned::new(8.0, -5.0), Ned::new(8.0, 5.0));
-    let mut rng = Rng::new(3);
+    let mut rng = Noise::new(3);
     let mut pipeline = Pipeline::default();
     let (mut confirmed_at, mut deleted_at) = (None, None);
     for k in 0..200u64 {

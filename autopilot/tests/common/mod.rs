@@ -2,6 +2,8 @@
 //! same `Inbound`/`Outbound` messages the link layer carries.
 #![allow(dead_code)]
 
+pub mod noise;
+
 use std::time::Duration;
 
 use autopilot::sitl::gcs;
