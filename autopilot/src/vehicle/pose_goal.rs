@@ -156,7 +156,10 @@ impl Core {
             }
         }
         let off = wrap_pi(bearing - start.yaw_rad).abs();
-        let far = distance >= FAR_RADII * config.radius_m + config.approach_m && off <= FRAC_PI_2;
+        // A goal with a heading needs room for the final manoeuvre's
+        // approach as well; one without is reached by the leg alone.
+        let approach_m = if goal.yaw_rad.is_some() { config.approach_m } else { 0.0 };
+        let far = distance >= FAR_RADII * config.radius_m + approach_m && off <= FRAC_PI_2;
         let heading_fits = goal.yaw_rad.is_none_or(|yaw| wrap_pi(yaw - bearing).abs() <= tolerance);
         far.then_some((Direction::Forward, !heading_fits))
     }
