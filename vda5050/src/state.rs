@@ -75,8 +75,8 @@ pub enum OperatingMode {
     TeachIn,
 }
 
-/// A node of the order not yet reached. The state's `nodePosition` has no
-/// deviations, so `allowed_deviation_*` must be left `None` here.
+/// A node of the order not yet reached. The state schema's `nodePosition`
+/// lists only x, y, theta and mapId: leave `allowed_deviation_*` `None` here.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
 pub struct NodeState {
