@@ -172,16 +172,10 @@ mod tests {
         b.build()
     }
 
-    fn temp_dir(tag: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("params-store-{tag}-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&d);
-        fs::create_dir_all(&d).unwrap();
-        d
-    }
-
     #[test]
     fn only_non_defaults_are_stored_and_they_load_back() {
-        let dir = temp_dir("roundtrip");
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
         let mut t = table();
         t.set_by_name("WP_SPEED", 3.3).unwrap();
         save(&dir, &Snapshot::of(&t)).unwrap();
@@ -191,12 +185,12 @@ mod tests {
         let report = load(&dir, &mut fresh).unwrap();
         assert_eq!(report.applied, 1);
         assert_eq!(fresh.value_of("WP_SPEED"), Some(f64::from(3.3f32)));
-        fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn corrupt_file_is_moved_aside_and_defaults_used() {
-        let dir = temp_dir("corrupt");
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
         fs::write(dir.join(STORE_FILE), "WP_SPEED,3\nWP_SPE").unwrap();
         let mut t = table();
         let report = load(&dir, &mut t).unwrap();
@@ -204,28 +198,27 @@ mod tests {
         assert!(why.contains("line 2"), "{why}");
         assert!(moved.exists() && !dir.join(STORE_FILE).exists());
         assert_eq!(t.value_of("WP_SPEED"), Some(2.0));
-        fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn unknown_and_out_of_range_entries_are_skipped_with_a_warning() {
-        let dir = temp_dir("warn");
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
         fs::write(dir.join(STORE_FILE), "OLD_PARAM,1\nWP_SPEED,99\nFS_ACTION,1\n").unwrap();
         let mut t = table();
         let report = load(&dir, &mut t).unwrap();
         assert_eq!(report.applied, 1);
         assert_eq!(report.warnings.len(), 2);
         assert_eq!(t.value_of("FS_ACTION"), Some(1.0));
-        fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn atomic_write_leaves_no_temp_file() {
-        let dir = temp_dir("atomic");
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
         write_atomic(&dir.join("x.txt"), b"one").unwrap();
         write_atomic(&dir.join("x.txt"), b"two").unwrap();
         assert_eq!(fs::read(dir.join("x.txt")).unwrap(), b"two");
         assert!(!dir.join("x.txt.tmp").exists());
-        fs::remove_dir_all(dir).unwrap();
     }
 }
