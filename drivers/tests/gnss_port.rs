@@ -7,7 +7,6 @@ use std::fs;
 use std::io::{self, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 use drivers::gnss::port::{GnssPort, GnssPortConfig, GnssSource};
@@ -134,7 +133,7 @@ fn fast_config(source: GnssSource) -> GnssPortConfig {
 /// A temp dir with `gnss0`, a symlink to the slave side of a pty pair,
 /// like udev's stable link to a USB receiver.
 struct FakeSerialReceiver {
-    dir: PathBuf,
+    dir: tempfile::TempDir,
     link: PathBuf,
     /// (master: the receiver's side, slave: held open so the pty lives).
     pair: Option<(TTYPort, TTYPort)>,
@@ -142,15 +141,11 @@ struct FakeSerialReceiver {
 
 impl FakeSerialReceiver {
     fn new(tag: &str) -> Self {
-        static NEXT: AtomicU32 = AtomicU32::new(0);
-        let dir = std::env::temp_dir().join(format!(
-            "furrow-gnss-port-{tag}-{}-{}",
-            std::process::id(),
-            NEXT.fetch_add(1, Ordering::Relaxed)
-        ));
-        let _ = fs::remove_dir_all(&dir);
-        fs::create_dir_all(&dir).expect("temp dir");
-        let link = dir.join("gnss0");
+        let dir = tempfile::Builder::new()
+            .prefix(&format!("furrow-gnss-port-{tag}-"))
+            .tempdir()
+            .expect("temp dir");
+        let link = dir.path().join("gnss0");
         FakeSerialReceiver { dir, link, pair: None }
     }
 
@@ -170,7 +165,7 @@ impl FakeSerialReceiver {
         let (mut master, slave) = TTYPort::pair().expect("pty pair");
         master.set_timeout(Duration::from_millis(50)).expect("timeout");
         let target = slave.name().expect("slave name");
-        let staging = self.dir.join("gnss0.new");
+        let staging = self.dir.path().join("gnss0.new");
         let _ = fs::remove_file(&staging);
         std::os::unix::fs::symlink(&target, &staging).expect("symlink");
         fs::rename(&staging, &self.link).expect("rename");
@@ -186,12 +181,6 @@ impl FakeSerialReceiver {
 
     fn master(&mut self) -> &mut TTYPort {
         &mut self.pair.as_mut().expect("plugged").0
-    }
-}
-
-impl Drop for FakeSerialReceiver {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.dir);
     }
 }
 

@@ -5,7 +5,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
@@ -193,16 +193,11 @@ proptest! {
 
 const DEADLINE: Duration = Duration::from_secs(2);
 
-fn temp_dir() -> PathBuf {
-    static NEXT: AtomicU64 = AtomicU64::new(0);
-    let dir = std::env::temp_dir().join(format!(
-        "furrow-magnetic-{}-{}",
-        std::process::id(),
-        NEXT.fetch_add(1, Ordering::Relaxed)
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
+fn temp_dir() -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix("furrow-magnetic-")
+        .tempdir()
+        .expect("temp dir")
 }
 
 /// Points `link` at `target` atomically (a new link renamed over the old).
@@ -281,7 +276,7 @@ fn next_sample(sensor: &MagneticSerial) -> drivers::magnetic::MagneticSample {
 #[test]
 fn samples_arrive_go_stale_on_unplug_and_resume_on_replug() {
     let dir = temp_dir();
-    let link = dir.join("magnetic");
+    let link = dir.path().join("magnetic");
     let origin = Instant::now();
     let stale_after = Duration::from_millis(150);
 
@@ -307,7 +302,7 @@ fn samples_arrive_go_stale_on_unplug_and_resume_on_replug() {
     assert_eq!(sensor.framer_stats().bad_checksums, 0);
 
     // Unplug: the link now leads nowhere and the pty is gone.
-    point_link(&link, &dir.join("unplugged"));
+    point_link(&link, &dir.path().join("unplugged"));
     drop(first);
     wait_for("disconnect", || !sensor.status().connected);
     wait_for("staleness", || sensor.is_stale(origin.elapsed()));
@@ -340,13 +335,12 @@ fn samples_arrive_go_stale_on_unplug_and_resume_on_replug() {
         start.elapsed()
     );
     drop(second);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn a_port_that_is_not_there_is_retried_and_drop_is_prompt() {
     let dir = temp_dir();
-    let link = dir.join("magnetic");
+    let link = dir.path().join("magnetic");
     let origin = Instant::now();
     let sensor = MagneticSerial::spawn(
         link.to_string_lossy().into_owned(),
@@ -373,5 +367,4 @@ fn a_port_that_is_not_there_is_retried_and_drop_is_prompt() {
         "drop took {:?}",
         start.elapsed()
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }

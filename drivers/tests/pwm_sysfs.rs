@@ -6,7 +6,7 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
@@ -18,6 +18,8 @@ const DEADLINE: Duration = Duration::from_secs(2);
 /// A temporary PWM class directory and, optionally, a thread that answers
 /// `export` writes the way the kernel does.
 struct FakeSysfs {
+    /// Removed on drop, after `Drop::drop` has stopped the kernel thread.
+    _dir: tempfile::TempDir,
     root: PathBuf,
     stop: Arc<AtomicBool>,
     kernel: Option<JoinHandle<()>>,
@@ -25,14 +27,11 @@ struct FakeSysfs {
 
 impl FakeSysfs {
     fn new(with_kernel: bool) -> FakeSysfs {
-        static NEXT: AtomicU64 = AtomicU64::new(0);
-        let root = std::env::temp_dir().join(format!(
-            "furrow-pwm-{}-{}",
-            std::process::id(),
-            NEXT.fetch_add(1, Ordering::Relaxed)
-        ));
-        let _ = fs::remove_dir_all(&root);
-        fs::create_dir_all(&root).expect("temp root");
+        let dir = tempfile::Builder::new()
+            .prefix("furrow-pwm-")
+            .tempdir()
+            .expect("temp root");
+        let root = dir.path().to_path_buf();
         let stop = Arc::new(AtomicBool::new(false));
         let kernel = with_kernel.then(|| {
             let (root, stop) = (root.clone(), stop.clone());
@@ -43,7 +42,12 @@ impl FakeSysfs {
                 }
             })
         });
-        FakeSysfs { root, stop, kernel }
+        FakeSysfs {
+            _dir: dir,
+            root,
+            stop,
+            kernel,
+        }
     }
 
     fn config(&self) -> SysfsPwmConfig {
@@ -96,7 +100,6 @@ impl Drop for FakeSysfs {
         if let Some(kernel) = self.kernel.take() {
             let _ = kernel.join();
         }
-        let _ = fs::remove_dir_all(&self.root);
     }
 }
 
