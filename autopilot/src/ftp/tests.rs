@@ -12,18 +12,24 @@ struct Client {
     files: DataFiles,
     seq: u16,
     dir: PathBuf,
+    /// Holds `dir` and the "outside" file beside it; removed on drop.
+    _scratch: tempfile::TempDir,
 }
 
 impl Client {
     fn new(tag: &str) -> Client {
-        let dir = std::env::temp_dir().join(format!("furrow-ftp-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
+        let scratch = tempfile::Builder::new()
+            .prefix(&format!("furrow-ftp-{tag}-"))
+            .tempdir()
+            .unwrap();
+        let dir = scratch.path().join("data");
+        std::fs::create_dir(&dir).unwrap();
         Client {
             server: Server::default(),
             files: DataFiles::new(&dir),
             seq: 0,
             dir,
+            _scratch: scratch,
         }
     }
 
@@ -190,7 +196,6 @@ fn nothing_outside_the_data_directory_or_owned_by_the_vehicle_is_reachable() {
     let text = String::from_utf8_lossy(&list.data);
     assert!(text.contains("Fparams.parm\t11") && text.contains("D@PARAM"), "{text}");
     assert!(!text.contains("signing.key"), "{text}");
-    let _ = std::fs::remove_file(outside);
 }
 
 #[test]
@@ -266,12 +271,6 @@ impl Client {
         let mut out = Vec::new();
         self.server.handle(&mut self.files, &req, &mut out);
         out.remove(0)
-    }
-}
-
-impl Drop for Client {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.dir);
     }
 }
 

@@ -262,12 +262,6 @@ mod tests {
     use super::*;
     use crate::logging::reader::DataFlashLog;
 
-    fn temp_dir(tag: &str) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("furrow-logedge-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        dir
-    }
-
     fn records(n: usize) -> Vec<u8> {
         let mut out = Vec::new();
         for i in 0..n {
@@ -282,7 +276,9 @@ mod tests {
 
     #[test]
     fn files_rotate_by_size_and_count_and_each_reads_on_its_own() {
-        let data = temp_dir("rotate");
+        // A data directory that does not exist yet, as on a first start.
+        let scratch = tempfile::tempdir().unwrap();
+        let data = scratch.path().join("data");
         let (outbound, _rx) = tokio::sync::mpsc::channel(16);
         let mut logger = Logger::start(&data, outbound);
         let limits = FileLimits {
@@ -307,12 +303,13 @@ mod tests {
             assert_eq!(parsed.skipped_bytes, 0, "each file has its own header");
             assert!(parsed.messages("EV").count() >= 1000);
         }
-        std::fs::remove_dir_all(&data).unwrap();
     }
 
     #[test]
     fn a_full_queue_drops_and_counts_without_waiting() {
-        let data = temp_dir("full");
+        // A data directory that does not exist yet, as on a first start.
+        let scratch = tempfile::tempdir().unwrap();
+        let data = scratch.path().join("data");
         let (outbound, _rx) = tokio::sync::mpsc::channel(16);
         let mut logger = Logger::start(&data, outbound);
         let mut commands: Vec<_> = (0..QUEUE * 4).map(|_| LogCommand::Records(records(1000))).collect();
@@ -323,6 +320,5 @@ mod tests {
         // Records without an open file are discarded; some did not fit.
         assert!(logger.dropped() > 0, "{} dropped", logger.dropped());
         drop(logger);
-        std::fs::remove_dir_all(&data).ok();
     }
 }

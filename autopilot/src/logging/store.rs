@@ -141,15 +141,10 @@ impl LogStore {
 mod tests {
     use super::*;
 
-    fn temp_dir(tag: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("furrow-logstore-{tag}-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&dir);
-        dir
-    }
-
     #[test]
     fn files_are_numbered_rotated_by_count_read_and_erased() {
-        let data = temp_dir("rotate");
+        let scratch = tempfile::tempdir().unwrap();
+        let data = scratch.path().join("data");
         let store = LogStore::new(&data);
         assert!(store.list().is_empty(), "no folder yet");
         for expected in 1..=4u16 {
@@ -168,7 +163,6 @@ mod tests {
         assert_eq!(store.erase_all(Some(4)).unwrap(), 2);
         assert_eq!(store.list().len(), 1);
         assert!(store.read(2, 0, &mut buf).is_err());
-        fs::remove_dir_all(&data).unwrap();
     }
 
     #[test]

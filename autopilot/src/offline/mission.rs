@@ -258,13 +258,6 @@ mod tests {
     use crate::storage::data_dir::Profile;
     use std::fs;
 
-    fn temp(tag: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("furrow-mission-cli-{tag}-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&d);
-        fs::create_dir_all(&d).unwrap();
-        d
-    }
-
     fn bench(name: &str) -> PathBuf {
         PathBuf::from(env!("CARGO_MANIFEST_DIR"))
             .join("../tests/data/bench")
@@ -280,7 +273,8 @@ mod tests {
 
     #[test]
     fn import_list_export_and_back() {
-        let dir = temp("roundtrip");
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         let out = import(&dir, &bench("agv_course.waypoints"), None).unwrap();
         assert!(out.contains("26 mission items imported"), "{out}");
         let (plans, notices) = missions::load_quietly(&dir);
@@ -321,12 +315,12 @@ mod tests {
             before.mission.opaque_id()
         );
         assert!(export(&before, &exported, Some(PlanArg::Fence)).is_err());
-        fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn a_delay_beyond_a_day_is_refused_at_import_and_a_stored_one_is_not_run() {
-        let dir = temp("huge-delay");
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         let huge = "QGC WPL 110\n\
                     0\t1\t0\t16\t0\t0\t0\t0\t29.1330000\t119.6400000\t40\t1\n\
                     1\t0\t2\t93\t1e20\t0\t0\t0\t0\t0\t0\t1\n";
@@ -340,12 +334,12 @@ mod tests {
         let (plans, notices) = missions::load_quietly(&dir);
         assert!(plans.mission.is_empty());
         assert!(notices.iter().any(|(_, n)| n.contains("INVALID_PARAM1")), "{notices:?}");
-        fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn a_bad_file_changes_nothing_and_the_error_names_line_and_result() {
-        let dir = temp("bad");
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         import(&dir, &bench("square_40m.waypoints"), None).unwrap();
         let before = missions::load_quietly(&dir).0;
         let bad = dir.join("bad.waypoints");
@@ -393,12 +387,12 @@ mod tests {
         fs::write(dir.join("x.bin"), "hello").unwrap();
         let e = import(&dir, &dir.join("x.bin"), None).unwrap_err();
         assert!(e.contains("not a mission file"), "{e}");
-        fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn a_running_vehicle_locks_the_directory() {
-        let dir = temp("locked");
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         let held = DataDir::open(&dir, Profile::Sitl(ModelKind::Ackermann)).unwrap();
         let e = run(&args(&dir, MissionAction::List { plan: None })).unwrap_err();
         assert!(e.contains("in use"), "{e}");
@@ -406,6 +400,5 @@ mod tests {
         run(&args(&dir, MissionAction::List { plan: None })).unwrap();
         let e = run(&args(&dir.join("nope"), MissionAction::List { plan: None })).unwrap_err();
         assert!(e.contains("does not exist"), "{e}");
-        fs::remove_dir_all(dir).unwrap();
     }
 }

@@ -225,12 +225,12 @@ mod tests {
 
     #[test]
     fn a_binary_file_names_its_line() {
-        let file = std::env::temp_dir().join(format!("furrow-binary-{}.param", std::process::id()));
+        let scratch = tempfile::Builder::new().suffix(".param").tempfile().unwrap();
+        let file = scratch.path();
         std::fs::write(&file, b"WP_SPEED,2\nWP_RADIUS,\xff\xfe1\n").unwrap();
         let e = read_text(&file).unwrap_err();
         assert!(e.contains("line 2: byte 11 is not UTF-8"), "{e}");
         std::fs::write(&file, b"WP_SPEED,2\n").unwrap();
         assert_eq!(read_text(&file).unwrap(), "WP_SPEED,2\n");
-        std::fs::remove_file(&file).unwrap();
     }
 }

@@ -200,15 +200,10 @@ fn read_profile(path: &Path) -> Result<Option<Profile>, String> {
 mod tests {
     use super::*;
 
-    fn temp(tag: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("furrow-datadir-{tag}-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&d);
-        d
-    }
-
     #[test]
     fn one_process_at_a_time_and_one_profile() {
-        let d = temp("lock");
+        let scratch = tempfile::tempdir().unwrap();
+        let d = scratch.path().join("data");
         let held = DataDir::open(&d, Profile::Sitl(ModelKind::Ackermann)).unwrap();
         let err = DataDir::open_offline(&d).err().expect("locked");
         assert!(err.contains("in use"), "{err}");
@@ -220,12 +215,12 @@ mod tests {
             .err()
             .expect("profile mismatch");
         assert!(err.contains("belongs to"), "{err}");
-        fs::remove_dir_all(d).unwrap();
     }
 
     #[test]
     fn a_directory_that_cannot_be_written_opens_read_only() {
-        let d = temp("read-only");
+        let scratch = tempfile::tempdir().unwrap();
+        let d = scratch.path().join("data");
         let profile = Profile::Sitl(ModelKind::Ackermann);
         assert_eq!(DataDir::open(&d, profile).unwrap().read_only(), None);
         // Saves go through a temporary file; its path taken, none can be made.
@@ -233,6 +228,5 @@ mod tests {
         let dir = DataDir::open(&d, profile).expect("opens, read-only");
         assert!(dir.read_only().is_some_and(|why| !why.is_empty()));
         drop(dir);
-        fs::remove_dir_all(d).unwrap();
     }
 }

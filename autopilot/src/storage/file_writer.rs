@@ -106,13 +106,6 @@ impl Drop for FileWriter {
 mod tests {
     use super::*;
 
-    fn temp_dir(tag: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("furrow-writer-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
-    }
-
     fn wait(rx: &mut UnboundedReceiver<SaveDone>) -> SaveDone {
         let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
         loop {
@@ -126,7 +119,8 @@ mod tests {
 
     #[test]
     fn every_save_is_reported_after_its_file_is_on_disk() {
-        let dir = temp_dir("ok");
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         let (w, mut rx) = FileWriter::start();
         for token in 1..=5 {
             w.save(token, dir.join("a.txt"), format!("{token}").into_bytes());
@@ -140,12 +134,12 @@ mod tests {
         tokens.sort();
         assert_eq!(tokens, vec![1, 2, 3, 4, 5]);
         assert_eq!(std::fs::read_to_string(dir.join("a.txt")).unwrap(), "5");
-        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn a_failed_write_is_reported_with_its_error_and_leaves_the_old_file() {
-        let dir = temp_dir("fail");
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         std::fs::write(dir.join("a.txt"), "old").unwrap();
         // The temporary file's path is taken by a directory.
         std::fs::create_dir(dir.join("a.txt.tmp")).unwrap();
@@ -156,6 +150,5 @@ mod tests {
         let err = done.result.expect_err("the write fails");
         assert!(err.starts_with("a.txt: "), "{err}");
         assert_eq!(std::fs::read_to_string(dir.join("a.txt")).unwrap(), "old");
-        std::fs::remove_dir_all(dir).unwrap();
     }
 }

@@ -146,13 +146,6 @@ mod tests {
     use mission::MissionItem;
     use mission::command::{cmd, frame};
 
-    fn temp_dir(tag: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("furrow-missions-{tag}-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&d);
-        fs::create_dir_all(&d).unwrap();
-        d
-    }
-
     fn wp(seq: u16, x: i32, y: i32) -> MissionItem {
         MissionItem {
             seq,
@@ -187,7 +180,8 @@ mod tests {
 
     #[test]
     fn plans_are_saved_and_load_back_with_the_same_ids() {
-        let dir = temp_dir("roundtrip");
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         save(&dir, MissionType::Mission, &mission()).unwrap();
         save(&dir, MissionType::Rally, &rally()).unwrap();
         let (plans, notices) = load(&dir);
@@ -198,12 +192,12 @@ mod tests {
         assert!(!dir.join("mission.waypoints.tmp").exists());
         let text = fs::read_to_string(dir.join("mission.waypoints")).unwrap();
         assert!(text.starts_with("QGC WPL 110\n0\t0\t3\t16\t"), "{text}");
-        fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn unreadable_and_invalid_files_are_moved_aside_and_never_overwritten() {
-        let dir = temp_dir("corrupt");
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         save(&dir, MissionType::Rally, &rally()).unwrap();
         fs::write(
             dir.join("mission.waypoints"),
@@ -237,12 +231,12 @@ mod tests {
             .filter(|n| n.starts_with("mission.waypoints.corrupt-"))
             .collect();
         assert_eq!(aside.len(), 2, "{aside:?}");
-        fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn the_file_writer_can_save_plans() {
-        let dir = temp_dir("writer");
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         {
             let (w, _done) = crate::storage::file_writer::FileWriter::start();
             w.save(
@@ -257,6 +251,5 @@ mod tests {
         assert!(notices.is_empty());
         assert_eq!(plans.mission.opaque_id(), mission().opaque_id());
         assert_eq!(plans.rally.opaque_id(), rally().opaque_id());
-        fs::remove_dir_all(dir).unwrap();
     }
 }

@@ -199,13 +199,6 @@ impl Drop for KeyFileWriter {
 mod tests {
     use super::*;
 
-    fn temp_dir(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("furrow-signing-key-{name}-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&dir);
-        fs::create_dir_all(&dir).expect("temp dir");
-        dir
-    }
-
     fn sample() -> StoredSigning {
         let mut bytes = [0u8; KEY_LEN];
         for (i, b) in bytes.iter_mut().enumerate() {
@@ -219,7 +212,8 @@ mod tests {
 
     #[test]
     fn round_trip_owner_only() {
-        let dir = temp_dir("round-trip");
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         assert_eq!(load(&dir), Ok(None));
         save(&dir, &sample()).expect("save");
         assert_eq!(load(&dir), Ok(Some(sample())));
@@ -229,19 +223,18 @@ mod tests {
         remove(&dir).expect("remove");
         assert_eq!(load(&dir), Ok(None));
         remove(&dir).expect("removing nothing is fine");
-        let _ = fs::remove_dir_all(&dir);
     }
 
     #[test]
     fn a_leftover_world_readable_temp_file_does_not_leak_its_mode() {
-        let dir = temp_dir("leftover");
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         let tmp = dir.join(format!("{KEY_FILE}.tmp"));
         fs::write(&tmp, "junk").expect("write");
         fs::set_permissions(&tmp, fs::Permissions::from_mode(0o666)).expect("chmod");
         save(&dir, &sample()).expect("save");
         let mode = fs::metadata(path(&dir)).expect("file").permissions().mode();
         assert_eq!(mode & 0o777, 0o600);
-        let _ = fs::remove_dir_all(&dir);
     }
 
     #[test]
@@ -260,17 +253,18 @@ mod tests {
             let err = parse(&text).expect_err("damaged");
             assert!(!err.contains(&hex_line[4..12]), "{err}");
         }
-        let dir = temp_dir("damaged");
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         fs::write(path(&dir), [0xff, 0xfe, 0x00]).expect("write");
         assert!(load(&dir).is_err());
-        let _ = fs::remove_dir_all(&dir);
     }
 
     #[test]
     fn the_writer_keeps_the_newest_and_finishes_on_drop() {
-        let dir = temp_dir("writer");
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         {
-            let writer = KeyFileWriter::start(dir.clone()).expect("start");
+            let writer = KeyFileWriter::start(dir.to_path_buf()).expect("start");
             writer.save(sample());
             writer.remove();
             writer.save(StoredSigning {
@@ -279,6 +273,5 @@ mod tests {
             });
         }
         assert_eq!(load(&dir).expect("loads").map(|s| s.timestamp), Some(7));
-        let _ = fs::remove_dir_all(&dir);
     }
 }
