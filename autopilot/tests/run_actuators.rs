@@ -3,18 +3,16 @@
 //! feeding them; dropping the outputs (process exit) leaves them at trim.
 
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use autopilot::run::actuators::PwmActuators;
 use autopilot::run::config::{PwmOutputSetting, PwmSettings};
 
-fn fake_tree(tag: &str) -> PathBuf {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_nanos());
-    let root = std::env::temp_dir().join(format!("furrow-pwm-{tag}-{}-{nanos}", std::process::id()));
-    let chip = root.join("pwmchip0");
+/// A PWM class directory with one two-channel chip, removed on drop.
+fn fake_tree() -> tempfile::TempDir {
+    let root = tempfile::Builder::new().prefix("furrow-pwm-").tempdir().unwrap();
+    let chip = root.path().join("pwmchip0");
     fs::create_dir_all(&chip).unwrap();
     fs::write(chip.join("npwm"), "2\n").unwrap();
     fs::write(chip.join("export"), "").unwrap();
@@ -75,7 +73,8 @@ fn wait_for(mut ok: impl FnMut() -> bool, within: Duration) -> bool {
 
 #[test]
 fn pulses_follow_the_core_and_a_silent_core_is_trimmed() {
-    let root = fake_tree("watchdog");
+    let tree = fake_tree();
+    let root = tree.path();
     let mut trims = [1500u16; 16];
     trims[2] = 1480;
     let deadline = Duration::from_millis(60);
@@ -113,12 +112,12 @@ fn pulses_follow_the_core_and_a_silent_core_is_trimmed() {
     assert_eq!(duty_ns(&root, 1), 1_800_000);
     drop(outputs);
     assert_eq!((duty_ns(&root, 0), duty_ns(&root, 1)), (1_500_000, 1_480_000));
-    let _ = fs::remove_dir_all(&root);
 }
 
 #[test]
 fn a_missing_pwm_chip_is_retried_not_fatal() {
-    let root = fake_tree("missing");
+    let tree = fake_tree();
+    let root = tree.path();
     let mut config = settings(&root);
     config.root = root.join("not-there");
     let outputs = PwmActuators::start(&config, &[1500; 16], Duration::from_millis(100));
@@ -127,5 +126,4 @@ fn a_missing_pwm_chip_is_retried_not_fatal() {
     assert!(status.last_error.is_some_and(|e| e.contains("not-there")));
     outputs.apply(&[1600; 16]);
     drop(outputs);
-    let _ = fs::remove_dir_all(&root);
 }

@@ -461,7 +461,8 @@ fn syntax_errors_point_at_their_line() {
 
 #[test]
 fn load_names_the_file() {
-    let dir = scratch_dir("load_names_the_file");
+    let scratch = tempfile::tempdir().unwrap();
+    let dir = scratch.path();
     let path = dir.join("bad.toml");
     std::fs::write(
         &path,
@@ -479,13 +480,6 @@ fn load_names_the_file() {
         .err()
         .unwrap_or_else(|| panic!("accepted"));
     assert!(missing.to_string().contains("cannot read"), "{missing}");
-    let _ = std::fs::remove_dir_all(&dir);
-}
-
-fn scratch_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("furrow-run-config-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
-    dir
 }
 
 #[test]
@@ -508,7 +502,8 @@ fn furrow_config_check_exits_0_on_examples_and_1_on_a_bad_file() {
         assert!(stdout.lines().any(|l| l.starts_with("mavlink ")), "{stdout}");
     }
 
-    let dir = scratch_dir("check_binary");
+    let scratch = tempfile::tempdir().unwrap();
+    let dir = scratch.path();
     let bad = dir.join("duplicate.toml");
     let text = format!(
         "{HEAD}{GNSS}[[pwm.output]]\nservo = 1\nchip = 0\nchannel = 0\n[[pwm.output]]\nservo = 1 # <-\nchip = 0\nchannel = 1\n"
@@ -525,7 +520,6 @@ fn furrow_config_check_exits_0_on_examples_and_1_on_a_bad_file() {
     assert!(stderr.contains(&expected), "{stderr} lacks {expected}");
     assert!(stderr.contains("pwm.output[1].servo"), "{stderr}");
     assert!(out.stdout.is_empty(), "{}", String::from_utf8_lossy(&out.stdout));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 proptest! {

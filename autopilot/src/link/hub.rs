@@ -1077,34 +1077,26 @@ mod tests {
     }
 
     /// A signing key in a fresh directory, as SETUP_SIGNING would leave it.
-    struct KeyDir(PathBuf);
-
-    impl KeyDir {
-        fn new(key: [u8; 32]) -> KeyDir {
-            let dir = std::env::temp_dir().join(format!("furrow-hub-test-{}", std::process::id()));
-            std::fs::create_dir_all(&dir).expect("temp dir");
-            let stored = StoredSigning {
-                key: SecretKey::new(key),
-                timestamp: 0,
-            };
-            signing_key::save(&dir, &stored).expect("key saved");
-            KeyDir(dir)
-        }
-    }
-
-    impl Drop for KeyDir {
-        fn drop(&mut self) {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
+    fn key_dir(key: [u8; 32]) -> tempfile::TempDir {
+        let dir = tempfile::Builder::new()
+            .prefix("furrow-hub-test-")
+            .tempdir()
+            .expect("temp dir");
+        let stored = StoredSigning {
+            key: SecretKey::new(key),
+            timestamp: 0,
+        };
+        signing_key::save(dir.path(), &stored).expect("key saved");
+        dir
     }
 
     #[test]
     fn where_signing_is_required_only_a_signed_frame_makes_a_peer() {
         const KEY: [u8; 32] = [7; 32];
-        let dir = KeyDir::new(KEY);
+        let dir = key_dir(KEY);
         let fixed = gcs_socket();
         // SIGN_REQUIRE bit 1: the UDP link's stream slot.
-        let (hub, mut channels) = start_hub(&fixed, 0b10, Some(dir.0.clone()));
+        let (hub, mut channels) = start_hub(&fixed, 0b10, Some(dir.path().to_path_buf()));
         let udp = hub.links.bound.udp_local.expect("udp bound");
         joined(&mut channels);
         let stranger = gcs_socket();
