@@ -37,19 +37,22 @@ pub struct Sitl {
     pub udp_local: SocketAddr,
     /// The line it printed when ready.
     pub ready: String,
-    _data: TempDir,
+    _data: tempfile::TempDir,
 }
 
 impl Sitl {
     /// Starts SITL with a fresh data directory, TCP on a free port and the
     /// UDP link sending to `udp_peer_port`.
     pub fn start(udp_peer_port: u16, extra: &[&str]) -> Sitl {
-        let data = TempDir::new("furrow-e2e");
+        let data = tempfile::Builder::new()
+            .prefix("furrow-e2e-")
+            .tempdir()
+            .expect("temp dir");
         let mut child = Command::new(furrow_bin())
             .args(["sitl", "--tcp-port", "0", "--speedup", "10", "--udp-port"])
             .arg(udp_peer_port.to_string())
             .arg("--data-dir")
-            .arg(&data.0)
+            .arg(data.path())
             .args(extra)
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
@@ -131,24 +134,4 @@ pub fn encode(version: MavlinkVersion, message: &MavMessage) -> Vec<u8> {
     let mut buf = Vec::new();
     mavlink::write_versioned_msg(&mut buf, version, header, message).expect("encode");
     buf
-}
-
-/// A directory removed on drop.
-pub struct TempDir(pub PathBuf);
-
-impl TempDir {
-    pub fn new(prefix: &str) -> TempDir {
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.as_nanos());
-        let dir = std::env::temp_dir().join(format!("{prefix}-{}-{nanos}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("temp dir");
-        TempDir(dir)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
 }

@@ -79,10 +79,10 @@ fn udpin_endpoint_answers_its_sender() {
 fn instance_offsets_the_ports_by_ten() {
     // Instance 417: TCP 5760 + 4170 = 9930. The test harness normally asks
     // for port 0; here the default must come from the instance.
-    let data = tests::TempDir::new("furrow-instance");
+    let data = tempfile::Builder::new().prefix("furrow-instance-").tempdir().unwrap();
     let mut child = std::process::Command::new(tests::furrow_bin())
         .args(["sitl", "--instance", "417", "--data-dir"])
-        .arg(&data.0)
+        .arg(data.path())
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::null())
         .spawn()
