@@ -1,4 +1,4 @@
-//! Issue 22: MAGNETIC's guide gets back on the tape from the starts of "Path
+//! MAGNETIC's guide gets back on the tape from the starts of "Path
 //! tracking of a wheeled AGV with double magnetic guide" (tilted right of
 //! the tape, tilted left of it, off it), on the paper's robot and on the
 //! bench AGV, in the simulated scenario (`furrow-bench magnetic` runs the
@@ -65,7 +65,7 @@ fn the_papers_robot_is_back_within_two_seconds_from_its_three_starts() {
     }
 }
 
-/// Issue 22's own runs: the bench AGV 0.1 m off at 1.5 m/s, heading 5°
+/// The bench AGV's hard case: 0.1 m off at 1.5 m/s, heading 5°
 /// towards the tape, either side, used to swing 10° across it and lose it
 /// with both sensors. Now it keeps it and is back within 3 s.
 #[test]

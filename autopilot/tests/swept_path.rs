@@ -122,7 +122,7 @@ fn run_mission(world: ObstacleWorld, plan: Plan, limit_s: f64, clear_after_stop_
     (outcome, h)
 }
 
-/// Issue 14's first scene: north 30 m, then east round the 6 m arc at
+/// The corner scene: north 30 m, then east round the 6 m arc at
 /// 1.1 m/s; a person stands inside the arc, 1.1 m outside the straight lane
 /// (where a heading-only field never looks). The vehicle must stop short of
 /// them, and drive on once they have gone.
@@ -153,7 +153,7 @@ fn pass_beside(beside: Shape) -> (Outcome, f64, Vec<String>) {
     (outcome, lost_s, h.texts())
 }
 
-/// Issue 14's second scene: a post whose edge is 0.5 m from the outline
+/// The lane scene: a post whose edge is 0.5 m from the outline
 /// (more than OA_MARGIN 0.3 m) beside a straight lane is passed at speed,
 /// without a stop.
 #[test]

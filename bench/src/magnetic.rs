@@ -3,7 +3,7 @@
 //! magnetic guide" (its Fig. 4 a–c: tilted right of the tape, tilted left of
 //! it, off it), on a straight tape and on arcs of several radii, at 0.5, 1.0
 //! and 1.5 m/s, for the bench AGV and for that paper's robot; then whether
-//! the targets of issue 22 are met. `furrow-bench tracking` prints the
+//! the recovery targets are met. `furrow-bench tracking` prints the
 //! 15 m-arc subset ([`report`]).
 //!
 //! A start is the vehicle displaced from a pose with both sensors centred on
@@ -40,7 +40,7 @@ const HEADINGS_DEG: [f64; 3] = [2.0, 5.0, 8.0];
 const RADII_M: [f64; 4] = [f64::INFINITY, 25.0, 15.0, 10.0];
 /// Starts on the tape meet the arc this far ahead.
 const LEAD_IN_M: f64 = 2.0;
-/// Issue 22's bar for "back on the tape".
+/// The bar for "back on the tape".
 const TOLERANCE_M: f64 = 0.010;
 
 /// One start on one tape.
@@ -350,7 +350,7 @@ fn trace(spec: &str, duration_s: f64) -> Result<(), String> {
     Ok(())
 }
 
-/// Issue 22's targets, each from the runs it is about.
+/// The recovery targets, each from the runs it is about.
 fn print_targets(all: &[Run]) {
     let robot = MagneticProfile::double_guide_robot().name;
     let agv = MagneticProfile::bench_agv().name;

@@ -1,11 +1,11 @@
-//! Issue 14's scenario families run through `furrow-bench obstacles`'s own
+//! The obstacle scenario families run through `furrow-bench obstacles`'s own
 //! functions (in-process, the whole core, simulated scanners), judged from
 //! the simulator's truth: no collision, no false stop, no stall; a family
 //! with something in the way must stop, one with everything 0.5 m or more
 //! clear must pass without a stop. Both speeds, forwards and in reverse,
 //! left and right, seeds 1 and 2 (arcs of 6 and 15 m).
 //!
-//! The tests marked `needs swept-path protection (issue 14)` fail on the
+//! The tests marked `needs swept-path protection` fail on the
 //! core before that protection; they are to be un-ignored with it.
 
 use furrow_bench::obstacles::random::{self, RUNS_PER_COURSE};
@@ -87,13 +87,13 @@ fn person_beside_the_arc_is_passed() {
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
+#[ignore = "needs swept-path protection"]
 fn person_beside_the_arc_entry_is_passed() {
     check(|f| *f == Family::BesideEntry);
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
+#[ignore = "needs swept-path protection"]
 fn person_beside_the_arc_exit_is_passed() {
     check(|f| *f == Family::BesideExit);
 }
@@ -104,7 +104,7 @@ fn person_under_the_overhang_swing() {
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
+#[ignore = "needs swept-path protection"]
 fn person_walking_across_the_arc() {
     check(|f| *f == Family::CrossingArc);
 }
@@ -120,31 +120,31 @@ fn s_bend_person_inside_the_second_bend() {
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
+#[ignore = "needs swept-path protection"]
 fn s_bend_person_beside_the_first_bend_is_passed() {
     check(|f| *f == Family::SBendBeside);
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
+#[ignore = "needs swept-path protection"]
 fn boxes_beside_a_straight_lane() {
     neighbours(Object::Box, Where::Straight);
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
+#[ignore = "needs swept-path protection"]
 fn boxes_inside_an_arc() {
     neighbours(Object::Box, Where::ArcInside);
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
+#[ignore = "needs swept-path protection"]
 fn boxes_outside_an_arc() {
     neighbours(Object::Box, Where::ArcOutside);
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
+#[ignore = "needs swept-path protection"]
 fn posts_beside_a_straight_lane() {
     neighbours(Object::Post, Where::Straight);
 }
@@ -160,19 +160,19 @@ fn posts_outside_an_arc() {
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
+#[ignore = "needs swept-path protection"]
 fn parked_cars_beside_a_straight_lane() {
     neighbours(Object::ParkedCar, Where::Straight);
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
+#[ignore = "needs swept-path protection"]
 fn parked_cars_inside_an_arc() {
     neighbours(Object::ParkedCar, Where::ArcInside);
 }
 
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
+#[ignore = "needs swept-path protection"]
 fn parked_cars_outside_an_arc() {
     neighbours(Object::ParkedCar, Where::ArcOutside);
 }
@@ -181,7 +181,7 @@ fn parked_cars_outside_an_arc() {
 /// collision the vehicle could have stopped for (judged from the truth),
 /// no false stop, no stall; each run replays identically from its seed.
 #[test]
-#[ignore = "needs swept-path protection (issue 14)"]
+#[ignore = "needs swept-path protection"]
 fn randomized_runs() {
     let outcomes = random::run_many(4 * RUNS_PER_COURSE, &[], 2).expect("the runs run");
     let mut failures = Vec::new();

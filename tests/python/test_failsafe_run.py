@@ -1,4 +1,4 @@
-"""A failsafe over `furrow run` (issue 21): a vehicle driving GUIDED on a
+"""A failsafe over `furrow run`: a vehicle driving GUIDED on a
 pty GNSS that goes silent for 3 s. The failsafe must stay on, and say so,
 for as long as the receiver is silent, whatever mode it chose, refuse
 GUIDED meanwhile, and clear once, within 1 s of the NMEA resuming.

@@ -1,5 +1,5 @@
 """No stranger steals a UDP link; notices reach a ground station that
-connects late (issue 15, points 4 and 7)."""
+connects late."""
 
 import os
 import select

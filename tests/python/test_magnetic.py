@@ -1,4 +1,4 @@
-"""MAGNETIC mode (20) getting back on a tape from a start off it (issue 22),
+"""MAGNETIC mode (20) getting back on a tape from a start off it,
 over `furrow sitl --tape`, watched by pymavlink as a ground station would.
 
 The tape is the issue's: 30 m straight north, a 90° right arc of 15 m, 20 m

@@ -132,7 +132,7 @@ def test_a_bad_world_file_is_a_clear_error_at_start_and_kept_out_on_reload(start
     assert od is not None
 
 
-# Issue 14's first scene: north 30 m, then east, round the 6 m corner arc
+# The corner scene: north 30 m, then east, round the 6 m corner arc
 # (centre 24 m north, 6 m east of home) at 1.1 m/s. A person stands inside
 # the arc, 5.5 m from its centre half-way round: in the band the outline
 # sweeps through the turn (5 m to 7.9 m from the centre), 1.1 m outside the

@@ -28,7 +28,7 @@ Files (every row is one point; angles in degrees, lengths in metres):
 - tmerc_wide.csv: absolute grid coordinates from the equator to 80 degrees
   and up to 3.5 degrees from the central meridian, per ellipsoid: checks
   the projection itself across a whole 6-degree zone.
-- polar.csv: "any latitude" (issue 15): origins at and within 1 km of both
+- polar.csv: "any latitude": origins at and within 1 km of both
   poles, on and beside the antimeridian and at 0, 0, with points at 0, 1,
   10, 100, 500 and 1000 m along eight bearings (crossing the pole from the
   origins beside it). Columns: the topocentric east/north/up as enu.csv,

@@ -1,4 +1,4 @@
-//! The scenario families of issue 14: people standing and walking near arcs
+//! The obstacle scenario families: people standing and walking near arcs
 //! of 6–15 m radius (inside, outside, at the arc's entry and exit, under the
 //! swing of the trailing overhang), S-bends, a person stepping out in the
 //! middle of a turn, and boxes, posts and parked cars beside straight and

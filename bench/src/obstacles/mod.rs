@@ -4,7 +4,7 @@
 //! and the world alone, never from Furrow's own figures:
 //!
 //! - the scenarios of docs/architecture.md §Obstacles on a straight leg ([`classic`]);
-//! - the families of issue 14 in turns, S-bends and beside lanes, forwards
+//! - the scenario families in turns, S-bends and beside lanes, forwards
 //!   and in reverse, left and right ([`families`]);
 //! - thousands of randomized runs ([`random`]), each replayable by its seed.
 //!

@@ -20,7 +20,7 @@ use super::super::gcs_client::{SitlProcess, gcs_heartbeat};
 use super::super::kill::SeededRng;
 use super::sitl_args;
 
-/// Garbage datagrams per second from the stranger (issue 15's target).
+/// Garbage datagrams per second from the stranger (the rate the link must survive).
 pub const STRANGER_RATE: u32 = 10_000;
 /// The GCS's HEARTBEAT gap must stay under this with the flood on.
 const MAX_HEARTBEAT_GAP: Duration = Duration::from_millis(1100);
