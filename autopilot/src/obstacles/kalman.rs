@@ -356,31 +356,13 @@ impl CvKalman {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::StandardNormal;
 
-    /// SplitMix64 + Box–Muller: deterministic noise without extra crates.
-    struct Rng(u64, Option<f64>);
-
-    impl Rng {
-        fn next_u64(&mut self) -> u64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^ (z >> 31)
-        }
-        fn uniform(&mut self) -> f64 {
-            ((self.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        }
-        fn gauss(&mut self) -> f64 {
-            if let Some(v) = self.1.take() {
-                return v;
-            }
-            let (u1, u2) = (self.uniform(), self.uniform());
-            let m = (-2.0 * u1.ln()).sqrt();
-            let a = std::f64::consts::TAU * u2;
-            self.1 = Some(m * a.sin());
-            m * a.cos()
-        }
+    /// A standard normal sample from the test's seeded stream.
+    fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+        rng.sample(StandardNormal)
     }
 
     #[test]
@@ -451,12 +433,12 @@ mod tests {
 
     #[test]
     fn covariance_stays_symmetric_and_positive_over_many_steps() {
-        let mut rng = Rng(7, None);
+        let rng = &mut ChaCha8Rng::seed_from_u64(7);
         let r = Matrix2::new(0.0025, 0.0012, 0.0012, 0.0009);
         let mut kf = CvKalman::new(Ned::new(0.0, 0.0), &r, 2.0).unwrap();
         for i in 0..100_000 {
             kf.predict(if i % 97 == 0 { 0.5 } else { 0.02 }, 1.0).unwrap();
-            let z = Ned::new(0.05 * rng.gauss(), 0.03 * rng.gauss());
+            let z = Ned::new(0.05 * gauss(rng), 0.03 * gauss(rng));
             kf.update(z, &r).unwrap();
         }
         let p = kf.covariance();
@@ -476,14 +458,15 @@ mod tests {
         let mut sq_sigma = 0.0;
         let runs = 200;
         for seed in 0..runs {
-            let mut rng = Rng(seed, None);
+            let rng = &mut ChaCha8Rng::seed_from_u64(seed);
             let truth = |t: f64| Ned::new(3.0 + vn * t, -2.0 + ve * t);
-            let noisy =
-                |rng: &mut Rng, p: Ned| Ned::new(p.north_m + sigma_m * rng.gauss(), p.east_m + sigma_m * rng.gauss());
-            let mut kf = CvKalman::new(noisy(&mut rng, truth(0.0)), &r, 2.0).unwrap();
+            let noisy = |rng: &mut ChaCha8Rng, p: Ned| {
+                Ned::new(p.north_m + sigma_m * gauss(rng), p.east_m + sigma_m * gauss(rng))
+            };
+            let mut kf = CvKalman::new(noisy(rng, truth(0.0)), &r, 2.0).unwrap();
             for k in 1..=50 {
                 kf.predict(0.02, 1.0).unwrap();
-                kf.update(noisy(&mut rng, truth(k as f64 * 0.02)), &r).unwrap();
+                kf.update(noisy(rng, truth(k as f64 * 0.02)), &r).unwrap();
             }
             let (en, ee) = (kf.velocity_mps().0 - vn, kf.velocity_mps().1 - ve);
             sq_err += en * en + ee * ee;
@@ -513,22 +496,16 @@ mod tests {
         let runs = 400;
         let mut nees = 0.0;
         for seed in 0..runs {
-            let mut rng = Rng(10_000 + seed, None);
+            let rng = &mut ChaCha8Rng::seed_from_u64(10_000 + seed);
             // The prior: velocity σ 2 m/s about zero, drawn accordingly.
-            let mut truth = Vector4::new(2.0, 2.0 * rng.gauss(), -1.0, 2.0 * rng.gauss());
-            let first = Ned::new(
-                truth[NORTH] + sigma_m * rng.gauss(),
-                truth[EAST] + sigma_m * rng.gauss(),
-            );
+            let mut truth = Vector4::new(2.0, 2.0 * gauss(rng), -1.0, 2.0 * gauss(rng));
+            let first = Ned::new(truth[NORTH] + sigma_m * gauss(rng), truth[EAST] + sigma_m * gauss(rng));
             let mut kf = CvKalman::new(first, &r, 2.0).unwrap();
             for _ in 0..100 {
-                let w = q_chol * Vector4::new(rng.gauss(), rng.gauss(), rng.gauss(), rng.gauss());
+                let w = q_chol * Vector4::new(gauss(rng), gauss(rng), gauss(rng), gauss(rng));
                 truth = transition(dt) * truth + w;
                 kf.predict(dt, q).unwrap();
-                let z = Ned::new(
-                    truth[NORTH] + sigma_m * rng.gauss(),
-                    truth[EAST] + sigma_m * rng.gauss(),
-                );
+                let z = Ned::new(truth[NORTH] + sigma_m * gauss(rng), truth[EAST] + sigma_m * gauss(rng));
                 kf.update(z, &r).unwrap();
             }
             let e = kf.state() - truth;
