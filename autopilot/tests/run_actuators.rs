@@ -78,9 +78,9 @@ fn pulses_follow_the_core_and_a_silent_core_is_trimmed() {
     let mut trims = [1500u16; 16];
     trims[2] = 1480;
     let deadline = Duration::from_millis(60);
-    let outputs = PwmActuators::start(&settings(&root), &trims, deadline);
+    let outputs = PwmActuators::start(&settings(root), &trims, deadline);
     assert_eq!(
-        (duty_ns(&root, 0), duty_ns(&root, 1)),
+        (duty_ns(root, 0), duty_ns(root, 1)),
         (1_500_000, 1_480_000),
         "trim at start"
     );
@@ -94,31 +94,31 @@ fn pulses_follow_the_core_and_a_silent_core_is_trimmed() {
         outputs.apply(&pulses);
     }
     let stalled = Instant::now();
-    assert_eq!((duty_ns(&root, 0), duty_ns(&root, 1)), (1_300_000, 1_800_000));
+    assert_eq!((duty_ns(root, 0), duty_ns(root, 1)), (1_300_000, 1_800_000));
     assert_eq!(outputs.watchdog_trips(), 0);
 
     // The core stalls: within a few deadlines every output is at trim.
     assert!(
-        wait_for(|| duty_ns(&root, 1) == 1_480_000, deadline * 4),
+        wait_for(|| duty_ns(root, 1) == 1_480_000, deadline * 4),
         "throttle still at {} ns",
-        duty_ns(&root, 1)
+        duty_ns(root, 1)
     );
     assert!(stalled.elapsed() >= deadline, "trimmed before the deadline");
-    assert_eq!(duty_ns(&root, 0), 1_500_000);
+    assert_eq!(duty_ns(root, 0), 1_500_000);
     assert_eq!(outputs.watchdog_trips(), 1);
 
     // The core is back: pulses again; then the process ends: trim.
     outputs.apply(&pulses);
-    assert_eq!(duty_ns(&root, 1), 1_800_000);
+    assert_eq!(duty_ns(root, 1), 1_800_000);
     drop(outputs);
-    assert_eq!((duty_ns(&root, 0), duty_ns(&root, 1)), (1_500_000, 1_480_000));
+    assert_eq!((duty_ns(root, 0), duty_ns(root, 1)), (1_500_000, 1_480_000));
 }
 
 #[test]
 fn a_missing_pwm_chip_is_retried_not_fatal() {
     let tree = fake_tree();
     let root = tree.path();
-    let mut config = settings(&root);
+    let mut config = settings(root);
     config.root = root.join("not-there");
     let outputs = PwmActuators::start(&config, &[1500; 16], Duration::from_millis(100));
     let status = outputs.status().expect("outputs configured");

@@ -178,11 +178,11 @@ mod tests {
         let dir = tmp.path();
         let mut t = table();
         t.set_by_name("WP_SPEED", 3.3).unwrap();
-        save(&dir, &Snapshot::of(&t)).unwrap();
+        save(dir, &Snapshot::of(&t)).unwrap();
         let text = fs::read_to_string(dir.join(STORE_FILE)).unwrap();
         assert!(text.contains("WP_SPEED,3.3\n") && !text.contains("FS_ACTION"), "{text}");
         let mut fresh = table();
-        let report = load(&dir, &mut fresh).unwrap();
+        let report = load(dir, &mut fresh).unwrap();
         assert_eq!(report.applied, 1);
         assert_eq!(fresh.value_of("WP_SPEED"), Some(f64::from(3.3f32)));
     }
@@ -193,7 +193,7 @@ mod tests {
         let dir = tmp.path();
         fs::write(dir.join(STORE_FILE), "WP_SPEED,3\nWP_SPE").unwrap();
         let mut t = table();
-        let report = load(&dir, &mut t).unwrap();
+        let report = load(dir, &mut t).unwrap();
         let (moved, why) = report.corrupt.expect("reported corrupt");
         assert!(why.contains("line 2"), "{why}");
         assert!(moved.exists() && !dir.join(STORE_FILE).exists());
@@ -206,7 +206,7 @@ mod tests {
         let dir = tmp.path();
         fs::write(dir.join(STORE_FILE), "OLD_PARAM,1\nWP_SPEED,99\nFS_ACTION,1\n").unwrap();
         let mut t = table();
-        let report = load(&dir, &mut t).unwrap();
+        let report = load(dir, &mut t).unwrap();
         assert_eq!(report.applied, 1);
         assert_eq!(report.warnings.len(), 2);
         assert_eq!(t.value_of("FS_ACTION"), Some(1.0));

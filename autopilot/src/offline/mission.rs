@@ -275,9 +275,9 @@ mod tests {
     fn import_list_export_and_back() {
         let scratch = tempfile::tempdir().unwrap();
         let dir = scratch.path();
-        let out = import(&dir, &bench("agv_course.waypoints"), None).unwrap();
+        let out = import(dir, &bench("agv_course.waypoints"), None).unwrap();
         assert!(out.contains("26 mission items imported"), "{out}");
-        let (plans, notices) = missions::load_quietly(&dir);
+        let (plans, notices) = missions::load_quietly(dir);
         assert!(notices.is_empty());
         assert_eq!(plans.mission.len(), 26);
         let listed = list(&plans, Some(PlanArg::Mission));
@@ -293,15 +293,15 @@ mod tests {
              2\t0\t0\t5001\t3\t0\t0\t0\t29.1340000\t119.6410000\t0\t0\n",
         )
         .unwrap();
-        import(&dir, &fence, Some(PlanArg::Fence)).unwrap();
+        import(dir, &fence, Some(PlanArg::Fence)).unwrap();
         let exported = dir.join("all.plan");
-        let out = export(&missions::load_quietly(&dir).0, &exported, None).unwrap();
+        let out = export(&missions::load_quietly(dir).0, &exported, None).unwrap();
         assert!(out.contains("26 mission, 3 fence, 0 rally items"), "{out}");
-        let before = missions::load_quietly(&dir).0;
+        let before = missions::load_quietly(dir).0;
         fs::remove_file(dir.join("fence.waypoints")).unwrap();
-        let out = import(&dir, &exported, None).unwrap();
+        let out = import(dir, &exported, None).unwrap();
         assert_eq!(out.lines().count(), 3, "{out}");
-        let after = missions::load_quietly(&dir).0;
+        let after = missions::load_quietly(dir).0;
         assert_eq!(after.fence.opaque_id(), before.fence.opaque_id());
         for (a, b) in after.mission.items().iter().zip(before.mission.items()).skip(1) {
             assert_eq!((a.command, a.x, a.y, a.params), (b.command, b.x, b.y, b.params));
@@ -309,9 +309,9 @@ mod tests {
         // WPL export is lossless.
         let wp = dir.join("out.waypoints");
         export(&before, &wp, None).unwrap();
-        import(&dir, &wp, None).unwrap();
+        import(dir, &wp, None).unwrap();
         assert_eq!(
-            missions::load_quietly(&dir).0.mission.opaque_id(),
+            missions::load_quietly(dir).0.mission.opaque_id(),
             before.mission.opaque_id()
         );
         assert!(export(&before, &exported, Some(PlanArg::Fence)).is_err());
@@ -326,12 +326,12 @@ mod tests {
                     1\t0\t2\t93\t1e20\t0\t0\t0\t0\t0\t0\t1\n";
         let file = dir.join("huge.waypoints");
         fs::write(&file, huge).unwrap();
-        let e = import(&dir, &file, None).unwrap_err();
+        let e = import(dir, &file, None).unwrap_err();
         assert!(e.contains("line 3") && e.contains("INVALID_PARAM1"), "{e}");
         // The same plan written straight into the data directory (an older
         // version's file, or a damaged one): loaded as a notice, not run.
-        fs::write(missions::path(&dir, MissionType::Mission), huge).unwrap();
-        let (plans, notices) = missions::load_quietly(&dir);
+        fs::write(missions::path(dir, MissionType::Mission), huge).unwrap();
+        let (plans, notices) = missions::load_quietly(dir);
         assert!(plans.mission.is_empty());
         assert!(notices.iter().any(|(_, n)| n.contains("INVALID_PARAM1")), "{notices:?}");
     }
@@ -340,8 +340,8 @@ mod tests {
     fn a_bad_file_changes_nothing_and_the_error_names_line_and_result() {
         let scratch = tempfile::tempdir().unwrap();
         let dir = scratch.path();
-        import(&dir, &bench("square_40m.waypoints"), None).unwrap();
-        let before = missions::load_quietly(&dir).0;
+        import(dir, &bench("square_40m.waypoints"), None).unwrap();
+        let before = missions::load_quietly(dir).0;
         let bad = dir.join("bad.waypoints");
         fs::write(
             &bad,
@@ -351,11 +351,11 @@ mod tests {
              1\t0\t3\t16\t-4\t0\t0\t0\t29.1330000\t119.6400000\t0\t1\n",
         )
         .unwrap();
-        let e = import(&dir, &bad, None).unwrap_err();
+        let e = import(dir, &bad, None).unwrap_err();
         assert!(e.contains("nothing imported") && e.contains("line 4"), "{e}");
         assert!(e.contains("mission item 1") && e.contains("INVALID_PARAM1"), "{e}");
         fs::write(&bad, "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\n").unwrap();
-        let e = import(&dir, &bad, None).unwrap_err();
+        let e = import(dir, &bad, None).unwrap_err();
         assert!(e.contains("line 2"), "{e}");
         // A fence file imported as a mission.
         fs::write(
@@ -363,7 +363,7 @@ mod tests {
             "QGC WPL 110\n0\t0\t0\t5001\t3\t0\t0\t0\t1\t1\t0\t0\n1\t0\t0\t5001\t3\t0\t0\t0\t1\t2\t0\t0\n",
         )
         .unwrap();
-        let e = import(&dir, &bad, None).unwrap_err();
+        let e = import(dir, &bad, None).unwrap_err();
         assert!(e.contains("UNSUPPORTED") && e.contains("--type fence"), "{e}");
         // A .plan whose rally point is fine but whose fence polygon is short.
         let plan = dir.join("bad.plan");
@@ -374,18 +374,18 @@ mod tests {
                 "rallyPoints": {"version": 2, "points": [[29.1, 119.6, 3]]}}"#,
         )
         .unwrap();
-        let e = import(&dir, &plan, None).unwrap_err();
+        let e = import(dir, &plan, None).unwrap_err();
         assert!(e.contains("fence item 0") && e.contains("INVALID_PARAM1"), "{e}");
         // Only its rally points: fine.
-        import(&dir, &plan, Some(PlanArg::Rally)).unwrap();
-        let after = missions::load_quietly(&dir).0;
+        import(dir, &plan, Some(PlanArg::Rally)).unwrap();
+        let after = missions::load_quietly(dir).0;
         assert_eq!(after.mission.opaque_id(), before.mission.opaque_id());
         assert!(after.fence.is_empty());
         assert_eq!(after.rally.len(), 1);
-        let e = import(&dir, &dir.join("missing.waypoints"), None).unwrap_err();
+        let e = import(dir, &dir.join("missing.waypoints"), None).unwrap_err();
         assert!(e.contains("missing.waypoints"), "{e}");
         fs::write(dir.join("x.bin"), "hello").unwrap();
-        let e = import(&dir, &dir.join("x.bin"), None).unwrap_err();
+        let e = import(dir, &dir.join("x.bin"), None).unwrap_err();
         assert!(e.contains("not a mission file"), "{e}");
     }
 
@@ -393,11 +393,11 @@ mod tests {
     fn a_running_vehicle_locks_the_directory() {
         let scratch = tempfile::tempdir().unwrap();
         let dir = scratch.path();
-        let held = DataDir::open(&dir, Profile::Sitl(ModelKind::Ackermann)).unwrap();
-        let e = run(&args(&dir, MissionAction::List { plan: None })).unwrap_err();
+        let held = DataDir::open(dir, Profile::Sitl(ModelKind::Ackermann)).unwrap();
+        let e = run(&args(dir, MissionAction::List { plan: None })).unwrap_err();
         assert!(e.contains("in use"), "{e}");
         drop(held);
-        run(&args(&dir, MissionAction::List { plan: None })).unwrap();
+        run(&args(dir, MissionAction::List { plan: None })).unwrap();
         let e = run(&args(&dir.join("nope"), MissionAction::List { plan: None })).unwrap_err();
         assert!(e.contains("does not exist"), "{e}");
     }

@@ -227,10 +227,10 @@ mod tests {
     fn a_binary_file_names_its_line() {
         let scratch = tempfile::Builder::new().suffix(".param").tempfile().unwrap();
         let file = scratch.path();
-        std::fs::write(&file, b"WP_SPEED,2\nWP_RADIUS,\xff\xfe1\n").unwrap();
-        let e = read_text(&file).unwrap_err();
+        std::fs::write(file, b"WP_SPEED,2\nWP_RADIUS,\xff\xfe1\n").unwrap();
+        let e = read_text(file).unwrap_err();
         assert!(e.contains("line 2: byte 11 is not UTF-8"), "{e}");
-        std::fs::write(&file, b"WP_SPEED,2\n").unwrap();
-        assert_eq!(read_text(&file).unwrap(), "WP_SPEED,2\n");
+        std::fs::write(file, b"WP_SPEED,2\n").unwrap();
+        assert_eq!(read_text(file).unwrap(), "WP_SPEED,2\n");
     }
 }

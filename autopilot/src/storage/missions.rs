@@ -182,9 +182,9 @@ mod tests {
     fn plans_are_saved_and_load_back_with_the_same_ids() {
         let scratch = tempfile::tempdir().unwrap();
         let dir = scratch.path();
-        save(&dir, MissionType::Mission, &mission()).unwrap();
-        save(&dir, MissionType::Rally, &rally()).unwrap();
-        let (plans, notices) = load(&dir);
+        save(dir, MissionType::Mission, &mission()).unwrap();
+        save(dir, MissionType::Rally, &rally()).unwrap();
+        let (plans, notices) = load(dir);
         assert!(notices.is_empty(), "{notices:?}");
         assert_eq!(plans.mission.opaque_id(), mission().opaque_id());
         assert_eq!(plans.rally.opaque_id(), rally().opaque_id());
@@ -198,7 +198,7 @@ mod tests {
     fn unreadable_and_invalid_files_are_moved_aside_and_never_overwritten() {
         let scratch = tempfile::tempdir().unwrap();
         let dir = scratch.path();
-        save(&dir, MissionType::Rally, &rally()).unwrap();
+        save(dir, MissionType::Rally, &rally()).unwrap();
         fs::write(
             dir.join("mission.waypoints"),
             "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t1\t2\t3\n",
@@ -210,7 +210,7 @@ mod tests {
             "QGC WPL 110\n0\t0\t0\t5001\t3\t0\t0\t0\t29.1\t119.6\t0\t0\n1\t0\t0\t5001\t3\t0\t0\t0\t29.2\t119.6\t0\t0\n",
         )
         .unwrap();
-        let (plans, notices) = load(&dir);
+        let (plans, notices) = load(dir);
         assert!(plans.mission.is_empty() && plans.fence.is_empty());
         assert_eq!(plans.rally.opaque_id(), rally().opaque_id());
         assert_eq!(notices.len(), 2, "{notices:?}");
@@ -222,9 +222,9 @@ mod tests {
         assert!(!dir.join("mission.waypoints").exists() && !dir.join("fence.waypoints").exists());
         // The same name again: a second file aside, the first kept.
         fs::write(dir.join("mission.waypoints"), "garbage").unwrap();
-        let (_, notices) = load(&dir);
+        let (_, notices) = load(dir);
         assert_eq!(notices.len(), 1);
-        let aside: Vec<_> = fs::read_dir(&dir)
+        let aside: Vec<_> = fs::read_dir(dir)
             .unwrap()
             .filter_map(|e| e.ok())
             .map(|e| e.file_name().to_string_lossy().into_owned())
@@ -241,13 +241,13 @@ mod tests {
             let (w, _done) = crate::storage::file_writer::FileWriter::start();
             w.save(
                 1,
-                path(&dir, MissionType::Rally),
+                path(dir, MissionType::Rally),
                 contents(&Plan::new(MissionType::Rally, Vec::new())),
             );
-            w.save(2, path(&dir, MissionType::Mission), contents(&mission()));
-            w.save(3, path(&dir, MissionType::Rally), contents(&rally()));
+            w.save(2, path(dir, MissionType::Mission), contents(&mission()));
+            w.save(3, path(dir, MissionType::Rally), contents(&rally()));
         }
-        let (plans, notices) = load(&dir);
+        let (plans, notices) = load(dir);
         assert!(notices.is_empty());
         assert_eq!(plans.mission.opaque_id(), mission().opaque_id());
         assert_eq!(plans.rally.opaque_id(), rally().opaque_id());

@@ -214,15 +214,15 @@ mod tests {
     fn round_trip_owner_only() {
         let scratch = tempfile::tempdir().unwrap();
         let dir = scratch.path();
-        assert_eq!(load(&dir), Ok(None));
-        save(&dir, &sample()).expect("save");
-        assert_eq!(load(&dir), Ok(Some(sample())));
-        let mode = fs::metadata(path(&dir)).expect("file").permissions().mode();
+        assert_eq!(load(dir), Ok(None));
+        save(dir, &sample()).expect("save");
+        assert_eq!(load(dir), Ok(Some(sample())));
+        let mode = fs::metadata(path(dir)).expect("file").permissions().mode();
         assert_eq!(mode & 0o777, 0o600);
         assert!(!dir.join(format!("{KEY_FILE}.tmp")).exists());
-        remove(&dir).expect("remove");
-        assert_eq!(load(&dir), Ok(None));
-        remove(&dir).expect("removing nothing is fine");
+        remove(dir).expect("remove");
+        assert_eq!(load(dir), Ok(None));
+        remove(dir).expect("removing nothing is fine");
     }
 
     #[test]
@@ -232,8 +232,8 @@ mod tests {
         let tmp = dir.join(format!("{KEY_FILE}.tmp"));
         fs::write(&tmp, "junk").expect("write");
         fs::set_permissions(&tmp, fs::Permissions::from_mode(0o666)).expect("chmod");
-        save(&dir, &sample()).expect("save");
-        let mode = fs::metadata(path(&dir)).expect("file").permissions().mode();
+        save(dir, &sample()).expect("save");
+        let mode = fs::metadata(path(dir)).expect("file").permissions().mode();
         assert_eq!(mode & 0o777, 0o600);
     }
 
@@ -255,8 +255,8 @@ mod tests {
         }
         let scratch = tempfile::tempdir().unwrap();
         let dir = scratch.path();
-        fs::write(path(&dir), [0xff, 0xfe, 0x00]).expect("write");
-        assert!(load(&dir).is_err());
+        fs::write(path(dir), [0xff, 0xfe, 0x00]).expect("write");
+        assert!(load(dir).is_err());
     }
 
     #[test]
@@ -272,6 +272,6 @@ mod tests {
                 ..sample()
             });
         }
-        assert_eq!(load(&dir).expect("loads").map(|s| s.timestamp), Some(7));
+        assert_eq!(load(dir).expect("loads").map(|s| s.timestamp), Some(7));
     }
 }
