@@ -367,6 +367,7 @@ fn requirement_for_an_obstacle_reaching_the_front_bumper_is_length_plus_size_plu
 struct Scene {
     t_s: f64,
     wants_to_move: bool,
+    settling: bool,
     speed_mps: f64,
     scan_age_s: Option<f64>,
     field: FieldStatus,
@@ -383,6 +384,7 @@ impl Scene {
         Scene {
             t_s,
             wants_to_move: true,
+            settling: false,
             speed_mps,
             scan_age_s: Some(0.02),
             field: FieldStatus::default(),
@@ -415,6 +417,7 @@ impl Scene {
         PolicyInputs {
             t_s: self.t_s,
             wants_to_move: self.wants_to_move,
+            settling: self.settling,
             speed_mps: self.speed_mps,
             scan_age_s: self.scan_age_s,
             field: &self.field,
@@ -981,4 +984,98 @@ fn a_held_stop_does_not_resume_while_a_lost_track_may_be_against_the_body() {
         }
     }
     panic!("never resumed once the lost track was gone");
+}
+
+/// A vehicle settling onto a precision stop: it wants no speed, but the
+/// speed lag leaves it creeping at `speed_mps` and it may re-approach.
+fn settling_scene(t_s: f64, speed_mps: f64) -> Scene {
+    let mut scene = Scene::clear(t_s, speed_mps);
+    scene.wants_to_move = false;
+    scene.settling = true;
+    scene
+}
+
+#[test]
+fn a_settling_vehicle_stops_for_a_person_stepping_to_its_side() {
+    let config = PolicyConfig::default();
+    let side = FOOTPRINT.half_width_m + 0.25 + 0.05;
+    // Creeping below the at-rest speed, and a little faster.
+    for speed_mps in [0.015, -0.015, 0.03] {
+        let mut policy = ObstaclePolicy::new();
+        assert_eq!(
+            policy.update(&settling_scene(0.0, speed_mps).inputs(), &config).verdict,
+            Verdict::Go,
+            "{speed_mps}: nobody near"
+        );
+        let mut scene = settling_scene(0.05, speed_mps);
+        scene.tracks = vec![track(9, 0.3, side, 0.0, 0.0, 0.25)];
+        scene.predictions = vec![against_the_side(9)];
+        scene.predictions_at_resume = vec![against_the_side(9)];
+        let status = policy.update(&scene.inputs(), &config);
+        assert!(
+            matches!(status.verdict, Verdict::Stop(StopCause::Collision { track_id: 9, .. })),
+            "{speed_mps}: {status:?}"
+        );
+        assert_eq!(count(&status.events, |e| matches!(e, PolicyEvent::Stopped(_))), 1);
+    }
+}
+
+#[test]
+fn a_settling_vehicle_stops_for_a_person_predicted_to_walk_into_it() {
+    let config = PolicyConfig::default();
+    // Walking at it from the side at 1 m/s, 1.5 m out: contact in ~1 s.
+    let side = FOOTPRINT.half_width_m + 0.25 + 1.5;
+    let scene = settling_scene(0.0, 0.0).with_tracks(vec![track(4, 0.3, side, 0.0, -1.0, 0.25)], 0.5);
+    assert!(!scene.predictions_at_resume.is_empty(), "the scene predicts a contact");
+    let verdict = ObstaclePolicy::new().update(&scene.inputs(), &config).verdict;
+    assert!(
+        matches!(verdict, Verdict::Stop(StopCause::Collision { track_id: 4, .. })),
+        "{verdict:?}"
+    );
+}
+
+#[test]
+fn a_settled_vehicle_with_nobody_near_completes_and_a_parked_one_is_never_blocked() {
+    let config = PolicyConfig::default();
+    let mut policy = ObstaclePolicy::new();
+    for i in 0..100 {
+        let status = policy.update(&settling_scene(f64::from(i) * 0.05, 0.0).inputs(), &config);
+        assert_eq!(status.verdict, Verdict::Go, "tick {i}");
+        assert!(status.events.is_empty() && !status.stopped);
+    }
+    // Parked at its stop point with nothing to do: someone leaning on it
+    // does not hold anything.
+    let side = FOOTPRINT.half_width_m + 0.25 + 0.05;
+    let mut parked = Scene::clear(5.0, 0.0);
+    parked.wants_to_move = false;
+    parked.tracks = vec![track(9, 0.3, side, 0.0, 0.0, 0.25)];
+    parked.predictions_at_resume = vec![against_the_side(9)];
+    assert_eq!(policy.update(&parked.inputs(), &config).verdict, Verdict::Go);
+}
+
+#[test]
+fn a_stop_while_settling_holds_until_the_way_has_been_clear_for_resume_s() {
+    let config = PolicyConfig::default();
+    let mut policy = ObstaclePolicy::new();
+    let mut scene = settling_scene(0.0, 0.01);
+    scene.tracks = vec![track(9, 0.3, 1.0, 0.0, 0.0, 0.25)];
+    scene.predictions_at_resume = vec![against_the_side(9)];
+    assert!(policy.update(&scene.inputs(), &config).stopped);
+    // The person steps away at t 1 s.
+    let mut resumed_at = None;
+    for i in 1..=100 {
+        let t = f64::from(i) * 0.05;
+        let mut scene = settling_scene(t, 0.0);
+        if t < 1.0 {
+            scene.predictions_at_resume = vec![against_the_side(9)];
+        }
+        let status = policy.update(&scene.inputs(), &config);
+        if status.events.iter().any(|e| matches!(e, PolicyEvent::Resumed { .. })) {
+            resumed_at = Some(t);
+            break;
+        }
+        assert!(status.stopped, "t {t}");
+    }
+    let resumed_at = resumed_at.expect("resumes once clear");
+    assert!(resumed_at >= 1.0 + config.resume_s - 1e-9, "{resumed_at}");
 }

@@ -38,6 +38,12 @@
 //! speed and the warning field is empty too, for `resume_s` (the core may
 //! plan a detour instead, with `OA_TYPE` 1).
 //!
+//! A vehicle at rest with nothing to do (not wanting to move, not settling)
+//! is not judged at all. One settling onto a precision stop wants no speed
+//! but is not parked: it may still creep (the speed lag never quite reaches
+//! 0) or re-approach the stop point, so the same checks apply to it as to a
+//! start, and a stop holds its settling until the way is clear.
+//!
 //! At rest the current-velocity inputs describe a vehicle going nowhere, so
 //! whether it may start is judged on the at-resume inputs there as well.
 //! Starting (from rest, or resuming a held stop) is refused besides while
@@ -119,6 +125,9 @@ impl Default for PolicyConfig {
 pub struct PolicyInputs<'a> {
     pub t_s: f64,
     pub wants_to_move: bool,
+    /// Wants no speed but is still settling onto a stop point, which it may
+    /// creep towards or re-approach: not parked, so it is guarded.
+    pub settling: bool,
     /// Signed: reversing is negative.
     pub speed_mps: f64,
     /// Age of the newest scan; `None` when there is none.
@@ -378,7 +387,7 @@ impl ObstaclePolicy {
         }
 
         let at_rest = inputs.speed_mps.abs() < AT_REST_MPS;
-        if !inputs.wants_to_move && at_rest {
+        if !inputs.wants_to_move && !inputs.settling && at_rest {
             self.slowing = false;
             self.passing_track = None;
             return PolicyStatus {
@@ -479,7 +488,11 @@ impl ObstaclePolicy {
         if let Some(cause) = field_stop(&[field]) {
             return Verdict::Stop(cause);
         }
-        if at_rest && let Some(prediction) = start_blocker(inputs) {
+        // Settling, the vehicle may still creep or re-approach its stop
+        // point: someone within the margin of it stops it as at a start.
+        if (at_rest || !inputs.wants_to_move)
+            && let Some(prediction) = start_blocker(inputs)
+        {
             return Verdict::Stop(collision_cause(prediction));
         }
 

@@ -163,7 +163,9 @@ impl Core {
             }
             None => (false, Direction::Forward, 0.0),
         };
-        let verdict = self.obstacle_verdict(active, wants_to_move, direction, planned_mps);
+        // Settling onto a precision stop: not driving, not parked either.
+        let settling = active && self.mode != Mode::Magnetic && self.navigator.stopping();
+        let verdict = self.obstacle_verdict(active, wants_to_move, settling, direction, planned_mps);
         matches!(verdict, Verdict::Stop(_))
     }
 

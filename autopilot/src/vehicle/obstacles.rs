@@ -300,12 +300,14 @@ impl Core {
 
     /// Whether a self-driving mode may drive this tick: `Go`, `Slow` or
     /// `Stop`, with the stop/resume announcements. `wants_to_move`: the mode
-    /// has somewhere to go; `direction`: the way it would drive;
+    /// has somewhere to go; `settling`: it wants no speed but is still
+    /// settling onto a stop point; `direction`: the way it would drive;
     /// `planned_mps`: the speed it would drive at.
     pub(super) fn obstacle_verdict(
         &mut self,
         active: bool,
         wants_to_move: bool,
+        settling: bool,
         direction: Direction,
         planned_mps: f64,
     ) -> Verdict {
@@ -477,6 +479,7 @@ impl Core {
         let inputs = PolicyInputs {
             t_s: now_s,
             wants_to_move,
+            settling,
             speed_mps: speed,
             scan_age_s,
             field: &field,
