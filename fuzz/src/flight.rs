@@ -165,6 +165,7 @@ fn vehicle(u: &mut Unstructured) -> Result<Vehicle> {
             yaw_rad: 1f64.to_radians(),
         },
         stop_preview_m: in_range(u, 0.0, 10.0)?,
+        manoeuvre_speed_mps: in_range(u, 0.1, 2.0)?,
     };
     Ok(Vehicle {
         config,
