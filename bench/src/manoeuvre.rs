@@ -1,4 +1,4 @@
-//! The manoeuvre section of `furrow bench tracking`: GUIDED pose goals 1–10 m
+//! The manoeuvre section of `furrow-bench tracking`: GUIDED pose goals 1–10 m
 //! away in eight directions (ahead, beside, behind, inside the turning
 //! circle), all to be reached facing north as the vehicle starts, then RTL
 //! back home from there, on both vehicle models. Everything is measured
