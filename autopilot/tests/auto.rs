@@ -161,3 +161,28 @@ fn set_current_jumps_ahead() {
     );
     assert_eq!(h.sim.core().mission_current_seq(), 10);
 }
+
+/// A loop whose last corner is sharper than the legs leave room to round
+/// (135° onto a 14 m leg into the final stop): the stop at home is still
+/// reached within tolerance and reported, as pymavlink's DO_JUMP test sees.
+#[test]
+fn a_stop_after_a_corner_too_sharp_to_round_is_still_reached() {
+    let items = vec![
+        wp(0, 0.0, 0.0, 0.0),
+        wp(1, 10.0, 0.0, 0.0),
+        wp(2, 10.0, 9.7, 0.0),
+        do_item(3, cmd::DO_JUMP, [1.0, 2.0, 0.0, 0.0]),
+        wp(4, 0.0, 0.0, 0.0),
+    ];
+    let mut h = Harness::new(4, ModelKind::Ackermann);
+    h.sim
+        .core_mut()
+        .load_plan(MissionType::Mission, Plan::new(MissionType::Mission, items));
+    h.run_for(2.0);
+    h.arm();
+    h.set_mode(10);
+    let done = h.run_until(600.0, |s| s.core().mission_state() == ExecState::Complete);
+    let texts = h.texts();
+    assert!(done, "mission did not complete: {texts:?}");
+    assert_eq!(reached(&h), vec![1, 2, 1, 2, 1, 2, 4], "{texts:?}");
+}

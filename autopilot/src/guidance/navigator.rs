@@ -140,6 +140,9 @@ pub struct StopReport {
     /// Vehicle yaw minus the path's, clockwise positive.
     pub yaw_error_rad: f64,
     pub within_tolerance: bool,
+    /// The pose the stop was meant to end in: the point, facing the way
+    /// the path ends (the vehicle's nose, so reversed on a reverse leg).
+    pub goal: Pose,
 }
 
 impl StopReport {
@@ -599,6 +602,10 @@ impl Navigator {
                     crosstrack_m: projection.crosstrack_m,
                     yaw_error_rad: yaw_error,
                     within_tolerance: false,
+                    goal: Pose {
+                        position: path.end(),
+                        yaw_rad: end_yaw,
+                    },
                 };
                 self.stop_report = Some(StopReport {
                     within_tolerance: report.position_error_m() <= config.stop.position_m

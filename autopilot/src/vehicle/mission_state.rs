@@ -25,6 +25,9 @@ pub struct MissionState {
     /// The last MISSION_CURRENT seq and state sent, to send again on
     /// change (completion keeps the seq but changes the state).
     pub last_current_sent: Option<(u16, ExecState)>,
+    /// The mission stop whose one retry (a manoeuvre back onto it after a
+    /// stop out of tolerance) is in use; cleared by each new leg.
+    pub stop_retried: Option<u16>,
     /// Bumped whenever a plan in force changes.
     pub generation: u64,
 }
@@ -43,6 +46,7 @@ impl MissionState {
             breach_count: 0,
             breach_time_ms: 0,
             last_current_sent: None,
+            stop_retried: None,
             generation: 0,
         }
     }

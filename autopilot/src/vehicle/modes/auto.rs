@@ -96,6 +96,7 @@ impl Core {
                         next,
                         seq: Some(leg.seq),
                     };
+                    self.missions.stop_retried = None;
                     self.navigator.set_target(from.unwrap_or(here), target);
                 }
                 Action::Hold => self.navigator.clear(),

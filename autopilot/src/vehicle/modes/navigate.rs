@@ -4,7 +4,9 @@
 
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
+use crate::guidance::manoeuvre::plan;
 use crate::guidance::navigator::StopReport;
+use crate::guidance::reeds_shepp::Pose;
 use crate::modes::Mode;
 use crate::vehicle::Core;
 use crate::vehicle::drive::Demand;
@@ -20,7 +22,7 @@ impl Core {
         let report = self.navigator.take_stop_report();
         if let Some(report) = &report {
             self.report_stop(report);
-            if report.seq.is_some() {
+            if report.seq.is_some() && !self.retry_mission_stop(report) {
                 self.goals.missed_seq = report.seq.filter(|_| !report.within_tolerance);
             }
         }
@@ -36,6 +38,50 @@ impl Core {
             Demand::Navigate(nav)
         } else {
             Demand::Stop
+        }
+    }
+
+    /// A mission stop that ended out of tolerance gets one more try, as a
+    /// GUIDED or RTL goal does: a manoeuvre from where the vehicle rests
+    /// onto the stop's pose (a leg that could not converge, say after a
+    /// corner too sharp to round, leaves no room to correct otherwise).
+    /// True when the retry is under way: the stop is not reported yet.
+    fn retry_mission_stop(&mut self, report: &StopReport) -> bool {
+        let Some(seq) = report.seq else {
+            return false;
+        };
+        if self.mode != Mode::Auto || report.within_tolerance || self.missions.stop_retried == Some(seq) {
+            return false;
+        }
+        self.missions.stop_retried = Some(seq);
+        let estimate = self.estimator.estimate();
+        let start = Pose {
+            position: estimate.position,
+            yaw_rad: estimate.yaw_rad,
+        };
+        let goal = report.goal;
+        match plan(&start, goal.position, Some(goal.yaw_rad), &self.manoeuvre_config()) {
+            Ok(manoeuvre) => {
+                self.send_text(
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    // Under STATUSTEXT's 50 characters.
+                    &format!(
+                        "Waypoint #{seq} missed: retry {:.1} m, {} reversals",
+                        manoeuvre.length_m(),
+                        manoeuvre.direction_changes()
+                    ),
+                );
+                self.navigator
+                    .set_manoeuvre(manoeuvre, self.missions.speed_mps, Some(seq));
+                true
+            }
+            Err(why) => {
+                self.send_text(
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    &format!("Waypoint #{seq} missed, no retry: {why}"),
+                );
+                false
+            }
         }
     }
 
