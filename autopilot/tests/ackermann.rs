@@ -12,10 +12,8 @@ use autopilot::control::ackermann::{
     AckermannGeometry, curvature_from_steer, differential_wheel_speeds, front_wheel_angles, rear_speed_ratio,
     rear_wheel_speeds, steer_from_curvature,
 };
-use drivers::sim::{
-    AckermannConfig, ActuatorDemand, DifferentialConfig, GnssSimConfig, VehicleModel, World, WorldConfig,
-};
 use proptest::prelude::*;
+use sim::{AckermannConfig, ActuatorDemand, DifferentialConfig, GnssSimConfig, VehicleModel, World, WorldConfig};
 
 fn geometry(wheelbase_m: f64, track_m: f64, e_left_m: f64, e_right_m: f64) -> AckermannGeometry {
     AckermannGeometry {

@@ -10,7 +10,7 @@ use autopilot::guidance::magnetic::{
     lateral_and_angle, probe_num, sensor_deviation_m,
 };
 use autopilot::guidance::magnetic_scenario::{MagneticProfile, MagneticScenario, run};
-use drivers::sim::{MagneticSensor, MagneticSensorConfig, MagneticTape, VehicleTruth};
+use sim::{MagneticSensor, MagneticSensorConfig, MagneticTape, VehicleTruth};
 
 const PITCH_M: f64 = 0.010;
 /// Half a probe pitch: the reading's quantisation either way.

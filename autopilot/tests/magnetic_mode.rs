@@ -7,8 +7,8 @@ mod common;
 use autopilot::modes::Mode;
 use autopilot::sitl::simulation::ModelKind;
 use common::Harness;
-use drivers::sim::TapeBuilder;
 use mavlink::dialects::ardupilotmega::{MavCmd, MavMessage, MavResult};
+use sim::TapeBuilder;
 
 const MAGNETIC: u32 = 20;
 

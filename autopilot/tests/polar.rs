@@ -8,8 +8,8 @@ mod common;
 use autopilot::sitl::gcs;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 use common::Harness;
-use drivers::sim::GeoPoint;
 use mavlink::dialects::ardupilotmega::MavMessage;
+use sim::GeoPoint;
 
 fn at(lat_deg: f64, lon_deg: f64, alt_m: f64) -> GeoPoint {
     GeoPoint {

@@ -10,10 +10,10 @@ use autopilot::modes::Mode;
 use autopilot::sitl::simulation::ModelKind;
 use autopilot::time::FrozenTimer;
 use common::Harness;
-use drivers::sim::ActuatorDemand;
 use mavlink::dialects::ardupilotmega::{MANUAL_CONTROL_DATA, MavCmd, MavMessage};
 use mission::command::{cmd, frame};
 use mission::{ExecState, MissionItem, MissionType, Plan};
+use sim::ActuatorDemand;
 
 const MANUAL: u32 = 0;
 const AUTO: u32 = 10;

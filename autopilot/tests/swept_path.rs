@@ -9,9 +9,9 @@ use autopilot::edge::clock::InstantTimer;
 use autopilot::sitl::gcs;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 use common::{Harness, item};
-use drivers::sim::{MovingObstacle, ObstacleWorld, Rectangle, Shape};
 use mission::command::{cmd, frame};
 use mission::{ExecState, MissionType, Plan};
+use sim::{MovingObstacle, ObstacleWorld, Rectangle, Shape};
 
 /// The simulated AGV's outline (VEH_LEN_FRONT, VEH_LEN_REAR, VEH_WIDTH / 2).
 const FRONT_M: f64 = 3.6;

@@ -110,8 +110,8 @@ fn a_stop_reports_its_true_error_in_sitl() {
 }
 
 /// The same point in the simulator's own WGS-84 type.
-fn sim_point(p: GeoPoint) -> drivers::sim::GeoPoint {
-    drivers::sim::GeoPoint {
+fn sim_point(p: GeoPoint) -> sim::GeoPoint {
+    sim::GeoPoint {
         lat_deg: p.lat_deg,
         lon_deg: p.lon_deg,
         alt_m: p.alt_m,

@@ -12,9 +12,9 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use drivers::sim::GeoPoint as SimGeoPoint;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mission::{ExecState, MissionType, Plan};
+use sim::GeoPoint as SimGeoPoint;
 
 use autopilot::edge::clock::InstantTimer;
 use autopilot::geo::{GeoPoint, LocalFrame, Ned, wrap_pi};

@@ -1,4 +1,4 @@
-//! Furrow's device drivers and the simulated world.
+//! Furrow's device drivers: the real devices and their parsers.
 //!
 //! - [`gnss`]: GNSS sample types, the NMEA 0183 stream parser that the real
 //!   receiver and SITL both feed, and the port thread that reads a receiver.
@@ -10,12 +10,12 @@
 //! - [`pwm`]: servo and ESC pulses through Linux sysfs PWM.
 //! - [`backoff`]: the reconnect wait every device and link uses.
 //! - [`device`]: the health counters each device thread shares with the core's edge.
-//! - [`sim`]: the SITL world (vehicle physics, battery, obstacles, tape) whose
-//!   simulated devices emit what real ones do, so SITL exercises the real parsers.
 //!
-//! The parsers and the simulated world are pure and deterministic: time is
-//! passed in as a [`std::time::Duration`] since start, randomness comes from a
-//! caller's seed. The device threads and clients (`gnss::port`,
+//! The simulated world whose devices emit the same bytes lives in the `sim`
+//! crate, which depends on this one for the parsers' types.
+//!
+//! The parsers are pure and deterministic: time is passed in as a
+//! [`std::time::Duration`] since start. The device threads and clients (`gnss::port`,
 //! `scanner::client`, `magnetic_serial`, `ntrip`, `pwm`) do I/O: they own a
 //! port, a socket or files, and are the edges the real vehicle runs.
 
@@ -28,4 +28,3 @@ pub mod ntrip;
 pub mod pwm;
 pub mod rtcm;
 pub mod scanner;
-pub mod sim;

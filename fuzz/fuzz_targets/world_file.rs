@@ -1,4 +1,4 @@
-//! SITL world files (`drivers::sim::world_file::parse_world_file`): TOML
+//! SITL world files (`sim::world_file::parse_world_file`): TOML
 //! with static shapes, moving obstacles and a magnetic tape, reloaded while
 //! SITL runs.
 //!
@@ -8,7 +8,7 @@
 //! magnetic-tape guidance without any error).
 #![no_main]
 
-use drivers::sim::parse_world_file;
+use sim::parse_world_file;
 use libfuzzer_sys::fuzz_target;
 
 const MAX_RANGE_M: f64 = 40.0;

@@ -26,8 +26,8 @@
 //!
 //! Sources: docs/references.md §Seed 002.
 
-use drivers::sim::ActuatorDemand;
 use params::{Param, ParamDef, ParamFlags, ParamName, ParamTable, ParamTableBuilder, ParamType};
+use sim::ActuatorDemand;
 
 use super::mixer::WheelOutputs;
 

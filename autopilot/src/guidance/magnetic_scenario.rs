@@ -44,7 +44,7 @@
 
 use std::f64::consts::{PI, TAU};
 
-use drivers::sim::{
+use sim::{
     AckermannConfig, ActuatorDemand, GnssSimConfig, MagneticSensor, MagneticSensorConfig, MagneticTape, TapeBuilder,
     VehicleModel, World, WorldConfig,
 };

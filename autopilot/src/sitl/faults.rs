@@ -8,8 +8,8 @@
 
 use std::time::Duration;
 
-use drivers::sim::ActuatorDemand;
 use params::ParamTable;
+use sim::ActuatorDemand;
 
 use super::params::SimParams;
 

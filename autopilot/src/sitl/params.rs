@@ -3,8 +3,8 @@
 //! ArduPilot's SITL).
 
 use drivers::gnss::FixQuality;
-use drivers::sim::{GnssSimConfig, SimScannerConfig};
 use params::{ParamTable, declare_params};
+use sim::{GnssSimConfig, SimScannerConfig};
 
 use crate::obstacles::params::ScannerParams;
 

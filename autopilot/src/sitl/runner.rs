@@ -67,7 +67,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
     }
     let world_watch = match &options.world {
         Some(path) => {
-            let file = drivers::sim::load_world_file(path).map_err(|e| format!("--world {}: {e}", path.display()))?;
+            let file = sim::load_world_file(path).map_err(|e| format!("--world {}: {e}", path.display()))?;
             if file.tape().is_some() && options.tape.is_some() {
                 return Err(format!(
                     "--world {} lays a tape and so does --tape: give one",
@@ -174,7 +174,7 @@ impl Platform for SimulatedVehicle {
 
 /// Puts a world file's obstacles (and tape, if it has one) into the
 /// simulation.
-fn apply_world(sim: &mut Simulation, file: &drivers::sim::WorldFile) {
+fn apply_world(sim: &mut Simulation, file: &sim::WorldFile) {
     sim.world_mut().set_obstacles(Some(file.obstacles()));
     if let Some(tape) = file.tape() {
         sim.world_mut().set_tape(Some(tape));
@@ -213,7 +213,7 @@ impl WorldWatch {
         }
         self.modified = modified;
         use mavlink::dialects::ardupilotmega::MavSeverity;
-        match drivers::sim::load_world_file(&self.path) {
+        match sim::load_world_file(&self.path) {
             Ok(file) => {
                 apply_world(sim, &file);
                 tracing::info!("world reloaded from {}", self.path.display());

@@ -9,8 +9,8 @@ use drivers::gnss::NmeaReader;
 use drivers::magnetic::MagneticSample;
 use drivers::scanner::Scan;
 use drivers::scanner::cola::{ColaFramer, encode_lmd_scandata, parse_lmd_scandata, telegram_from_scan};
-use drivers::sim::{AckermannConfig, ActuatorDemand, DifferentialConfig, GeoPoint, VehicleModel, World, WorldConfig};
 use params::{ParamTable, ParamTableBuilder};
+use sim::{AckermannConfig, ActuatorDemand, DifferentialConfig, GeoPoint, VehicleModel, World, WorldConfig};
 
 use super::faults::Faults;
 use super::params::SimParams;

@@ -5,8 +5,8 @@
 
 use std::path::Path;
 
-use drivers::sim::{GeoPoint as SimGeoPoint, MagneticTape, TapeSegment, World};
 use mission::command::{Position, cmd, position};
+use sim::{GeoPoint as SimGeoPoint, MagneticTape, TapeSegment, World};
 
 use crate::geo::Ned;
 use crate::guidance::path::fit_corner;

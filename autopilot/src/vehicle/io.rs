@@ -2,9 +2,9 @@
 
 use drivers::gnss::GnssSample;
 use drivers::magnetic::MagneticSample;
-use drivers::sim::{ActuatorDemand, BatterySample};
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::{MavHeader, MavlinkVersion};
+use sim::{ActuatorDemand, BatterySample};
 
 /// One MAVLink link (a TCP client, the UDP peer, a serial port…), numbered by
 /// the link layer in the order links appear.

@@ -29,8 +29,8 @@ use std::time::Duration;
 use ::params::ParamTable;
 use ::params::service::ParamService;
 use drivers::magnetic::MagneticSample;
-use drivers::sim::BatterySample;
 use mavlink::dialects::ardupilotmega::{MavMessage, MavSeverity};
+use sim::BatterySample;
 
 use crate::control::mixer::DriveTrain;
 use crate::control::speed::SpeedController;

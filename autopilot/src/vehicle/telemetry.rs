@@ -3,7 +3,6 @@
 // PROTOCOL_VERSION is deprecated but still requested (see telemetry::identity).
 #![allow(deprecated)]
 
-use drivers::sim::BatterySample;
 use mavlink::dialects::ardupilotmega::{
     ATTITUDE_DATA, BATTERY_STATUS_DATA, EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA, EkfStatusFlags,
     GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, GpsFixType, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA,
@@ -12,6 +11,7 @@ use mavlink::dialects::ardupilotmega::{
     NAV_CONTROLLER_OUTPUT_DATA, POSITION_TARGET_GLOBAL_INT_DATA, PositionTargetTypemask, RELAY_STATUS_DATA,
     SERVO_OUTPUT_RAW_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA,
 };
+use sim::BatterySample;
 
 use super::failsafe::Failsafe;
 use super::{Core, Destination};

@@ -6,7 +6,7 @@
 //! Movers are placed on a collision course: each reaches the crossing point
 //! when the empty run's outline did, so doing nothing would hit.
 
-use drivers::sim::{MovingObstacle, Shape, VehicleOutline};
+use sim::{MovingObstacle, Shape, VehicleOutline};
 
 use super::drive::{Course, Setup, Waypoint, Yield};
 use super::truth::TruthLog;

@@ -5,9 +5,9 @@
 
 use std::time::Duration;
 
-use drivers::sim::{ObstacleWorld, VehicleOutline};
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mission::{ExecState, MissionType, Plan};
+use sim::{ObstacleWorld, VehicleOutline};
 
 use super::truth::{Judge, Limits, MOVING_MPS, Pose, STALL_S, TruthLog, on_its_line_s, rectangle};
 use autopilot::edge::clock::InstantTimer;
@@ -346,7 +346,7 @@ pub fn drive_with(
 /// `None` when the vehicle could have stopped for it.
 fn unavoidable(
     world: &ObstacleWorld,
-    rect: &drivers::sim::Rectangle,
+    rect: &sim::Rectangle,
     t_s: f64,
     speeds: &[(f64, f64)],
     limits: &Limits,
@@ -430,7 +430,7 @@ fn apply_yields(
     setup: &Setup,
     yielded: &mut [bool],
     world: &mut ObstacleWorld,
-    rect: &drivers::sim::Rectangle,
+    rect: &sim::Rectangle,
     t_s: f64,
 ) -> bool {
     let mut changed = false;

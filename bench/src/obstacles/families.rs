@@ -11,7 +11,7 @@
 //! the true distance to the outline swept along that run (negative: that
 //! far inside it).
 
-use drivers::sim::{Shape, VehicleOutline};
+use sim::{Shape, VehicleOutline};
 
 use super::classic::{PERSON_RADIUS_M, person};
 use super::drive::{Course, Setup, Waypoint};

@@ -12,9 +12,9 @@
 
 use std::f64::consts::{PI, TAU};
 
-use drivers::sim::{MovingObstacle, Shape, VehicleOutline};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use sim::{MovingObstacle, Shape, VehicleOutline};
 
 use super::classic::{PERSON_RADIUS_M, person};
 use super::drive::{Course, Setup, Waypoint};

@@ -37,7 +37,7 @@
 //!   began): it stepped out, turned or appeared faster than the vehicle
 //!   can stop. Every other collision counts against the vehicle.
 
-use drivers::sim::{MovingObstacle, ObstacleWorld, Rectangle, Shape, VehicleOutline};
+use sim::{MovingObstacle, ObstacleWorld, Rectangle, Shape, VehicleOutline};
 
 /// Below this speed the vehicle is at rest (a collision needs more).
 pub const MOVING_MPS: f64 = 0.01;

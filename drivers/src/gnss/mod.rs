@@ -176,6 +176,6 @@ impl NmeaStats {
 }
 
 /// XOR of the bytes between `$` and `*`: the NMEA 0183 checksum.
-pub(crate) fn nmea_checksum(body: &[u8]) -> u8 {
+pub fn nmea_checksum(body: &[u8]) -> u8 {
     body.iter().fold(0, |acc, b| acc ^ b)
 }

@@ -13,7 +13,7 @@ use super::obstacles::{ObstacleWorld, VehicleOutline};
 use super::scanner::{SimScanner, SimScannerConfig, scanner_seed};
 use super::vehicle::{self, VehicleTruth, wrap_pi};
 use super::{ActuatorDemand, GeoPoint, GnssSimConfig, MagneticSensorConfig, VehicleModel, WorldConfig};
-use crate::scanner::Scan;
+use drivers::scanner::Scan;
 
 /// The physics rate used when the configured one is unusable (≤ 0, NaN).
 const FALLBACK_PHYSICS_RATE_HZ: f64 = 400.0;

@@ -5,7 +5,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use std::time::Duration;
 
 use drivers::scanner::Scan;
-use drivers::sim::{
+use sim::{
     ActuatorDemand, GnssSimConfig, MovingObstacle, ObstacleWorld, Shape, SimScannerConfig, VehicleOutline, World,
     WorldConfig,
 };

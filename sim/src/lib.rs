@@ -1,6 +1,6 @@
 //! The SITL world. Its simulated devices emit what real ones do: the GNSS
-//! receiver writes NMEA bytes for [`crate::gnss::NmeaReader`]; the laser
-//! scanners ray-cast the obstacles into [`crate::scanner::Scan`]s.
+//! receiver writes NMEA bytes for [`drivers::gnss::NmeaReader`]; the laser
+//! scanners ray-cast the obstacles into [`drivers::scanner::Scan`]s.
 //!
 //! Frames: NED about the home point (`north_m`, `east_m`); yaw 0 = north,
 //! clockwise, in [-π, π); body x forward, y right; the vehicle reference point

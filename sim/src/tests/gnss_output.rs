@@ -3,8 +3,8 @@ use std::time::Duration;
 use proptest::prelude::*;
 
 use super::*;
-use crate::gnss::{FixQuality, GnssFix};
-use crate::sim::nmea_out::{EpochReport, write_epoch};
+use crate::nmea_out::{EpochReport, write_epoch};
+use drivers::gnss::{FixQuality, GnssFix};
 
 const EPOCH: Duration = Duration::from_millis(100);
 

@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use chrono::{DateTime, Datelike};
 
 use super::GeoPoint;
-use crate::gnss::{FixQuality, nmea_checksum};
+use drivers::gnss::{FixQuality, nmea_checksum};
 
 const KNOTS_PER_MPS: f64 = 3600.0 / 1852.0;
 const US_PER_DAY: i64 = 86_400_000_000;
@@ -189,11 +189,11 @@ mod tests {
             let mut bytes = Vec::new();
             write_epoch("GN", &report, &mut bytes);
             let mut samples = Vec::new();
-            crate::gnss::NmeaReader::new().push(std::time::Duration::ZERO, &bytes, &mut samples);
+            drivers::gnss::NmeaReader::new().push(std::time::Duration::ZERO, &bytes, &mut samples);
             let fix = samples
                 .iter()
                 .find_map(|s| match s {
-                    crate::gnss::GnssSample::Fix(f) => Some(*f),
+                    drivers::gnss::GnssSample::Fix(f) => Some(*f),
                     _ => None,
                 })
                 .unwrap_or_else(|| panic!("{lat_deg} {lon_deg}: {samples:?}"));

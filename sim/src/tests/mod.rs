@@ -7,7 +7,7 @@ mod vehicle;
 use std::time::Duration;
 
 use super::*;
-use crate::gnss::{GnssSample, NmeaReader};
+use drivers::gnss::{GnssSample, NmeaReader};
 
 /// A world whose receiver is off, for physics-only tests.
 fn quiet_world(vehicle: VehicleModel, home_heading_deg: f64) -> World {

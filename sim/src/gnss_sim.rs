@@ -166,7 +166,7 @@ impl GnssSim {
 mod tests {
     use super::super::GeoPoint;
     use super::*;
-    use crate::gnss::{GnssSample, NmeaReader};
+    use drivers::gnss::{GnssSample, NmeaReader};
 
     #[test]
     fn epochs_fall_on_the_grid() {

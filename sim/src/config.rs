@@ -1,7 +1,7 @@
 //! Configuration of the simulated world; defaults are the bench vehicle and
 //! receiver of `tests/data/bench/README.md`.
 
-use crate::gnss::FixQuality;
+use drivers::gnss::FixQuality;
 
 use super::MagneticSensorConfig;
 

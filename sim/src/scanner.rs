@@ -37,7 +37,7 @@ use super::VehicleTruth;
 use super::obstacles::{
     FacingOutline, ObstacleWorld, point_segment_distance, ray_circle_m, ray_segment_m, wrap_two_pi,
 };
-use crate::scanner::Scan;
+use drivers::scanner::Scan;
 
 /// A mistyped step must not allocate millions of beams.
 pub const MAX_BEAMS: usize = 4096;
