@@ -183,6 +183,7 @@ fn run(rx: Receiver<LogCommand>, store: LogStore, outbound: Sender<Outbound>, wr
                 LogCommand::Open(limits) => writer.open(limits),
                 LogCommand::Records(bytes) => writer.write(&bytes),
                 LogCommand::Close => writer.close(),
+                LogCommand::LinkClosed(link) => transfer.link_closed(link),
                 LogCommand::Request { link, message } => {
                     // A download sees everything written so far.
                     writer.flush();
@@ -302,6 +303,121 @@ mod tests {
             let parsed = DataFlashLog::read(&log.path).unwrap();
             assert_eq!(parsed.skipped_bytes, 0, "each file has its own header");
             assert!(parsed.messages("EV").count() >= 1000);
+        }
+    }
+
+    /// Starts a logger with one finished log and a download of all of it
+    /// on `link`; returns the logger, the reply channel and the data dir.
+    fn download_started(
+        link: crate::vehicle::LinkId,
+    ) -> (Logger, tokio::sync::mpsc::Receiver<Outbound>, tempfile::TempDir) {
+        use mavlink::dialects::ardupilotmega::{LOG_REQUEST_DATA_DATA, LOG_REQUEST_LIST_DATA, MavMessage};
+        let scratch = tempfile::tempdir().unwrap();
+        // Small: the download stalls (half full) until the test drains it.
+        let (outbound, mut rx) = tokio::sync::mpsc::channel(16);
+        let mut logger = Logger::start(scratch.path(), outbound);
+        let list = MavMessage::LOG_REQUEST_LIST(LOG_REQUEST_LIST_DATA {
+            start: 0,
+            end: u16::MAX,
+            target_system: 1,
+            target_component: 1,
+        });
+        let limits = FileLimits {
+            max_files: 3,
+            max_bytes: 0,
+        };
+        let mut commands = vec![
+            LogCommand::Open(limits),
+            LogCommand::Records(records(1000)),
+            LogCommand::Close,
+            LogCommand::Request {
+                link,
+                message: Box::new(list),
+            },
+        ];
+        logger.send(&mut commands);
+        let entry = match rx.blocking_recv().map(|o| o.message) {
+            Some(MavMessage::LOG_ENTRY(e)) => e,
+            other => panic!("expected LOG_ENTRY, got {other:?}"),
+        };
+        assert!(entry.size > 90 * 100, "a log of many chunks: {} bytes", entry.size);
+        let data = MavMessage::LOG_REQUEST_DATA(LOG_REQUEST_DATA_DATA {
+            ofs: 0,
+            count: u32::MAX,
+            id: entry.id,
+            target_system: 1,
+            target_component: 1,
+        });
+        logger.send(&mut vec![LogCommand::Request {
+            link,
+            message: Box::new(data),
+        }]);
+        (logger, rx, scratch)
+    }
+
+    /// Receives LOG_DATA until none comes for a while; returns how many.
+    fn drain_log_data(rx: &mut tokio::sync::mpsc::Receiver<Outbound>) -> usize {
+        let mut n = 0;
+        let mut quiet_since = Instant::now();
+        while quiet_since.elapsed() < Duration::from_millis(100) {
+            match rx.try_recv() {
+                Ok(o) => {
+                    assert!(matches!(
+                        o.message,
+                        mavlink::dialects::ardupilotmega::MavMessage::LOG_DATA(_)
+                    ));
+                    n += 1;
+                    quiet_since = Instant::now();
+                }
+                Err(_) => std::thread::sleep(Duration::from_millis(1)),
+            }
+        }
+        n
+    }
+
+    /// Waits until the (undrained) download has filled the queue to the
+    /// point where it pauses.
+    fn wait_stalled(rx: &tokio::sync::mpsc::Receiver<Outbound>) {
+        let started = Instant::now();
+        while rx.len() < 8 {
+            assert!(started.elapsed() < Duration::from_secs(5), "download never started");
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    #[test]
+    fn a_download_runs_to_the_end_while_its_link_is_open() {
+        let link = crate::vehicle::LinkId(3);
+        let (logger, mut rx, _dir) = download_started(link);
+        wait_stalled(&rx);
+        let chunks = drain_log_data(&mut rx);
+        assert!(chunks > 100, "the whole file comes: {chunks} chunks");
+        drop(logger);
+    }
+
+    #[test]
+    fn a_download_stops_when_its_link_closes_or_the_client_ends_it() {
+        use mavlink::dialects::ardupilotmega::{LOG_REQUEST_END_DATA, MavMessage};
+        let link = crate::vehicle::LinkId(3);
+        let end = MavMessage::LOG_REQUEST_END(LOG_REQUEST_END_DATA {
+            target_system: 1,
+            target_component: 1,
+        });
+        let stops = [
+            LogCommand::LinkClosed(link),
+            LogCommand::Request {
+                link,
+                message: Box::new(end),
+            },
+        ];
+        for stop in stops {
+            let (mut logger, mut rx, _dir) = download_started(link);
+            wait_stalled(&rx);
+            logger.send(&mut vec![stop.clone()]);
+            // What was queued before the stop still drains; nothing after.
+            let chunks = drain_log_data(&mut rx);
+            assert!(chunks <= 16, "{stop:?}: {chunks} chunks after it");
+            drop(logger);
         }
     }
 

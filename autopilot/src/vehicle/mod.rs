@@ -371,6 +371,7 @@ impl Core {
                 LinkEvent::Closed { link } => {
                     self.links.remove(&link);
                     self.param_service.link_closed(link);
+                    self.onboard_log.link_closed(link);
                     let mut events = Vec::new();
                     self.missions.protocol.link_closed(link, &mut events);
                     self.mission_events(events);
