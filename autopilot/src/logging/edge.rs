@@ -1,7 +1,8 @@
 //! The log's edge: a thread that writes the core's records to `logs/` and
 //! serves downloads. The core's side only ever `try_send`s into a bounded
-//! queue: when the disk or a download falls behind, commands are dropped
-//! and counted, and the core never waits.
+//! queue: when the disk falls behind, commands are dropped and counted, and
+//! the core never waits. A download reads ahead only while the links'
+//! backlog of bulk replies is short: it goes at the link's pace.
 
 use std::io::{BufWriter, Write};
 use std::path::Path;
@@ -18,13 +19,16 @@ use super::messages;
 use super::protocol::{Action, LogTransfer};
 use super::store::LogStore;
 use super::{FileLimits, LogCommand};
+use crate::link::hub::BulkBacklog;
 use crate::vehicle::{Destination, Outbound};
 
 /// Commands queued for the thread: about five seconds of ticks at 50 Hz.
 const QUEUE: usize = 256;
-/// LOG_DATA sent per pass at most, and only while the link queue is at
-/// most half full (telemetry keeps its room).
+/// LOG_DATA sent per pass at most, and only while the core's outbound
+/// queue is at most half full and the links hold fewer than
+/// [`BACKLOG_AHEAD`] bulk replies not yet queued.
 const CHUNKS_PER_PASS: usize = 64;
+const BACKLOG_AHEAD: usize = 64;
 /// How long the thread sleeps between passes during a download.
 const DOWNLOAD_PASS: Duration = Duration::from_millis(2);
 /// Written data reaches the file at least this often (a download of the
@@ -41,15 +45,15 @@ pub struct Logger {
 
 impl Logger {
     /// Starts the thread for the data directory at `data_dir`; replies to
-    /// downloads go to `outbound`.
-    pub fn start(data_dir: &Path, outbound: Sender<Outbound>) -> Logger {
+    /// downloads go to `outbound`, paced by the links' `backlog`.
+    pub fn start(data_dir: &Path, outbound: Sender<Outbound>, backlog: BulkBacklog) -> Logger {
         let (tx, rx) = std::sync::mpsc::sync_channel(QUEUE);
         let store = LogStore::new(data_dir);
         let written_bytes = Arc::new(AtomicU64::new(0));
         let written = written_bytes.clone();
         let thread = std::thread::Builder::new()
             .name("log".into())
-            .spawn(move || run(rx, store, outbound, &written))
+            .spawn(move || run(rx, store, Replies { outbound, backlog }, &written))
             .map_err(|e| tracing::error!("onboard log thread: {e}; not logging"))
             .ok();
         Logger {
@@ -163,7 +167,13 @@ impl Writer<'_> {
     }
 }
 
-fn run(rx: Receiver<LogCommand>, store: LogStore, outbound: Sender<Outbound>, written: &AtomicU64) {
+/// Where a download's replies go, and how far ahead it may run.
+struct Replies {
+    outbound: Sender<Outbound>,
+    backlog: BulkBacklog,
+}
+
+fn run(rx: Receiver<LogCommand>, store: LogStore, replies: Replies, written: &AtomicU64) {
     let mut writer = Writer {
         store: store.clone(),
         open: None,
@@ -190,7 +200,7 @@ fn run(rx: Receiver<LogCommand>, store: LogStore, outbound: Sender<Outbound>, wr
                     let logs: Vec<_> = store.list().iter().map(|l| l.info()).collect();
                     for action in transfer.handle(link, &message, &logs) {
                         match action {
-                            Action::Send(link, message) => send(&outbound, link, *message),
+                            Action::Send(link, message) => send(&replies.outbound, link, *message),
                             Action::EraseAll => erase(&store, writer.open.as_ref().map(|l| l.number)),
                         }
                     }
@@ -200,7 +210,7 @@ fn run(rx: Receiver<LogCommand>, store: LogStore, outbound: Sender<Outbound>, wr
         if writer.last_flush.elapsed() >= FLUSH_EVERY {
             writer.flush();
         }
-        pump(&mut transfer, &store, &outbound);
+        pump(&mut transfer, &store, &replies);
     }
     writer.close();
 }
@@ -224,10 +234,11 @@ fn erase(store: &LogStore, keep: Option<u16>) {
 }
 
 /// Sends the next LOG_DATA chunks while the link queue has room.
-fn pump(transfer: &mut LogTransfer, store: &LogStore, outbound: &Sender<Outbound>) {
+fn pump(transfer: &mut LogTransfer, store: &LogStore, replies: &Replies) {
     let mut buf = [0u8; super::protocol::CHUNK];
+    let outbound = &replies.outbound;
     for _ in 0..CHUNKS_PER_PASS {
-        if outbound.capacity() < outbound.max_capacity() / 2 {
+        if outbound.capacity() < outbound.max_capacity() / 2 || replies.backlog.waiting() >= BACKLOG_AHEAD {
             return;
         }
         let Some(request) = transfer.next_chunk() else {
@@ -281,7 +292,7 @@ mod tests {
         let scratch = tempfile::tempdir().unwrap();
         let data = scratch.path().join("data");
         let (outbound, _rx) = tokio::sync::mpsc::channel(16);
-        let mut logger = Logger::start(&data, outbound);
+        let mut logger = Logger::start(&data, outbound, BulkBacklog::default());
         let limits = FileLimits {
             max_files: 3,
             max_bytes: 20_000,
@@ -315,7 +326,7 @@ mod tests {
         let scratch = tempfile::tempdir().unwrap();
         // Small: the download stalls (half full) until the test drains it.
         let (outbound, mut rx) = tokio::sync::mpsc::channel(16);
-        let mut logger = Logger::start(scratch.path(), outbound);
+        let mut logger = Logger::start(scratch.path(), outbound, BulkBacklog::default());
         let list = MavMessage::LOG_REQUEST_LIST(LOG_REQUEST_LIST_DATA {
             start: 0,
             end: u16::MAX,
@@ -427,7 +438,7 @@ mod tests {
         let scratch = tempfile::tempdir().unwrap();
         let data = scratch.path().join("data");
         let (outbound, _rx) = tokio::sync::mpsc::channel(16);
-        let mut logger = Logger::start(&data, outbound);
+        let mut logger = Logger::start(&data, outbound, BulkBacklog::default());
         let mut commands: Vec<_> = (0..QUEUE * 4).map(|_| LogCommand::Records(records(1000))).collect();
         let started = Instant::now();
         logger.send(&mut commands);

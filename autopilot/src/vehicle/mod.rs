@@ -230,6 +230,8 @@ impl Core {
         self.saves_done(&inputs.saved);
         self.handle_link_events(&inputs.link_events);
         self.receive(inputs);
+        // A list requested now starts now, not at the next stream tick.
+        self.stream_params();
         self.request_param_save();
         out.saves.append(&mut self.persist.take_requests());
         out.mavlink.append(&mut self.outbox);
