@@ -56,7 +56,7 @@ pub(super) const LINK_QUEUE: usize = 512;
 /// Bulk replies a link's backlog holds at most: far more than a parameter
 /// table or a burst; only a client that floods requests reaches it, and
 /// then the surplus is dropped and counted rather than memory growing.
-const BACKLOG_LIMIT: usize = 8192;
+const BACKLOG_LIMIT: usize = 2048;
 /// How often the hub moves backlogged bulk replies into drained queues.
 const PUMP_PERIOD: Duration = Duration::from_millis(1);
 /// A byte-stream writer gathers queued frames into writes of this size.
@@ -1457,29 +1457,46 @@ mod tests {
         hub: Hub,
         core: mpsc::Receiver<ToCore>,
         link_queue: mpsc::Receiver<LinkFrame>,
+        /// What the link's writer would report written.
+        queued: QueuedBytes,
     }
 
     const LINK: LinkId = LinkId(0);
 
     impl BareHub {
         async fn open(core_queue: usize, signing: SigningState, sign_require_mask: u8) -> BareHub {
+            Self::open_paced(core_queue, signing, sign_require_mask, LinkPace::Network).await
+        }
+
+        async fn open_paced(
+            core_queue: usize,
+            signing: SigningState,
+            sign_require_mask: u8,
+            pace: LinkPace,
+        ) -> BareHub {
             let (core_tx, core) = mpsc::channel(core_queue);
             let sign_require = Arc::new(AtomicU8::new(sign_require_mask));
             let mut hub = Hub::new(1, core_tx, None, signing, None, sign_require);
             let (tx, link_queue) = mpsc::channel(LINK_QUEUE);
             let role = LinkRole { slot: 1, secure: false };
             let (peers, name) = (PeerPolicy::FirstFrame, "test".to_string());
+            let queued = QueuedBytes::default();
             hub.on_event(HubEvent::Opened {
                 link: LINK,
                 role,
                 peers,
                 name,
                 tx,
-                pace: LinkPace::Network,
-                queued: QueuedBytes::default(),
+                pace,
+                queued: queued.clone(),
             })
             .await;
-            let mut bare = BareHub { hub, core, link_queue };
+            let mut bare = BareHub {
+                hub,
+                core,
+                link_queue,
+                queued,
+            };
             bare.core_items();
             bare
         }
@@ -1581,6 +1598,65 @@ mod tests {
         );
         assert_eq!(bare.hub.backlog.waiting(), 0);
         assert_eq!((bare.entry().dropped_out, bare.entry().bulk_dropped), (0, 0));
+    }
+
+    /// Drains the link queue as a writer would; returns the frames' bytes.
+    fn write_out(bare: &mut BareHub) -> Vec<LinkFrame> {
+        let mut frames = Vec::new();
+        while let Ok(frame) = bare.link_queue.try_recv() {
+            bare.queued.written(frame.bytes.len());
+            frames.push(frame);
+        }
+        frames
+    }
+
+    #[tokio::test]
+    async fn a_serial_link_queues_a_tenth_of_a_second_of_bulk_and_less_as_the_radio_fills() {
+        let signing = SigningState::start(None, 0, wall_clock());
+        let mut bare = BareHub::open_paced(8, signing, 0, LinkPace::Serial { baud: 57_600 }).await;
+        for k in 0..300 {
+            bare.hub.on_outbound(Outbound {
+                dest: Destination::Link(LINK),
+                message: param_value(k),
+            });
+        }
+        // 57600 baud: 576 bytes in 100 ms.
+        let first = write_out(&mut bare);
+        let bytes: usize = first.iter().map(|f| f.bytes.len()).sum();
+        assert!(
+            !first.is_empty() && bytes <= 576,
+            "{} frames, {bytes} bytes",
+            first.len()
+        );
+        assert!(bytes + first[0].bytes.len() > 576, "as much as fits: {bytes} bytes");
+        // Written: the next tenth of a second goes in.
+        bare.hub.pump_all();
+        assert_eq!(write_out(&mut bare).len(), first.len());
+        // The radio's buffer at 60 % free: half the allowance.
+        let radio = MavMessage::RADIO_STATUS(RADIO_STATUS_DATA {
+            txbuf: 60,
+            ..Default::default()
+        });
+        let mut raw = Vec::new();
+        let header = MavHeader {
+            system_id: 51,
+            component_id: 68,
+            sequence: 0,
+        };
+        mavlink::write_v2_msg(&mut raw, header, &radio).expect("encode");
+        bare.frame(&raw);
+        bare.hub.pump_all();
+        let half = write_out(&mut bare);
+        assert_eq!(half.len(), first.len() / 2, "half the allowance");
+        let mut sent = first.len() * 2 + half.len();
+        while sent < 300 {
+            bare.hub.pump_all();
+            let more = write_out(&mut bare).len();
+            assert!(more > 0, "bulk keeps moving at {sent}");
+            sent += more;
+        }
+        assert_eq!(sent, 300, "every parameter, none dropped");
+        assert_eq!(bare.hub.backlog.waiting(), 0);
     }
 
     #[tokio::test]
