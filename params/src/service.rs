@@ -4,7 +4,9 @@
 //!
 //! Rules (mavlink.io parameter protocol):
 //! - PARAM_REQUEST_LIST streams every parameter with its `param_index` and
-//!   `param_count` on the requesting link, paced by [`ParamService::poll`].
+//!   `param_count` on the requesting link, all at the next
+//!   [`ParamService::poll`]: the link layer paces them to what the link
+//!   drains and never drops one (a new request restarts the list).
 //! - PARAM_REQUEST_READ answers by index, or by id when the index is -1.
 //! - PARAM_SET always answers with a PARAM_VALUE holding the value now in
 //!   force, broadcast so every GCS's cache stays coherent — the old value
@@ -30,12 +32,6 @@ use mavlink::dialects::ardupilotmega::{
 use crate::def::ParamType;
 use crate::hash::{HASH_CHECK_ID, table_hash};
 use crate::table::{ParamTable, SetError};
-
-/// Parameters sent per [`ParamService::poll`] while a list is streaming.
-/// At the core's 50 Hz stream task that is 1000 per second: a full table in
-/// a fraction of a second over UDP or TCP, while a radio link's queue takes
-/// the burst and drains at its own pace.
-pub const LIST_BURST: usize = 20;
 
 /// Where a reply goes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -211,19 +207,16 @@ impl<L: Copy + Ord> ParamService<L> {
         true
     }
 
-    /// Sends the next parameters of every list download in progress.
+    /// Sends the rest of every list download in progress.
     pub fn poll(&mut self, table: &ParamTable, out: &mut Vec<Outgoing<L>>) {
-        self.streams.retain(|link, next| {
-            let end = (*next + LIST_BURST).min(table.len());
-            for index in *next..end {
+        for (link, next) in std::mem::take(&mut self.streams) {
+            for index in next..table.len() {
                 out.push(Outgoing {
-                    dest: Reply::Link(*link),
+                    dest: Reply::Link(link),
                     message: value_message(table, index as u16),
                 });
             }
-            *next = end;
-            end < table.len()
-        });
+        }
     }
 
     fn read(

@@ -8,6 +8,7 @@ import subprocess
 from pymavlink import DFReader
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+import mavexplorer_graphs
 from conftest import FURROW
 from gcs import command, distance, mission_item, offset, position, recv, upload_mission
 
@@ -121,6 +122,9 @@ def test_an_auto_drive_is_downloaded_over_mavlink_and_read_by_dfreader(start_sit
     assert any(x != 0 for x in xtrack)
     # The units the file declares (FMTU/UNIT/MULT) reach DFReader.
     assert log.formats[log.name_to_id["NTUN"]].units[-1] == "m"
+    # MAVExplorer offers the Rover graphs and plots them with ArduPilot's units.
+    offered = mavexplorer_graphs.check(path)
+    print(f"MAVExplorer graphs offered: {offered}")
 
     svg = tmp_path / "xtrack.svg"
     out = subprocess.run([FURROW, "logs", "plot", str(path), "--xtrack", "--out", str(svg)],

@@ -95,7 +95,7 @@ impl EdgeRunner {
             let _ = stop_tx.send(());
         });
         let ftp = FtpService::start(persistence.dir(), channels.outbound.clone());
-        let logger = Logger::start(persistence.dir(), channels.outbound.clone());
+        let logger = Logger::start(persistence.dir(), channels.outbound.clone(), channels.backlog.clone());
         let mut edge = Edge {
             origin: self.origin,
             logger,

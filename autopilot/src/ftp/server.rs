@@ -15,9 +15,9 @@ use super::wire::{FtpError, MAX_DATA, Opcode, Payload};
 /// Open sessions per client.
 pub const MAX_SESSIONS: usize = 4;
 /// Packets in one burst before the client must ask for more (it does, from
-/// where the burst ended). Well under a link's queue (`LINK_QUEUE`, 512), so
-/// a burst on a slow serial link never overflows it and costs the link's
-/// other traffic nothing; on a fast link the extra round trip is a few ms.
+/// where the burst ended). Replies are never dropped (the link layer paces
+/// bulk replies to the link), so this bounds how much one request queues
+/// on a slow serial link; on a fast link the extra round trip is a few ms.
 const MAX_BURST_PACKETS: usize = 64;
 
 /// Why a file operation failed.

@@ -7,7 +7,11 @@
 //! addressed to us, decoded messages to the core's channel.
 //! Outbound: core → hub, which encodes per link (its own sequence numbers,
 //! signed where the link needs it) → each link's bounded queue (`try_send`:
-//! a full queue drops and counts, it never waits) → the link's writer.
+//! a full queue drops and counts, it never waits) → the link's writer, which
+//! writes what is queued in as few writes (datagrams) as it fits in.
+//! Bulk replies (parameter lists, mission items, FTP and log data, see
+//! [`super::pacing`]) are never dropped: they wait in the link's backlog
+//! and enter its queue as fast as the link drains it.
 //!
 //! Who a link answers is the hub's too ([`super::peers`]): a UDP link
 //! sends to every address that sent it an admitted frame, never to one that
@@ -20,12 +24,12 @@
 //! tlog. The key is kept in the data directory
 //! ([`crate::storage::signing_key`]).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 use std::io;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU8, AtomicU16, Ordering};
+use std::sync::atomic::{AtomicU8, AtomicU16, AtomicUsize, Ordering};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use mavlink::dialects::ardupilotmega::{MavMessage, MavMissionResult, MavResult};
@@ -37,6 +41,7 @@ use tokio::sync::{mpsc, oneshot};
 
 use super::encode::{encode_raw_command_ack, encode_raw_mission_ack, encode_v2};
 use super::frame::{FrameStats, ReceivedFrame};
+use super::pacing::{BulkPacer, LinkPace, is_bulk};
 use super::peers::Peers;
 use super::router::Router;
 use super::sign_policy::{Admission, DropReason, LinkSecurity, admit, makes_peer};
@@ -48,6 +53,14 @@ use crate::vehicle::{COMPONENT_ID, Destination, Inbound, LinkEvent, LinkId, Outb
 
 /// Messages queued per link before new ones are dropped.
 pub(super) const LINK_QUEUE: usize = 512;
+/// Bulk replies a link's backlog holds at most: far more than a parameter
+/// table or a burst; only a client that floods requests reaches it, and
+/// then the surplus is dropped and counted rather than memory growing.
+const BACKLOG_LIMIT: usize = 2048;
+/// How often the hub moves backlogged bulk replies into drained queues.
+const PUMP_PERIOD: Duration = Duration::from_millis(1);
+/// A byte-stream writer gathers queued frames into writes of this size.
+const WRITE_CHUNK: usize = 16 * 1024;
 const CORE_QUEUE: usize = 4096;
 const SETUP_SIGNING_ID: u32 = 256;
 /// How long dropping the runtime waits for the last timestamp save.
@@ -157,12 +170,61 @@ impl LinkEncoder {
     }
 }
 
+/// Bytes queued for a link and not yet written: the hub adds, the link's
+/// writer subtracts what it wrote (a serial link's pacing reads it).
+#[derive(Clone, Debug, Default)]
+pub(super) struct QueuedBytes(Arc<AtomicUsize>);
+
+impl QueuedBytes {
+    fn add(&self, bytes: usize) {
+        self.0.fetch_add(bytes, Ordering::Relaxed);
+    }
+
+    pub(super) fn written(&self, bytes: usize) {
+        self.0.fetch_sub(bytes, Ordering::Relaxed);
+    }
+
+    fn get(&self) -> usize {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+/// Bulk replies waiting in the links' backlogs, for producers that stream
+/// (the log download) to wait on rather than pile up.
+#[derive(Clone, Debug, Default)]
+pub struct BulkBacklog(Arc<AtomicUsize>);
+
+impl BulkBacklog {
+    pub fn waiting(&self) -> usize {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+/// Gathers the frames already queued after `first` into `buf` (up to
+/// [`WRITE_CHUNK`]): one write for a burst instead of one per frame.
+pub(super) fn gather(first: LinkFrame, rx: &mut mpsc::Receiver<LinkFrame>, buf: &mut Vec<u8>) {
+    buf.clear();
+    buf.extend_from_slice(&first.bytes);
+    while buf.len() < WRITE_CHUNK
+        && let Ok(frame) = rx.try_recv()
+    {
+        buf.extend_from_slice(&frame.bytes);
+    }
+}
+
 /// Writes a link's queue to its byte stream until the stream fails.
-pub(super) async fn write_loop<W: AsyncWrite + Unpin>(mut write: W, mut rx: mpsc::Receiver<LinkFrame>) {
+pub(super) async fn write_loop<W: AsyncWrite + Unpin>(
+    mut write: W,
+    mut rx: mpsc::Receiver<LinkFrame>,
+    queued: QueuedBytes,
+) {
+    let mut buf = Vec::with_capacity(WRITE_CHUNK);
     while let Some(frame) = rx.recv().await {
-        if write.write_all(&frame.bytes).await.is_err() {
+        gather(frame, &mut rx, &mut buf);
+        if write.write_all(&buf).await.is_err() {
             return;
         }
+        queued.written(buf.len());
     }
 }
 
@@ -185,6 +247,8 @@ pub(super) enum HubEvent {
         peers: PeerPolicy,
         name: String,
         tx: mpsc::Sender<LinkFrame>,
+        pace: LinkPace,
+        queued: QueuedBytes,
     },
     Closed {
         link: LinkId,
@@ -226,6 +290,7 @@ pub struct HubConfig {
 pub struct CoreChannels {
     pub inbound: mpsc::Receiver<ToCore>,
     pub outbound: mpsc::Sender<Outbound>,
+    pub backlog: BulkBacklog,
 }
 
 /// The running link layer. Dropping it saves the signing timestamp and
@@ -304,6 +369,7 @@ pub fn spawn(runtime: &Handle, sockets: LinkSockets, config: HubConfig) -> io::R
     let (stop_tx, stop_rx) = oneshot::channel();
     let (stopped_tx, stopped_rx) = std::sync::mpsc::channel();
     let hub = Hub::new(config.sysid, core_tx, tlog, signing, key_writer, sign_require.clone());
+    let backlog = hub.backlog.clone();
     runtime.spawn(async move {
         hub.run(hub_rx, out_rx, stop_rx).await;
         let _ = stopped_tx.send(());
@@ -318,6 +384,7 @@ pub fn spawn(runtime: &Handle, sockets: LinkSockets, config: HubConfig) -> io::R
         CoreChannels {
             inbound: core_rx,
             outbound: out_tx,
+            backlog,
         },
     ))
 }
@@ -372,6 +439,13 @@ struct LinkEntry {
     policy: PeerPolicy,
     peers: Peers,
     tx: mpsc::Sender<LinkFrame>,
+    queued: QueuedBytes,
+    pacer: BulkPacer,
+    /// Bulk replies waiting for room, oldest first, and the next one
+    /// already encoded (its sequence number taken) when it did not fit.
+    backlog: VecDeque<(Option<PeerId>, Arc<MavMessage>)>,
+    ready: Option<LinkFrame>,
+    bulk_dropped: u64,
     encoder: LinkEncoder,
     /// A correctly signed packet came in here: what we send is signed too,
     /// even where signing is not required, as the peer checks signatures.
@@ -380,7 +454,7 @@ struct LinkEntry {
     dropped_out: u64,
     signing_drops: SigningDrops,
     /// (unframed bytes, undecodable frames, tx dropped) at the last report.
-    reported: (u64, u64, u64),
+    reported: (u64, u64, u64, u64),
     reported_signing_drops: SigningDrops,
 }
 
@@ -429,6 +503,7 @@ struct Hub {
     sign_require: Arc<AtomicU8>,
     /// The peers' clock (monotonic).
     started: Instant,
+    backlog: BulkBacklog,
 }
 
 impl Hub {
@@ -457,6 +532,7 @@ impl Hub {
             timestamp_saver,
             sign_require,
             started: Instant::now(),
+            backlog: BulkBacklog::default(),
         }
     }
 
@@ -471,7 +547,10 @@ impl Hub {
         mut stop: oneshot::Receiver<()>,
     ) {
         let mut report = tokio::time::interval(Duration::from_secs(2));
+        let mut pump = tokio::time::interval(PUMP_PERIOD);
+        pump.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         loop {
+            let backlogged = self.backlog.waiting() > 0;
             tokio::select! {
                 event = events.recv() => match event {
                     Some(event) => self.on_event(event).await,
@@ -481,6 +560,7 @@ impl Hub {
                     Some(out) => self.on_outbound(out),
                     None => break,
                 },
+                _ = pump.tick(), if backlogged => self.pump_all(),
                 _ = report.tick() => {
                     self.report();
                     self.save_timestamp_when_due();
@@ -502,6 +582,8 @@ impl Hub {
                 peers: policy,
                 name,
                 tx,
+                pace,
+                queued,
             } => {
                 let secure = if role.secure { ", secure" } else { "" };
                 tracing::info!("link {}: {name} (stream slot SR{}{secure})", link.0, role.slot);
@@ -525,6 +607,11 @@ impl Hub {
                         policy,
                         peers,
                         tx,
+                        queued,
+                        pacer: BulkPacer::new(pace),
+                        backlog: VecDeque::new(),
+                        ready: None,
+                        bulk_dropped: 0,
                         encoder: LinkEncoder::new(self.sysid),
                         peer_signs: false,
                         rx_stats: FrameStats::default(),
@@ -548,6 +635,7 @@ impl Hub {
             }
             HubEvent::Closed { link } => {
                 self.links.remove(&link);
+                self.publish_backlog();
                 self.router.remove_link(link);
                 let _ = self.to_core.send(ToCore::Event(LinkEvent::Closed { link })).await;
             }
@@ -591,6 +679,9 @@ impl Hub {
         }
         if verdict == Verdict::Signed {
             entry.peer_signs = true;
+        }
+        if let Ok(MavMessage::RADIO_STATUS(radio)) = &frame.message {
+            entry.pacer.radio_status(radio.txbuf, since_start);
         }
         let joined = if makes_peer(verdict, security) {
             entry.hear(from, since_start, link)
@@ -745,15 +836,100 @@ impl Hub {
         }
         let message = Arc::new(out.message);
         match out.dest {
-            Destination::Link(link) => self.queue(link, OutItem::Message(message)),
-            Destination::Peer { link, peer } => self.queue_for(link, Some(peer), OutItem::Message(message)),
+            Destination::Link(link) => self.queue_message(link, None, message),
+            Destination::Peer { link, peer } => self.queue_message(link, Some(peer), message),
             Destination::AllLinks => {
                 let links: Vec<LinkId> = self.links.keys().copied().collect();
                 for link in links {
-                    self.queue(link, OutItem::Message(message.clone()));
+                    self.queue_message(link, None, message.clone());
                 }
             }
         }
+        self.publish_backlog();
+    }
+
+    /// A message of ours for a link: bulk replies through its backlog,
+    /// everything else straight to its queue.
+    fn queue_message(&mut self, link: LinkId, peer: Option<PeerId>, message: Arc<MavMessage>) {
+        if !is_bulk(&message) {
+            self.queue_for(link, peer, OutItem::Message(message));
+            return;
+        }
+        let Some(entry) = self.links.get_mut(&link) else {
+            return;
+        };
+        if entry.backlog.len() >= BACKLOG_LIMIT {
+            if entry.bulk_dropped == 0 {
+                tracing::warn!("link {} ({}): bulk backlog full, dropping replies", link.0, entry.name);
+            }
+            entry.bulk_dropped += 1;
+            return;
+        }
+        entry.backlog.push_back((peer, message));
+        self.pump(link);
+    }
+
+    /// Moves a link's backlog into its queue while its pacing admits.
+    fn pump(&mut self, link: LinkId) {
+        let now = self.since_start();
+        loop {
+            let Some(entry) = self.links.get_mut(&link) else {
+                return;
+            };
+            let frame = match entry.ready.take() {
+                Some(frame) => frame,
+                None => {
+                    let Some((peer, message)) = entry.backlog.pop_front() else {
+                        return;
+                    };
+                    match self.frame_for(link, peer, &OutItem::Message(message)) {
+                        Some(frame) => frame,
+                        None => continue,
+                    }
+                }
+            };
+            let Some(entry) = self.links.get_mut(&link) else {
+                return;
+            };
+            let len = frame.bytes.len();
+            if !entry.pacer.admits(now, entry.tx.capacity(), entry.queued.get(), len) {
+                entry.ready = Some(frame);
+                return;
+            }
+            entry.queued.add(len);
+            match entry.tx.try_send(frame) {
+                Ok(()) => {}
+                Err(mpsc::error::TrySendError::Full(frame)) => {
+                    entry.queued.written(len);
+                    entry.ready = Some(frame);
+                    return;
+                }
+                // The writer is gone; the link's Closed event follows.
+                Err(mpsc::error::TrySendError::Closed(_)) => return,
+            }
+        }
+    }
+
+    fn pump_all(&mut self) {
+        let waiting: Vec<LinkId> = self
+            .links
+            .iter()
+            .filter(|(_, e)| e.ready.is_some() || !e.backlog.is_empty())
+            .map(|(id, _)| *id)
+            .collect();
+        for link in waiting {
+            self.pump(link);
+        }
+        self.publish_backlog();
+    }
+
+    fn publish_backlog(&self) {
+        let waiting = self
+            .links
+            .values()
+            .map(|e| e.backlog.len() + usize::from(e.ready.is_some()))
+            .sum();
+        self.backlog.0.store(waiting, Ordering::Relaxed);
     }
 
     /// Encodes for one link (its sequence, its signature) and queues.
@@ -761,18 +937,36 @@ impl Hub {
         self.queue_for(link, None, item);
     }
 
-    /// Queues for one peer of a link (`None`: all its peers). A peer that
-    /// is gone gets nothing, and nothing goes elsewhere in its place.
+    /// Queues for one peer of a link (`None`: all its peers); a full queue
+    /// drops and counts.
     fn queue_for(&mut self, link: LinkId, peer: Option<PeerId>, item: OutItem) {
+        let Some(frame) = self.frame_for(link, peer, &item) else {
+            return;
+        };
         let Some(entry) = self.links.get_mut(&link) else {
             return;
         };
+        let len = frame.bytes.len();
+        entry.queued.add(len);
+        if entry.tx.try_send(frame).is_err() {
+            entry.queued.written(len);
+            if entry.dropped_out == 0 {
+                tracing::warn!("link {} ({}): not keeping up, dropping messages", link.0, entry.name);
+            }
+            entry.dropped_out += 1;
+        }
+    }
+
+    /// Encodes for one peer of a link (`None`: all its peers). A peer that
+    /// is gone gets nothing, and nothing goes elsewhere in its place.
+    fn frame_for(&mut self, link: LinkId, peer: Option<PeerId>, item: &OutItem) -> Option<LinkFrame> {
+        let entry = self.links.get_mut(&link)?;
         let to = match peer.map(|id| entry.peers.address(id)) {
             None | Some(Some(None)) => entry.peers.targets().clone(),
             Some(Some(Some(addr))) => Arc::from([addr]),
-            Some(None) => return,
+            Some(None) => return None,
         };
-        let mut bytes = entry.encoder.encode(&item);
+        let mut bytes = entry.encoder.encode(item);
         let ours = !matches!(item, OutItem::Frame(_));
         if ours
             && self.signing.is_enabled()
@@ -781,12 +975,7 @@ impl Hub {
         {
             bytes = signed;
         }
-        if entry.tx.try_send(LinkFrame { bytes, to }).is_err() {
-            if entry.dropped_out == 0 {
-                tracing::warn!("link {} ({}): not keeping up, dropping messages", link.0, entry.name);
-            }
-            entry.dropped_out += 1;
-        }
+        Some(LinkFrame { bytes, to })
     }
 
     /// Lets peers that went quiet age out of the links' destinations.
@@ -803,17 +992,18 @@ impl Hub {
     fn report(&mut self) {
         for (id, entry) in &mut self.links {
             let s = entry.rx_stats;
-            let errors = (s.bytes_unframed, s.decode_errors, entry.dropped_out);
+            let errors = (s.bytes_unframed, s.decode_errors, entry.dropped_out, entry.bulk_dropped);
             if errors != entry.reported {
                 tracing::warn!(
-                    "link {} ({}): rx {} frames ({} MAVLink 1), {} bytes unframed, {} undecodable; {} tx dropped",
+                    "link {} ({}): rx {} frames ({} MAVLink 1), {} bytes unframed, {} undecodable; {} tx dropped, {} bulk replies dropped (backlog full)",
                     id.0,
                     entry.name,
                     s.frames,
                     s.frames_v1,
                     s.bytes_unframed,
                     s.decode_errors,
-                    entry.dropped_out
+                    entry.dropped_out,
+                    entry.bulk_dropped
                 );
                 entry.reported = errors;
             }
@@ -970,17 +1160,25 @@ mod tests {
 
     /// Whether `socket` receives a STATUSTEXT saying `words` within `wait`.
     fn hears(socket: &StdUdpSocket, words: &str, wait: Duration) -> bool {
+        hears_all(socket, &[words], wait)
+    }
+
+    /// Whether a STATUSTEXT starting with each of `words` arrives (frames
+    /// queued together share a datagram).
+    fn hears_all(socket: &StdUdpSocket, words: &[&str], wait: Duration) -> bool {
         let deadline = Instant::now() + wait;
         let mut buf = [0u8; 2048];
+        let mut heard = vec![false; words.len()];
         while Instant::now() < deadline {
             let Ok(n) = socket.recv(&mut buf) else { continue };
-            let mut said = false;
             frame_datagram(&buf[..n], &mut FrameStats::default(), |f| {
                 if let Ok(MavMessage::STATUSTEXT(t)) = &f.message {
-                    said |= t.text.starts_with(words.as_bytes());
+                    for (w, h) in words.iter().zip(heard.iter_mut()) {
+                        *h |= t.text.starts_with(w.as_bytes());
+                    }
                 }
             });
-            if said {
+            if heard.iter().all(|h| *h) {
                 return true;
             }
         }
@@ -1001,8 +1199,7 @@ mod tests {
         from_core(&channels, Destination::AllLinks, text("to all"));
         from_core(&channels, Destination::Link(link), text("to the link"));
         for socket in [&fixed, &a, &b] {
-            assert!(hears(socket, "to all", WAIT));
-            assert!(hears(socket, "to the link", WAIT));
+            assert!(hears_all(socket, &["to all", "to the link"], WAIT));
         }
     }
 
@@ -1260,27 +1457,46 @@ mod tests {
         hub: Hub,
         core: mpsc::Receiver<ToCore>,
         link_queue: mpsc::Receiver<LinkFrame>,
+        /// What the link's writer would report written.
+        queued: QueuedBytes,
     }
 
     const LINK: LinkId = LinkId(0);
 
     impl BareHub {
         async fn open(core_queue: usize, signing: SigningState, sign_require_mask: u8) -> BareHub {
+            Self::open_paced(core_queue, signing, sign_require_mask, LinkPace::Network).await
+        }
+
+        async fn open_paced(
+            core_queue: usize,
+            signing: SigningState,
+            sign_require_mask: u8,
+            pace: LinkPace,
+        ) -> BareHub {
             let (core_tx, core) = mpsc::channel(core_queue);
             let sign_require = Arc::new(AtomicU8::new(sign_require_mask));
             let mut hub = Hub::new(1, core_tx, None, signing, None, sign_require);
             let (tx, link_queue) = mpsc::channel(LINK_QUEUE);
             let role = LinkRole { slot: 1, secure: false };
             let (peers, name) = (PeerPolicy::FirstFrame, "test".to_string());
+            let queued = QueuedBytes::default();
             hub.on_event(HubEvent::Opened {
                 link: LINK,
                 role,
                 peers,
                 name,
                 tx,
+                pace,
+                queued: queued.clone(),
             })
             .await;
-            let mut bare = BareHub { hub, core, link_queue };
+            let mut bare = BareHub {
+                hub,
+                core,
+                link_queue,
+                queued,
+            };
             bare.core_items();
             bare
         }
@@ -1325,6 +1541,122 @@ mod tests {
         }
         assert_eq!(bare.core_items(), 8, "the core queue holds 8");
         assert_eq!(bare.hub.dropped_to_core, 12);
+    }
+
+    fn param_value(index: u16) -> MavMessage {
+        MavMessage::PARAM_VALUE(mavlink::dialects::ardupilotmega::PARAM_VALUE_DATA {
+            param_index: index,
+            param_count: u16::MAX,
+            ..Default::default()
+        })
+    }
+
+    fn decoded(frame: &LinkFrame) -> MavMessage {
+        let mut frames = Vec::new();
+        frame_datagram(&frame.bytes, &mut FrameStats::default(), |f| frames.push(f));
+        frames.remove(0).message.expect("decodes")
+    }
+
+    #[tokio::test]
+    async fn bulk_replies_wait_for_room_and_arrive_all_in_order_with_room_kept_for_telemetry() {
+        let mut bare = BareHub::open(8, SigningState::start(None, 0, wall_clock()), 0).await;
+        let n = 3 * LINK_QUEUE;
+        for k in 0..n {
+            bare.hub.on_outbound(Outbound {
+                dest: Destination::Link(LINK),
+                message: param_value(k as u16),
+            });
+        }
+        let admitted = LINK_QUEUE - super::super::pacing::RESERVED_SLOTS;
+        assert_eq!(bare.link_queue.len(), admitted, "bulk stops short of the reserve");
+        assert_eq!(bare.hub.backlog.waiting(), n - admitted);
+        // Telemetry still finds room while the backlog waits.
+        bare.hub.on_outbound(Outbound {
+            dest: Destination::AllLinks,
+            message: text("telemetry"),
+        });
+        assert_eq!(bare.link_queue.len(), admitted + 1);
+        let mut indices = Vec::new();
+        while indices.len() < n {
+            while let Ok(frame) = bare.link_queue.try_recv() {
+                match decoded(&frame) {
+                    MavMessage::PARAM_VALUE(p) => indices.push(p.param_index),
+                    MavMessage::STATUSTEXT(_) => {}
+                    other => panic!("unexpected {other:?}"),
+                }
+            }
+            bare.hub.pump_all();
+            assert!(
+                bare.link_queue.len() > 0 || indices.len() == n,
+                "the pump refills the drained queue"
+            );
+        }
+        assert_eq!(
+            indices,
+            (0..n as u16).collect::<Vec<_>>(),
+            "every reply, once, in order"
+        );
+        assert_eq!(bare.hub.backlog.waiting(), 0);
+        assert_eq!((bare.entry().dropped_out, bare.entry().bulk_dropped), (0, 0));
+    }
+
+    /// Drains the link queue as a writer would; returns the frames' bytes.
+    fn write_out(bare: &mut BareHub) -> Vec<LinkFrame> {
+        let mut frames = Vec::new();
+        while let Ok(frame) = bare.link_queue.try_recv() {
+            bare.queued.written(frame.bytes.len());
+            frames.push(frame);
+        }
+        frames
+    }
+
+    #[tokio::test]
+    async fn a_serial_link_queues_a_tenth_of_a_second_of_bulk_and_less_as_the_radio_fills() {
+        let signing = SigningState::start(None, 0, wall_clock());
+        let mut bare = BareHub::open_paced(8, signing, 0, LinkPace::Serial { baud: 57_600 }).await;
+        for k in 0..300 {
+            bare.hub.on_outbound(Outbound {
+                dest: Destination::Link(LINK),
+                message: param_value(k),
+            });
+        }
+        // 57600 baud: 576 bytes in 100 ms.
+        let first = write_out(&mut bare);
+        let bytes: usize = first.iter().map(|f| f.bytes.len()).sum();
+        assert!(
+            !first.is_empty() && bytes <= 576,
+            "{} frames, {bytes} bytes",
+            first.len()
+        );
+        assert!(bytes + first[0].bytes.len() > 576, "as much as fits: {bytes} bytes");
+        // Written: the next tenth of a second goes in.
+        bare.hub.pump_all();
+        assert_eq!(write_out(&mut bare).len(), first.len());
+        // The radio's buffer at 60 % free: half the allowance.
+        let radio = MavMessage::RADIO_STATUS(RADIO_STATUS_DATA {
+            txbuf: 60,
+            ..Default::default()
+        });
+        let mut raw = Vec::new();
+        let header = MavHeader {
+            system_id: 51,
+            component_id: 68,
+            sequence: 0,
+        };
+        mavlink::write_v2_msg(&mut raw, header, &radio).expect("encode");
+        bare.frame(&raw);
+        bare.hub.pump_all();
+        let half = write_out(&mut bare);
+        assert_eq!(half.len(), first.len() / 2, "half the allowance");
+        let mut sent = first.len() * 2 + half.len();
+        while sent < 300 {
+            bare.hub.pump_all();
+            let more = write_out(&mut bare).len();
+            assert!(more > 0, "bulk keeps moving at {sent}");
+            sent += more;
+        }
+        assert_eq!(sent, 300, "every parameter, none dropped");
+        assert_eq!(bare.hub.backlog.waiting(), 0);
     }
 
     #[tokio::test]

@@ -3,6 +3,8 @@
 //!
 //! - [`frame`]: bytes → validated frames and decoded messages (no I/O).
 //! - [`encode`]: messages → bytes with a per-link sequence number.
+//! - [`pacing`]: which replies are bulk and when a link takes the next
+//!   one (no I/O).
 //! - [`router`]: ArduPilot's routing rules between links (no I/O).
 //! - [`endpoint`]: the `--mavlink` endpoint syntax.
 //! - [`signing`]: MAVLink 2 signing: key, timestamps, verify and sign (no I/O).
@@ -17,6 +19,7 @@ pub mod encode;
 pub mod endpoint;
 pub mod frame;
 pub mod hub;
+pub mod pacing;
 pub mod peers;
 pub mod router;
 mod serial;

@@ -7,7 +7,8 @@ use std::time::Duration;
 use tokio::sync::mpsc;
 
 use super::frame::StreamFramer;
-use super::hub::{HubEvent, LinkFrame, LinkIds, LinkRole, PeerPolicy};
+use super::hub::{HubEvent, LinkFrame, LinkIds, LinkRole, PeerPolicy, QueuedBytes, gather};
+use super::pacing::LinkPace;
 
 /// Opens the port, retrying until it exists (a USB radio plugged in later),
 /// and serves it; reopens after an unplug.
@@ -24,7 +25,7 @@ pub(super) fn spawn(device: String, baud: u32, role: LinkRole, ids: LinkIds, hub
                     Ok(port) => {
                         tracing::info!("serial {device} at {baud} baud: open");
                         backoff.reset();
-                        serve(port, &device, role, ids.next(), &hub);
+                        serve(port, &device, baud, role, ids.next(), &hub);
                         tracing::warn!("serial {device}: closed; reopening");
                     }
                     Err(e) => tracing::debug!("serial {device}: {e}"),
@@ -41,11 +42,13 @@ pub(super) fn spawn(device: String, baud: u32, role: LinkRole, ids: LinkIds, hub
 fn serve(
     mut port: Box<dyn serialport::SerialPort>,
     device: &str,
+    baud: u32,
     role: LinkRole,
     link: crate::vehicle::LinkId,
     hub: &mpsc::Sender<HubEvent>,
 ) {
     let (tx, mut rx) = mpsc::channel::<LinkFrame>(super::hub::LINK_QUEUE);
+    let queued = QueuedBytes::default();
     if hub
         .blocking_send(HubEvent::Opened {
             link,
@@ -53,6 +56,8 @@ fn serve(
             peers: PeerPolicy::FirstFrame,
             name: format!("serial {device}"),
             tx,
+            pace: LinkPace::Serial { baud },
+            queued: queued.clone(),
         })
         .is_err()
     {
@@ -63,10 +68,13 @@ fn serve(
         return;
     };
     let writer = std::thread::spawn(move || {
+        let mut buf = Vec::new();
         while let Some(frame) = rx.blocking_recv() {
-            if writer_port.write_all(&frame.bytes).is_err() {
+            gather(frame, &mut rx, &mut buf);
+            if writer_port.write_all(&buf).is_err() {
                 return;
             }
+            queued.written(buf.len());
         }
     });
     let mut framer = StreamFramer::new();

@@ -8,7 +8,8 @@ use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::mpsc;
 
 use super::frame::StreamFramer;
-use super::hub::{HubEvent, LinkIds, LinkRole, PeerPolicy, write_loop};
+use super::hub::{HubEvent, LinkIds, LinkRole, PeerPolicy, QueuedBytes, write_loop};
+use super::pacing::LinkPace;
 
 /// Accepts clients until the runtime stops.
 pub(super) async fn serve(listener: TcpListener, role: LinkRole, ids: LinkIds, hub: mpsc::Sender<HubEvent>) {
@@ -80,6 +81,7 @@ pub(super) async fn run_link<R, W>(
     W: AsyncWrite + Unpin + Send + 'static,
 {
     let (tx, rx) = mpsc::channel(super::hub::LINK_QUEUE);
+    let queued = QueuedBytes::default();
     if hub
         .send(HubEvent::Opened {
             link,
@@ -87,13 +89,15 @@ pub(super) async fn run_link<R, W>(
             peers: PeerPolicy::Connection,
             name: name.clone(),
             tx,
+            pace: LinkPace::Network,
+            queued: queued.clone(),
         })
         .await
         .is_err()
     {
         return;
     }
-    let mut writer = tokio::spawn(write_loop(write, rx));
+    let mut writer = tokio::spawn(write_loop(write, rx, queued));
     let mut framer = StreamFramer::new();
     let mut buf = vec![0u8; 4096];
     loop {

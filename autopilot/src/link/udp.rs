@@ -11,12 +11,19 @@ use tokio::net::UdpSocket;
 use tokio::sync::mpsc;
 
 use super::frame::{FrameStats, frame_datagram};
-use super::hub::{HubEvent, LinkRole, PeerPolicy};
+use super::hub::{HubEvent, LinkFrame, LinkRole, PeerPolicy, QueuedBytes};
+use super::pacing::LinkPace;
 use crate::vehicle::LinkId;
 
 /// Receive counters go to the hub at most this often while only garbage
 /// arrives: a flood of datagrams must not become a flood of hub events.
 const STATS_PERIOD: Duration = Duration::from_millis(200);
+/// Frames queued together for the same addresses share a datagram up to
+/// this size (an Ethernet MTU's UDP payload: no IP fragmentation). Ground
+/// stations read every frame in a datagram, as ArduPilot sends them; a
+/// burst of replies then costs the receiver a few datagrams, not hundreds
+/// that could overflow its socket buffer.
+const MAX_DATAGRAM: usize = 1472;
 
 pub(super) async fn run(
     socket: UdpSocket,
@@ -27,6 +34,7 @@ pub(super) async fn run(
     hub: mpsc::Sender<HubEvent>,
 ) {
     let (tx, mut rx) = mpsc::channel(super::hub::LINK_QUEUE);
+    let queued = QueuedBytes::default();
     if hub
         .send(HubEvent::Opened {
             link,
@@ -34,6 +42,8 @@ pub(super) async fn run(
             peers: PeerPolicy::Addresses { fixed: default_peer },
             name: name.clone(),
             tx,
+            pace: LinkPace::Network,
+            queued: queued.clone(),
         })
         .await
         .is_err()
@@ -43,6 +53,7 @@ pub(super) async fn run(
     let mut stats = FrameStats::default();
     let mut stats_sent = Instant::now();
     let mut buf = vec![0u8; 65536];
+    let mut datagram = Vec::with_capacity(MAX_DATAGRAM);
     loop {
         tokio::select! {
             received = socket.recv_from(&mut buf) => match received {
@@ -65,14 +76,35 @@ pub(super) async fn run(
             },
             frame = rx.recv() => match frame {
                 Some(frame) => {
-                    for to in frame.to.iter() {
-                        if let Err(e) = socket.send_to(&frame.bytes, to).await {
-                            tracing::debug!("{name}: send to {to}: {e}");
+                    let mut next = Some(frame);
+                    while let Some(frame) = next.take() {
+                        let to = frame.to.clone();
+                        next = fill_datagram(frame, &mut rx, &mut datagram);
+                        for to in to.iter() {
+                            if let Err(e) = socket.send_to(&datagram, to).await {
+                                tracing::debug!("{name}: send to {to}: {e}");
+                            }
                         }
+                        queued.written(datagram.len());
                     }
                 }
                 None => return,
             },
         }
     }
+}
+
+/// Puts `first` and the frames queued after it for the same addresses into
+/// `datagram`, up to [`MAX_DATAGRAM`]; returns the frame that did not fit
+/// or goes elsewhere (the next datagram's first).
+fn fill_datagram(first: LinkFrame, rx: &mut mpsc::Receiver<LinkFrame>, datagram: &mut Vec<u8>) -> Option<LinkFrame> {
+    datagram.clear();
+    datagram.extend_from_slice(&first.bytes);
+    while let Ok(frame) = rx.try_recv() {
+        if frame.to != first.to || datagram.len() + frame.bytes.len() > MAX_DATAGRAM {
+            return Some(frame);
+        }
+        datagram.extend_from_slice(&frame.bytes);
+    }
+    None
 }

@@ -1,7 +1,8 @@
 //! The log's edge: a thread that writes the core's records to `logs/` and
 //! serves downloads. The core's side only ever `try_send`s into a bounded
-//! queue: when the disk or a download falls behind, commands are dropped
-//! and counted, and the core never waits.
+//! queue: when the disk falls behind, commands are dropped and counted, and
+//! the core never waits. A download reads ahead only while the links'
+//! backlog of bulk replies is short: it goes at the link's pace.
 
 use std::io::{BufWriter, Write};
 use std::path::Path;
@@ -18,13 +19,16 @@ use super::messages;
 use super::protocol::{Action, LogTransfer};
 use super::store::LogStore;
 use super::{FileLimits, LogCommand};
+use crate::link::hub::BulkBacklog;
 use crate::vehicle::{Destination, Outbound};
 
 /// Commands queued for the thread: about five seconds of ticks at 50 Hz.
 const QUEUE: usize = 256;
-/// LOG_DATA sent per pass at most, and only while the link queue is at
-/// most half full (telemetry keeps its room).
+/// LOG_DATA sent per pass at most, and only while the core's outbound
+/// queue is at most half full and the links hold fewer than
+/// [`BACKLOG_AHEAD`] bulk replies not yet queued.
 const CHUNKS_PER_PASS: usize = 64;
+const BACKLOG_AHEAD: usize = 64;
 /// How long the thread sleeps between passes during a download.
 const DOWNLOAD_PASS: Duration = Duration::from_millis(2);
 /// Written data reaches the file at least this often (a download of the
@@ -41,15 +45,15 @@ pub struct Logger {
 
 impl Logger {
     /// Starts the thread for the data directory at `data_dir`; replies to
-    /// downloads go to `outbound`.
-    pub fn start(data_dir: &Path, outbound: Sender<Outbound>) -> Logger {
+    /// downloads go to `outbound`, paced by the links' `backlog`.
+    pub fn start(data_dir: &Path, outbound: Sender<Outbound>, backlog: BulkBacklog) -> Logger {
         let (tx, rx) = std::sync::mpsc::sync_channel(QUEUE);
         let store = LogStore::new(data_dir);
         let written_bytes = Arc::new(AtomicU64::new(0));
         let written = written_bytes.clone();
         let thread = std::thread::Builder::new()
             .name("log".into())
-            .spawn(move || run(rx, store, outbound, &written))
+            .spawn(move || run(rx, store, Replies { outbound, backlog }, &written))
             .map_err(|e| tracing::error!("onboard log thread: {e}; not logging"))
             .ok();
         Logger {
@@ -163,7 +167,13 @@ impl Writer<'_> {
     }
 }
 
-fn run(rx: Receiver<LogCommand>, store: LogStore, outbound: Sender<Outbound>, written: &AtomicU64) {
+/// Where a download's replies go, and how far ahead it may run.
+struct Replies {
+    outbound: Sender<Outbound>,
+    backlog: BulkBacklog,
+}
+
+fn run(rx: Receiver<LogCommand>, store: LogStore, replies: Replies, written: &AtomicU64) {
     let mut writer = Writer {
         store: store.clone(),
         open: None,
@@ -183,13 +193,14 @@ fn run(rx: Receiver<LogCommand>, store: LogStore, outbound: Sender<Outbound>, wr
                 LogCommand::Open(limits) => writer.open(limits),
                 LogCommand::Records(bytes) => writer.write(&bytes),
                 LogCommand::Close => writer.close(),
+                LogCommand::LinkClosed(link) => transfer.link_closed(link),
                 LogCommand::Request { link, message } => {
                     // A download sees everything written so far.
                     writer.flush();
                     let logs: Vec<_> = store.list().iter().map(|l| l.info()).collect();
                     for action in transfer.handle(link, &message, &logs) {
                         match action {
-                            Action::Send(link, message) => send(&outbound, link, *message),
+                            Action::Send(link, message) => send(&replies.outbound, link, *message),
                             Action::EraseAll => erase(&store, writer.open.as_ref().map(|l| l.number)),
                         }
                     }
@@ -199,7 +210,7 @@ fn run(rx: Receiver<LogCommand>, store: LogStore, outbound: Sender<Outbound>, wr
         if writer.last_flush.elapsed() >= FLUSH_EVERY {
             writer.flush();
         }
-        pump(&mut transfer, &store, &outbound);
+        pump(&mut transfer, &store, &replies);
     }
     writer.close();
 }
@@ -223,10 +234,11 @@ fn erase(store: &LogStore, keep: Option<u16>) {
 }
 
 /// Sends the next LOG_DATA chunks while the link queue has room.
-fn pump(transfer: &mut LogTransfer, store: &LogStore, outbound: &Sender<Outbound>) {
+fn pump(transfer: &mut LogTransfer, store: &LogStore, replies: &Replies) {
     let mut buf = [0u8; super::protocol::CHUNK];
+    let outbound = &replies.outbound;
     for _ in 0..CHUNKS_PER_PASS {
-        if outbound.capacity() < outbound.max_capacity() / 2 {
+        if outbound.capacity() < outbound.max_capacity() / 2 || replies.backlog.waiting() >= BACKLOG_AHEAD {
             return;
         }
         let Some(request) = transfer.next_chunk() else {
@@ -280,7 +292,7 @@ mod tests {
         let scratch = tempfile::tempdir().unwrap();
         let data = scratch.path().join("data");
         let (outbound, _rx) = tokio::sync::mpsc::channel(16);
-        let mut logger = Logger::start(&data, outbound);
+        let mut logger = Logger::start(&data, outbound, BulkBacklog::default());
         let limits = FileLimits {
             max_files: 3,
             max_bytes: 20_000,
@@ -305,13 +317,128 @@ mod tests {
         }
     }
 
+    /// Starts a logger with one finished log and a download of all of it
+    /// on `link`; returns the logger, the reply channel and the data dir.
+    fn download_started(
+        link: crate::vehicle::LinkId,
+    ) -> (Logger, tokio::sync::mpsc::Receiver<Outbound>, tempfile::TempDir) {
+        use mavlink::dialects::ardupilotmega::{LOG_REQUEST_DATA_DATA, LOG_REQUEST_LIST_DATA, MavMessage};
+        let scratch = tempfile::tempdir().unwrap();
+        // Small: the download stalls (half full) until the test drains it.
+        let (outbound, mut rx) = tokio::sync::mpsc::channel(16);
+        let mut logger = Logger::start(scratch.path(), outbound, BulkBacklog::default());
+        let list = MavMessage::LOG_REQUEST_LIST(LOG_REQUEST_LIST_DATA {
+            start: 0,
+            end: u16::MAX,
+            target_system: 1,
+            target_component: 1,
+        });
+        let limits = FileLimits {
+            max_files: 3,
+            max_bytes: 0,
+        };
+        let mut commands = vec![
+            LogCommand::Open(limits),
+            LogCommand::Records(records(1000)),
+            LogCommand::Close,
+            LogCommand::Request {
+                link,
+                message: Box::new(list),
+            },
+        ];
+        logger.send(&mut commands);
+        let entry = match rx.blocking_recv().map(|o| o.message) {
+            Some(MavMessage::LOG_ENTRY(e)) => e,
+            other => panic!("expected LOG_ENTRY, got {other:?}"),
+        };
+        assert!(entry.size > 90 * 100, "a log of many chunks: {} bytes", entry.size);
+        let data = MavMessage::LOG_REQUEST_DATA(LOG_REQUEST_DATA_DATA {
+            ofs: 0,
+            count: u32::MAX,
+            id: entry.id,
+            target_system: 1,
+            target_component: 1,
+        });
+        logger.send(&mut vec![LogCommand::Request {
+            link,
+            message: Box::new(data),
+        }]);
+        (logger, rx, scratch)
+    }
+
+    /// Receives LOG_DATA until none comes for a while; returns how many.
+    fn drain_log_data(rx: &mut tokio::sync::mpsc::Receiver<Outbound>) -> usize {
+        let mut n = 0;
+        let mut quiet_since = Instant::now();
+        while quiet_since.elapsed() < Duration::from_millis(100) {
+            match rx.try_recv() {
+                Ok(o) => {
+                    assert!(matches!(
+                        o.message,
+                        mavlink::dialects::ardupilotmega::MavMessage::LOG_DATA(_)
+                    ));
+                    n += 1;
+                    quiet_since = Instant::now();
+                }
+                Err(_) => std::thread::sleep(Duration::from_millis(1)),
+            }
+        }
+        n
+    }
+
+    /// Waits until the (undrained) download has filled the queue to the
+    /// point where it pauses.
+    fn wait_stalled(rx: &tokio::sync::mpsc::Receiver<Outbound>) {
+        let started = Instant::now();
+        while rx.len() < 8 {
+            assert!(started.elapsed() < Duration::from_secs(5), "download never started");
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    #[test]
+    fn a_download_runs_to_the_end_while_its_link_is_open() {
+        let link = crate::vehicle::LinkId(3);
+        let (logger, mut rx, _dir) = download_started(link);
+        wait_stalled(&rx);
+        let chunks = drain_log_data(&mut rx);
+        assert!(chunks > 100, "the whole file comes: {chunks} chunks");
+        drop(logger);
+    }
+
+    #[test]
+    fn a_download_stops_when_its_link_closes_or_the_client_ends_it() {
+        use mavlink::dialects::ardupilotmega::{LOG_REQUEST_END_DATA, MavMessage};
+        let link = crate::vehicle::LinkId(3);
+        let end = MavMessage::LOG_REQUEST_END(LOG_REQUEST_END_DATA {
+            target_system: 1,
+            target_component: 1,
+        });
+        let stops = [
+            LogCommand::LinkClosed(link),
+            LogCommand::Request {
+                link,
+                message: Box::new(end),
+            },
+        ];
+        for stop in stops {
+            let (mut logger, mut rx, _dir) = download_started(link);
+            wait_stalled(&rx);
+            logger.send(&mut vec![stop.clone()]);
+            // What was queued before the stop still drains; nothing after.
+            let chunks = drain_log_data(&mut rx);
+            assert!(chunks <= 16, "{stop:?}: {chunks} chunks after it");
+            drop(logger);
+        }
+    }
+
     #[test]
     fn a_full_queue_drops_and_counts_without_waiting() {
         // A data directory that does not exist yet, as on a first start.
         let scratch = tempfile::tempdir().unwrap();
         let data = scratch.path().join("data");
         let (outbound, _rx) = tokio::sync::mpsc::channel(16);
-        let mut logger = Logger::start(&data, outbound);
+        let mut logger = Logger::start(&data, outbound, BulkBacklog::default());
         let mut commands: Vec<_> = (0..QUEUE * 4).map(|_| LogCommand::Records(records(1000))).collect();
         let started = Instant::now();
         logger.send(&mut commands);

@@ -32,6 +32,9 @@ pub enum LogCommand {
     Close,
     /// A LOG_* request from a ground station (list, download, erase).
     Request { link: LinkId, message: Box<MavMessage> },
+    /// A link went away: a download for it stops (no work for a gone
+    /// client).
+    LinkClosed(LinkId),
 }
 pub mod edge;
 pub mod protocol;

@@ -230,6 +230,8 @@ impl Core {
         self.saves_done(&inputs.saved);
         self.handle_link_events(&inputs.link_events);
         self.receive(inputs);
+        // A list requested now starts now, not at the next stream tick.
+        self.stream_params();
         self.request_param_save();
         out.saves.append(&mut self.persist.take_requests());
         out.mavlink.append(&mut self.outbox);
@@ -371,6 +373,7 @@ impl Core {
                 LinkEvent::Closed { link } => {
                     self.links.remove(&link);
                     self.param_service.link_closed(link);
+                    self.onboard_log.link_closed(link);
                     let mut events = Vec::new();
                     self.missions.protocol.link_closed(link, &mut events);
                     self.mission_events(events);

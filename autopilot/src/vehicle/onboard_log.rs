@@ -75,6 +75,10 @@ impl LogState {
             message: Box::new(message),
         });
     }
+
+    pub(super) fn link_closed(&mut self, link: LinkId) {
+        self.push(LogCommand::LinkClosed(link));
+    }
 }
 
 /// GPS week and milliseconds into it.
