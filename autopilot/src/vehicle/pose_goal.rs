@@ -218,6 +218,22 @@ impl Core {
             .then(|| frame.heading_to_local(at, true_yaw_rad))
     }
 
+    /// Home and the true heading RTL returns facing (when home was set
+    /// where the vehicle stood): what RTL drives to, for a ground station
+    /// or bench to measure the arrival against.
+    pub fn home_pose(&self) -> Option<(GeoPoint, Option<f64>)> {
+        let home = self.home?;
+        let frame = self.frame()?;
+        let yaw = self.goals.home_yaw_rad.map(|yaw| frame.heading_to_true(&home, yaw));
+        Some((home, yaw))
+    }
+
+    /// Where the estimate has the vehicle, in WGS-84.
+    pub fn estimate_geodetic(&self) -> Option<GeoPoint> {
+        let frame = self.frame()?;
+        Some(frame.to_geodetic(&self.estimator.estimate().position))
+    }
+
     /// Where RTL faces at home: the way the vehicle faced when home was set
     /// where it stood (unknown for a home sent as coordinates or a rally
     /// point).

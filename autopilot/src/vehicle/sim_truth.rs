@@ -5,7 +5,7 @@
 use mavlink::dialects::ardupilotmega::SIMSTATE_DATA;
 
 use super::Core;
-use crate::geo::{GeoPoint, Ned, wrap_pi};
+use crate::geo::{GeoPoint, wrap_pi};
 use crate::guidance::navigator::StopReport;
 
 /// What an accelerometer at rest reads on its z axis (down), m/s².
@@ -37,20 +37,14 @@ impl Core {
 
     /// "SITL truth #8: 4.1 mm, yaw 0.012 deg": the stop of `report` measured
     /// on the simulator's pose instead of the estimate, against the same
-    /// stop point and path heading (recovered from the estimate and the
-    /// report's errors). None outside SITL.
+    /// stop point (the leg's end) and heading (recovered from the estimate
+    /// and the report's yaw error). None outside SITL.
     pub(super) fn true_stop_text(&self, report: &StopReport) -> Option<String> {
         let truth = self.sim_truth?;
         let frame = self.frame()?;
+        let stop_point = self.navigator.target()?.point;
         let estimate = self.estimator.estimate();
         let path_yaw = wrap_pi(estimate.yaw_rad - report.yaw_error_rad);
-        let (s, c) = path_yaw.sin_cos();
-        // The estimate is `along` short of the point and `crosstrack` right
-        // of the path: the point is `along` ahead and `crosstrack` left.
-        let stop_point = Ned::new(
-            estimate.position.north_m + report.along_m * c + report.crosstrack_m * s,
-            estimate.position.east_m + report.along_m * s - report.crosstrack_m * c,
-        );
         let at = GeoPoint::new(truth.lat_deg, truth.lon_deg, frame.origin().alt_m);
         let true_position = frame.to_local(&at);
         let true_yaw = frame.heading_to_local(&at, truth.yaw_rad);
