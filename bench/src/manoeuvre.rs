@@ -15,8 +15,8 @@
 
 use std::time::Duration;
 
-use drivers::sim::GeoPoint as SimGeoPoint;
 use mavlink::dialects::ardupilotmega::MavMessage;
+use sim::GeoPoint as SimGeoPoint;
 
 use autopilot::edge::clock::InstantTimer;
 use autopilot::geo::GeoPoint;
