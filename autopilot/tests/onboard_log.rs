@@ -36,7 +36,7 @@ fn files(commands: &[LogCommand]) -> Vec<Vec<u8>> {
             }
             LogCommand::Records(bytes) => open.as_mut().expect("records only into an open file").extend(bytes),
             LogCommand::Close => files.extend(open.take()),
-            LogCommand::Request { .. } => {}
+            LogCommand::Request { .. } | LogCommand::LinkClosed(_) => {}
         }
     }
     files.extend(open);

@@ -1587,7 +1587,7 @@ mod tests {
             }
             bare.hub.pump_all();
             assert!(
-                bare.link_queue.len() > 0 || indices.len() == n,
+                !bare.link_queue.is_empty() || indices.len() == n,
                 "the pump refills the drained queue"
             );
         }
