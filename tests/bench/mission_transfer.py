@@ -1,5 +1,5 @@
 """Benchmark (not a test): upload and download time of a 1000-item mission
-with pymavlink over UDP loopback.
+with pymavlink over UDP and TCP loopback.
 
     target/venv/bin/python tests/bench/mission_transfer.py [--items N] [--runs N]
 """
@@ -7,6 +7,7 @@ with pymavlink over UDP loopback.
 import argparse
 import os
 import pathlib
+import re
 import statistics
 import subprocess
 import sys
@@ -19,6 +20,24 @@ from gcs import download_mission, mavlink, mission_item, upload_mission  # noqa:
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 FURROW = os.environ.get("FURROW_BIN") or str(REPO / "target" / "release" / "furrow")
+READY = re.compile(r"furrow sitl ready: tcp (\S+):(\d+)")
+
+
+def bench(name, gcs, items, runs):
+    gcs.wait_heartbeat(timeout=10)
+    up, down = [], []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        ack = upload_mission(gcs, items)
+        up.append(time.perf_counter() - t0)
+        assert ack is not None and ack.type == mavlink.MAV_MISSION_ACCEPTED, ack
+        t0 = time.perf_counter()
+        back, _ = download_mission(gcs)
+        down.append(time.perf_counter() - t0)
+        assert len(back) == len(items)
+    print(f"{len(items)}-item mission over {name} with pymavlink, {runs} runs:")
+    print(f"  upload   median {statistics.median(up) * 1000:.1f} ms (max {max(up) * 1000:.1f} ms)")
+    print(f"  download median {statistics.median(down) * 1000:.1f} ms (max {max(down) * 1000:.1f} ms)")
 
 
 def main():
@@ -32,23 +51,14 @@ def main():
     proc = subprocess.Popen([FURROW, "sitl", "--tcp-port", "0", "--udp-port", str(port), "--data-dir", str(data)],
                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     try:
-        proc.stdout.readline()
-        gcs.wait_heartbeat(timeout=10)
+        tcp_port = int(READY.search(proc.stdout.readline()).group(2))
         items = [mission_item(0, 16, 291330000, 1196400000)]
         items += [mission_item(i, 16, 291330000 + i * 10, 1196400000 + i * 10) for i in range(1, args.items)]
-        up, down = [], []
-        for _ in range(args.runs):
-            t0 = time.perf_counter()
-            ack = upload_mission(gcs, items)
-            up.append(time.perf_counter() - t0)
-            assert ack is not None and ack.type == mavlink.MAV_MISSION_ACCEPTED, ack
-            t0 = time.perf_counter()
-            back, _ = download_mission(gcs)
-            down.append(time.perf_counter() - t0)
-            assert len(back) == len(items)
-        print(f"{args.items}-item mission over UDP loopback with pymavlink, {args.runs} runs:")
-        print(f"  upload   median {statistics.median(up):.3f} s (max {max(up):.3f} s)")
-        print(f"  download median {statistics.median(down):.3f} s (max {max(down):.3f} s)")
+        bench("UDP loopback", gcs, items, args.runs)
+        gcs.close()
+        tcp = mavutil.mavlink_connection(f"tcp:127.0.0.1:{tcp_port}", source_system=254)
+        bench("TCP loopback", tcp, items, args.runs)
+        tcp.close()
     finally:
         proc.terminate()
         proc.wait()

@@ -193,3 +193,37 @@ def test_a_serial_gcs_that_first_speaks_after_boot_gets_the_notice(tmp_path):
         s.stop()
         os.close(master)
         os.close(slave)
+
+
+def param_indices(mav, data):
+    """The PARAM_VALUE indices in `data`, and the table size."""
+    values = [m for m in mav.parse_buffer(data) or [] if m.get_type() == "PARAM_VALUE"]
+    return [v.param_index for v in values], (values[0].param_count if values else None)
+
+
+def test_a_parameter_list_over_a_radio_waits_for_its_buffer_and_loses_nothing(tmp_path):
+    # A telemetry radio on a serial port: the list is paced to the port, it
+    # pauses while the radio reports its buffer nearly full (RADIO_STATUS
+    # txbuf, percent free), and every parameter still arrives once.
+    master, slave = os.openpty()
+    tty.setraw(master)
+    s = Sitl(tmp_path, extra_args=["--mavlink", f"serial:{os.ttyname(slave)}:57600"])
+    try:
+        gcs = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
+        radio = mavlink.MAVLink(None, srcSystem=51, srcComponent=68)
+        heartbeat = gcs.heartbeat_encode(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        os.write(master, heartbeat.pack(gcs))
+        read_pty(master, 1)
+        os.write(master, radio.radio_status_encode(200, 200, 10, 50, 50, 0, 0).pack(radio))
+        time.sleep(0.2)
+        os.write(master, gcs.param_request_list_encode(1, 1).pack(gcs))
+        held, _ = param_indices(gcs, read_pty(master, 1.0))
+        assert held == [], f"{len(held)} parameters sent while the radio's buffer was full"
+        os.write(master, radio.radio_status_encode(200, 200, 100, 50, 50, 0, 0).pack(radio))
+        got, count = param_indices(gcs, read_pty(master, 3))
+        assert count and sorted(got) == list(range(count)), f"{count} in the table, {len(set(got))} arrived"
+        assert len(got) == count, "none twice"
+    finally:
+        s.stop()
+        os.close(master)
+        os.close(slave)

@@ -47,8 +47,10 @@ def test_mavsdk_sees_a_ready_vehicle_and_its_version(start_sitl):
     assert health.is_magnetometer_calibration_ok, health
     assert health.is_global_position_ok and health.is_local_position_ok, health
     assert health.is_home_position_ok and health.is_armable, health
-    # Furrow has no IMU and does not claim one: MAVSDK never sets these, so
-    # its health_all_ok() (which requires them) is false.
+    # Furrow has no IMU and does not claim one: its heading unit (dual-antenna
+    # GNSS HDT/THS, or a compass HDM/HDG) reports no rates or accelerations.
+    # MAVSDK sets these from SYS_STATUS's 3D_GYRO/3D_ACCEL bits, so its
+    # health_all_ok() (which requires them) is false.
     assert not health.is_gyrometer_calibration_ok and not health.is_accelerometer_calibration_ok
     assert all_ok is False
     cargo = tomllib.loads((REPO / "Cargo.toml").read_text())
