@@ -65,9 +65,7 @@ fn udp_link_answers_the_address_that_talks_to_it() {
     let mut heard = false;
     for _ in 0..50 {
         let Ok(n) = gcs.recv(&mut buf) else { continue };
-        let mut reader = MavlinkReader::new(&buf[..n]);
-        if let Ok((h, MavMessage::HEARTBEAT(_))) = reader.read_any_message::<MavMessage>() {
-            assert_eq!(h.system_id, 1);
+        if is_vehicle_heartbeat(&buf[..n]) {
             heard = true;
             break;
         }
@@ -122,9 +120,16 @@ fn udp_gcs() -> UdpSocket {
 }
 
 /// Whether `datagram` holds the vehicle's HEARTBEAT.
+/// Whether a datagram carries a vehicle HEARTBEAT (a datagram may carry
+/// several frames: the vehicle gathers them up to one datagram's size).
 fn is_vehicle_heartbeat(datagram: &[u8]) -> bool {
     let mut reader = MavlinkReader::new(datagram);
-    matches!(reader.read_any_message::<MavMessage>(), Ok((h, MavMessage::HEARTBEAT(_))) if h.system_id == 1)
+    while let Ok((h, message)) = reader.read_any_message::<MavMessage>() {
+        if h.system_id == 1 && matches!(message, MavMessage::HEARTBEAT(_)) {
+            return true;
+        }
+    }
+    false
 }
 
 /// Reads `socket` for `span`: the vehicle HEARTBEATs' largest gap (wall
