@@ -23,11 +23,10 @@ mod world_file;
 #[cfg(test)]
 mod tests;
 
-pub use battery::BatterySample;
-pub use config::{
-    AckermannConfig, ActuatorDemand, BatterySimConfig, DifferentialConfig, GeoPoint, GnssSimConfig, VehicleModel,
-    WorldConfig,
-};
+// The values the world shares with the core: their one home is vehicle_types.
+use vehicle_types::{ActuatorDemand, BatterySample, GeoPoint};
+
+pub use config::{AckermannConfig, BatterySimConfig, DifferentialConfig, GnssSimConfig, VehicleModel, WorldConfig};
 pub use magnetic::{
     MAGNETIC_PROBES, MagneticSensor, MagneticSensorConfig, MagneticTape, TapeBuilder, TapeFix, TapeSegment,
 };

@@ -45,9 +45,10 @@
 use std::f64::consts::{PI, TAU};
 
 use sim::{
-    AckermannConfig, ActuatorDemand, GnssSimConfig, MagneticSensor, MagneticSensorConfig, MagneticTape, TapeBuilder,
-    VehicleModel, World, WorldConfig,
+    AckermannConfig, GnssSimConfig, MagneticSensor, MagneticSensorConfig, MagneticTape, TapeBuilder, VehicleModel,
+    World, WorldConfig,
 };
+use vehicle_types::ActuatorDemand;
 
 use crate::guidance::magnetic::{IncrementalPidGains, MagneticGuide, MagneticGuideConfig, MagneticInput};
 
