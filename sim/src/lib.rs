@@ -16,6 +16,7 @@ mod magnetic;
 mod nmea_out;
 mod obstacles;
 mod scanner;
+mod seed;
 mod vehicle;
 mod world;
 mod world_file;
