@@ -7,7 +7,7 @@ use autopilot::link::endpoint::Endpoint;
 use autopilot::sitl::runner::{self, SitlOptions, Speedup};
 use autopilot::sitl::simulation::{ModelKind, SimulationConfig};
 use clap::{Parser, Subcommand, ValueEnum};
-use sim::GeoPoint;
+use vehicle_types::GeoPoint;
 
 #[derive(Parser)]
 #[command(

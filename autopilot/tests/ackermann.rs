@@ -13,7 +13,8 @@ use autopilot::control::ackermann::{
     rear_wheel_speeds, steer_from_curvature,
 };
 use proptest::prelude::*;
-use sim::{AckermannConfig, ActuatorDemand, DifferentialConfig, GnssSimConfig, VehicleModel, World, WorldConfig};
+use sim::{AckermannConfig, DifferentialConfig, GnssSimConfig, VehicleModel, World, WorldConfig};
+use vehicle_types::ActuatorDemand;
 
 fn geometry(wheelbase_m: f64, track_m: f64, e_left_m: f64, e_right_m: f64) -> AckermannGeometry {
     AckermannGeometry {

@@ -71,7 +71,7 @@ fn disarmed_outputs_are_neutral_and_the_vehicle_does_not_move() {
     assert!(h.distance_to(0.0, 0.0) < 1e-9);
     assert_eq!(
         h.sim.last_demand(),
-        sim::ActuatorDemand::Ackermann {
+        vehicle_types::ActuatorDemand::Ackermann {
             steering: 0.0,
             throttle: 0.0
         }

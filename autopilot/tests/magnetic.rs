@@ -9,7 +9,7 @@ use autopilot::guidance::magnetic::{
     IncrementalPid, IncrementalPidGains, LateralRate, MagneticGuide, MagneticGuideConfig, MagneticInput,
     lateral_and_angle, probe_num, sensor_deviation_m,
 };
-use autopilot::guidance::magnetic_scenario::{MagneticProfile, MagneticScenario, run};
+use autopilot::sitl::magnetic_scenario::{MagneticProfile, MagneticScenario, run};
 use sim::{MagneticSensor, MagneticSensorConfig, MagneticTape, VehicleTruth};
 
 const PITCH_M: f64 = 0.010;

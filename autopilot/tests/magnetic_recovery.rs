@@ -5,7 +5,7 @@
 //! whole grid). Re-acquired: both sensors' true offsets within 10 mm from
 //! then to the end of the run.
 
-use autopilot::guidance::magnetic_scenario::{MagneticProfile, MagneticScenario, ScenarioResult, run};
+use autopilot::sitl::magnetic_scenario::{MagneticProfile, MagneticScenario, ScenarioResult, run};
 
 const TOLERANCE_M: f64 = 0.010;
 

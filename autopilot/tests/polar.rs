@@ -9,7 +9,7 @@ use autopilot::sitl::gcs;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 use common::Harness;
 use mavlink::dialects::ardupilotmega::MavMessage;
-use sim::GeoPoint;
+use vehicle_types::GeoPoint;
 
 fn at(lat_deg: f64, lon_deg: f64, alt_m: f64) -> GeoPoint {
     GeoPoint {

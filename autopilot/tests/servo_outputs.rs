@@ -13,7 +13,7 @@ use common::Harness;
 use mavlink::dialects::ardupilotmega::{MANUAL_CONTROL_DATA, MavCmd, MavMessage};
 use mission::command::{cmd, frame};
 use mission::{ExecState, MissionItem, MissionType, Plan};
-use sim::ActuatorDemand;
+use vehicle_types::ActuatorDemand;
 
 const MANUAL: u32 = 0;
 const AUTO: u32 = 10;

@@ -86,7 +86,7 @@ fn a_stop_reports_its_true_error_in_sitl() {
     let core = h.sim.core();
     let point = core.navigator().target().expect("a target").point;
     let point = core.estimator().frame().expect("a frame").to_geodetic(&point);
-    let (point_north_m, point_east_m) = h.sim.world().geodetic_to_local(&sim_point(point));
+    let (point_north_m, point_east_m) = h.sim.world().geodetic_to_local(&point);
     assert!(h.run_until(60.0, |s| s.core().navigator().arrived()), "never arrived");
     h.run_for(12.0);
     let texts = h.texts();
@@ -107,13 +107,4 @@ fn a_stop_reports_its_true_error_in_sitl() {
         (mm - reported).abs() < 0.2,
         "{truth} vs {reported:.2} mm from the point now"
     );
-}
-
-/// The same point in the simulator's own WGS-84 type.
-fn sim_point(p: GeoPoint) -> sim::GeoPoint {
-    sim::GeoPoint {
-        lat_deg: p.lat_deg,
-        lon_deg: p.lon_deg,
-        alt_m: p.alt_m,
-    }
 }

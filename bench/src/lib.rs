@@ -12,6 +12,16 @@ pub mod tracking;
 
 use std::path::PathBuf;
 
+/// A fresh directory under the system's temp dir for one benchmark's
+/// `furrow sitl` runs (data directory, stderr logs), named `prefix…`; it is
+/// removed when dropped unless kept with `TempDir::keep`.
+pub fn scratch_dir(prefix: &str) -> Result<tempfile::TempDir, String> {
+    tempfile::Builder::new()
+        .prefix(prefix)
+        .tempdir()
+        .map_err(|e| format!("scratch directory {prefix}*: {e}"))
+}
+
 /// The `furrow` binary the process benchmarks start: `FURROW_BIN` if set
 /// (as the end-to-end tests take it), else the one built beside
 /// `furrow-bench` (both land in the same `target/<profile>/`).

@@ -15,7 +15,7 @@
 //! tape; those are counted apart. On the tape, the vehicle tracks a straight
 //! running into the arc 2 m ahead, and, apart, starts where the arc begins.
 
-use autopilot::guidance::magnetic_scenario::{MagneticProfile, MagneticScenario, ScenarioResult, run};
+use autopilot::sitl::magnetic_scenario::{MagneticProfile, MagneticScenario, ScenarioResult, run};
 
 #[derive(clap::Args, Debug)]
 pub struct MagneticBenchArgs {

@@ -173,7 +173,8 @@ fn log_records_bytes(commands: &[autopilot::logging::LogCommand]) -> usize {
 
 fn real_process(seconds: f64, logging: bool) -> Result<(), String> {
     let exe = crate::furrow_exe()?;
-    let data = std::env::temp_dir().join(format!("furrow-bench-{}", std::process::id()));
+    let scratch = crate::scratch_dir("furrow-bench-sitl-")?;
+    let data = scratch.path();
     let mut child = Command::new(exe)
         .args([
             "sitl",
@@ -185,7 +186,7 @@ fn real_process(seconds: f64, logging: bool) -> Result<(), String> {
             "9",
             "--data-dir",
         ])
-        .arg(&data)
+        .arg(data)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -194,9 +195,8 @@ fn real_process(seconds: f64, logging: bool) -> Result<(), String> {
     // SIGINT so it prints its tick report, then collect stderr.
     let _ = Command::new("kill").args(["-INT", &child.id().to_string()]).status();
     let output = child.wait_with_output().map_err(|e| format!("furrow sitl: {e}"))?;
-    let logs = autopilot::logging::store::LogStore::new(&data).list();
+    let logs = autopilot::logging::store::LogStore::new(data).list();
     let log_bytes: u64 = logs.iter().map(|l| l.size_bytes).sum();
-    let _ = std::fs::remove_dir_all(&data);
     let (sim_ratio, rss_kb, peak_kb) = result?;
     println!(
         "furrow sitl --speedup max, a ground station on TCP, {seconds:.0} s wall, {}:",

@@ -14,7 +14,6 @@ use std::time::Duration;
 
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mission::{ExecState, MissionType, Plan};
-use sim::GeoPoint as SimGeoPoint;
 
 use autopilot::edge::clock::InstantTimer;
 use autopilot::geo::{GeoPoint, LocalFrame, Ned, wrap_pi};
@@ -108,7 +107,7 @@ pub(crate) fn parse_param(text: &str) -> Result<(String, f64), String> {
 pub(crate) struct Course {
     pub(crate) name: String,
     pub(crate) items: Vec<mission::MissionItem>,
-    pub(crate) home: SimGeoPoint,
+    pub(crate) home: GeoPoint,
 }
 
 /// Where the vehicle stopped, from the truth, when the autopilot reported
@@ -259,7 +258,7 @@ pub(crate) fn load_courses(paths: &[PathBuf]) -> Result<Vec<Course>, String> {
             let home = items
                 .first()
                 .filter(|i| i.x != 0 || i.y != 0)
-                .map(|i| SimGeoPoint {
+                .map(|i| GeoPoint {
                     lat_deg: f64::from(i.x) * 1e-7,
                     lon_deg: f64::from(i.y) * 1e-7,
                     alt_m: f64::from(i.z),
@@ -485,7 +484,7 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
 /// The simulator's point in the autopilot's frame, through WGS-84.
 fn true_local(sim: &Simulation, frame: &LocalFrame, north_m: f64, east_m: f64) -> Ned {
     let g = sim.world().local_to_geodetic(north_m, east_m);
-    frame.to_local(&GeoPoint::new(g.lat_deg, g.lon_deg, g.alt_m))
+    frame.to_local(&g)
 }
 
 /// How much the autopilot's north axis is turned from the simulator's at

@@ -290,20 +290,7 @@ fn duration_s(item: &MissionItem, n: usize) -> Result<f32> {
 pub fn interpret_mission(item: &MissionItem, count: u16) -> Result<MissionCommand> {
     use MissionCommand as C;
     Ok(match item.command {
-        cmd::NAV_WAYPOINT | cmd::NAV_TAKEOFF => {
-            let hold_s = if item.command == cmd::NAV_WAYPOINT {
-                optional(item, 1)?.unwrap_or(0.0)
-            } else {
-                0.0
-            };
-            if !(0.0..=limits::MAX_DURATION_S).contains(&hold_s) {
-                return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
-            }
-            C::Waypoint {
-                position: position(item)?,
-                hold_s,
-            }
-        }
+        cmd::NAV_WAYPOINT | cmd::NAV_TAKEOFF => waypoint(item)?,
         cmd::NAV_LOITER_UNLIM => C::LoiterUnlimited {
             position: position(item)?,
         },
@@ -312,77 +299,14 @@ pub fn interpret_mission(item: &MissionItem, count: u16) -> Result<MissionComman
             position: position(item)?,
         },
         cmd::NAV_RETURN_TO_LAUNCH => C::ReturnToLaunch,
-        cmd::NAV_DELAY => {
-            let p1 = finite(item, 1)?;
-            if p1 > limits::MAX_DURATION_S {
-                return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
-            }
-            if p1 >= 0.0 {
-                C::Delay {
-                    seconds: Some(p1),
-                    until_utc_s: None,
-                }
-            } else if p1 == -1.0 {
-                let hour = finite(item, 2)?;
-                let minute = finite(item, 3)?;
-                let second = finite(item, 4)?;
-                if !(-1.0..24.0).contains(&hour) {
-                    return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2);
-                }
-                if !(-1.0..60.0).contains(&minute) {
-                    return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM3);
-                }
-                if !(0.0..60.0).contains(&second) {
-                    return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM4);
-                }
-                let secs = (hour.max(0.0) as u32) * 3600 + (minute.max(0.0) as u32) * 60 + second as u32;
-                C::Delay {
-                    seconds: None,
-                    until_utc_s: Some(secs),
-                }
-            } else {
-                return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
-            }
-        }
-        cmd::DO_CHANGE_SPEED => {
-            // 0 airspeed (treated as ground speed, as ArduPilot), 1 ground;
-            // climb/descent speeds mean nothing to a rover.
-            let kind = finite(item, 1)?;
-            if kind != 0.0 && kind != 1.0 {
-                return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
-            }
-            let speed = finite(item, 2)?;
-            let speed_mps = match speed {
-                s if s > 0.0 && s <= limits::MAX_SPEED_MPS => Some(Some(s)),
-                -2.0 => Some(None),
-                -1.0 => None,
-                _ => return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2),
-            };
-            match speed_mps {
-                Some(speed_mps) => C::ChangeSpeed { speed_mps },
-                // -1: no change — an item that does nothing.
-                None => C::ConditionDelay { seconds: 0.0 },
-            }
-        }
+        cmd::NAV_DELAY => nav_delay(item)?,
+        cmd::DO_CHANGE_SPEED => change_speed(item)?,
         cmd::DO_SET_REVERSE => match finite(item, 1)? {
             0.0 => C::SetReverse { reverse: false },
             1.0 => C::SetReverse { reverse: true },
             _ => return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1),
         },
-        cmd::DO_JUMP => {
-            let target = finite(item, 1)?;
-            if target < 1.0 || target >= f32::from(count) || target.fract() != 0.0 {
-                return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
-            }
-            let repeat = finite(item, 2)?;
-            if !(-1.0..=limits::MAX_JUMP_REPEAT).contains(&repeat) || repeat.fract() != 0.0 {
-                return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2);
-            }
-            C::Jump {
-                target: target as u16,
-                repeat: repeat as i32,
-            }
-        }
+        cmd::DO_JUMP => jump(item, count)?,
         cmd::DO_SET_HOME => {
             let use_current = finite(item, 1)?;
             if use_current == 1.0 {
@@ -393,45 +317,8 @@ pub fn interpret_mission(item: &MissionItem, count: u16) -> Result<MissionComman
                 }
             }
         }
-        cmd::DO_SET_SERVO | cmd::DO_REPEAT_SERVO => {
-            let channel = finite(item, 1)?;
-            if !(1.0..=16.0).contains(&channel) || channel.fract() != 0.0 {
-                return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
-            }
-            let pwm = finite(item, 2)?;
-            if !(500.0..=2500.0).contains(&pwm) {
-                return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2);
-            }
-            if item.command == cmd::DO_SET_SERVO {
-                C::SetServo {
-                    channel: channel as u8,
-                    pwm_us: pwm as u16,
-                }
-            } else {
-                let count = within(item, 3, 1.0..=65535.0)?;
-                let period_s = within(item, 4, limits::MIN_REPEAT_PERIOD_S..=limits::MAX_DURATION_S)?;
-                C::RepeatServo {
-                    channel: channel as u8,
-                    pwm_us: pwm as u16,
-                    count: count as u16,
-                    period_s,
-                }
-            }
-        }
-        cmd::DO_SET_RELAY => {
-            let relay = finite(item, 1)?;
-            if !(0.0..=15.0).contains(&relay) || relay.fract() != 0.0 {
-                return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
-            }
-            let state = finite(item, 2)?;
-            if ![0.0, 1.0, 2.0].contains(&state) {
-                return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2);
-            }
-            C::SetRelay {
-                relay: relay as u8,
-                state: state as u8,
-            }
-        }
+        cmd::DO_SET_SERVO | cmd::DO_REPEAT_SERVO => servo(item)?,
+        cmd::DO_SET_RELAY => relay(item)?,
         cmd::CONDITION_DELAY => C::ConditionDelay {
             seconds: duration_s(item, 1)?,
         },
@@ -439,6 +326,135 @@ pub fn interpret_mission(item: &MissionItem, count: u16) -> Result<MissionComman
             metres: within(item, 1, 0.0..=limits::MAX_DISTANCE_M)?,
         },
         _ => return Err(MavMissionResult::MAV_MISSION_UNSUPPORTED),
+    })
+}
+
+/// NAV_WAYPOINT (param 1: hold seconds) or NAV_TAKEOFF (a waypoint for a rover).
+fn waypoint(item: &MissionItem) -> Result<MissionCommand> {
+    let hold_s = if item.command == cmd::NAV_WAYPOINT {
+        optional(item, 1)?.unwrap_or(0.0)
+    } else {
+        0.0
+    };
+    if !(0.0..=limits::MAX_DURATION_S).contains(&hold_s) {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
+    }
+    Ok(MissionCommand::Waypoint {
+        position: position(item)?,
+        hold_s,
+    })
+}
+
+/// NAV_DELAY: param 1 seconds, or -1 and an hour/minute/second of UTC
+/// (-1 hour or minute: any).
+fn nav_delay(item: &MissionItem) -> Result<MissionCommand> {
+    let p1 = finite(item, 1)?;
+    if p1 > limits::MAX_DURATION_S {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
+    }
+    if p1 >= 0.0 {
+        return Ok(MissionCommand::Delay {
+            seconds: Some(p1),
+            until_utc_s: None,
+        });
+    }
+    if p1 != -1.0 {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
+    }
+    let hour = finite(item, 2)?;
+    let minute = finite(item, 3)?;
+    let second = finite(item, 4)?;
+    if !(-1.0..24.0).contains(&hour) {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2);
+    }
+    if !(-1.0..60.0).contains(&minute) {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM3);
+    }
+    if !(0.0..60.0).contains(&second) {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM4);
+    }
+    let secs = (hour.max(0.0) as u32) * 3600 + (minute.max(0.0) as u32) * 60 + second as u32;
+    Ok(MissionCommand::Delay {
+        seconds: None,
+        until_utc_s: Some(secs),
+    })
+}
+
+fn change_speed(item: &MissionItem) -> Result<MissionCommand> {
+    // 0 airspeed (treated as ground speed, as ArduPilot), 1 ground;
+    // climb/descent speeds mean nothing to a rover.
+    let kind = finite(item, 1)?;
+    if kind != 0.0 && kind != 1.0 {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
+    }
+    let speed = finite(item, 2)?;
+    let speed_mps = match speed {
+        s if s > 0.0 && s <= limits::MAX_SPEED_MPS => Some(Some(s)),
+        -2.0 => Some(None),
+        -1.0 => None,
+        _ => return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2),
+    };
+    Ok(match speed_mps {
+        Some(speed_mps) => MissionCommand::ChangeSpeed { speed_mps },
+        // -1: no change — an item that does nothing.
+        None => MissionCommand::ConditionDelay { seconds: 0.0 },
+    })
+}
+
+/// DO_JUMP: the target must lie inside a plan of `count` items.
+fn jump(item: &MissionItem, count: u16) -> Result<MissionCommand> {
+    let target = finite(item, 1)?;
+    if target < 1.0 || target >= f32::from(count) || target.fract() != 0.0 {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
+    }
+    let repeat = finite(item, 2)?;
+    if !(-1.0..=limits::MAX_JUMP_REPEAT).contains(&repeat) || repeat.fract() != 0.0 {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2);
+    }
+    Ok(MissionCommand::Jump {
+        target: target as u16,
+        repeat: repeat as i32,
+    })
+}
+
+/// DO_SET_SERVO, or DO_REPEAT_SERVO with its count and period.
+fn servo(item: &MissionItem) -> Result<MissionCommand> {
+    let channel = finite(item, 1)?;
+    if !(1.0..=16.0).contains(&channel) || channel.fract() != 0.0 {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
+    }
+    let pwm = finite(item, 2)?;
+    if !(500.0..=2500.0).contains(&pwm) {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2);
+    }
+    if item.command == cmd::DO_SET_SERVO {
+        return Ok(MissionCommand::SetServo {
+            channel: channel as u8,
+            pwm_us: pwm as u16,
+        });
+    }
+    let count = within(item, 3, 1.0..=65535.0)?;
+    let period_s = within(item, 4, limits::MIN_REPEAT_PERIOD_S..=limits::MAX_DURATION_S)?;
+    Ok(MissionCommand::RepeatServo {
+        channel: channel as u8,
+        pwm_us: pwm as u16,
+        count: count as u16,
+        period_s,
+    })
+}
+
+fn relay(item: &MissionItem) -> Result<MissionCommand> {
+    let relay = finite(item, 1)?;
+    if !(0.0..=15.0).contains(&relay) || relay.fract() != 0.0 {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
+    }
+    let state = finite(item, 2)?;
+    if ![0.0, 1.0, 2.0].contains(&state) {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2);
+    }
+    Ok(MissionCommand::SetRelay {
+        relay: relay as u8,
+        state: state as u8,
     })
 }
 

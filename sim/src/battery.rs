@@ -1,16 +1,6 @@
 //! Battery pack: coulomb counting, linear open-circuit voltage, I·R sag.
 
-use super::BatterySimConfig;
-
-/// What the battery monitor would read.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BatterySample {
-    pub voltage_v: f64,
-    pub current_a: f64,
-    pub consumed_mah: f64,
-    /// State of charge, 0–100.
-    pub remaining_pct: f64,
-}
+use super::{BatterySample, BatterySimConfig};
 
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Battery {

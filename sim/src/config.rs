@@ -3,16 +3,7 @@
 
 use drivers::gnss::FixQuality;
 
-use super::MagneticSensorConfig;
-
-/// A WGS-84 position. `alt_m` is height above the ellipsoid; the simulated
-/// receiver reports a geoid separation of 0, so it is also its MSL altitude.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct GeoPoint {
-    pub lat_deg: f64,
-    pub lon_deg: f64,
-    pub alt_m: f64,
-}
+use super::{GeoPoint, MagneticSensorConfig};
 
 /// Car-like vehicle; the reference point is the rear axle centre.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,24 +70,6 @@ impl Default for VehicleModel {
     fn default() -> Self {
         VehicleModel::Ackermann(AckermannConfig::default())
     }
-}
-
-/// Normalised demands in [-1, 1]; values outside are clamped and NaN is 0.
-/// Ackermann: `steering` +1 = full right (`max_steer_rad`), `throttle` = signed
-/// fraction of `speed_max_mps` (negative = reverse). Differential: each wheel's
-/// signed fraction of `wheel_speed_max_mps`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum ActuatorDemand {
-    Ackermann { steering: f64, throttle: f64 },
-    Differential { left: f64, right: f64 },
-}
-
-impl ActuatorDemand {
-    /// At rest, whatever the vehicle.
-    pub const STOP: ActuatorDemand = ActuatorDemand::Ackermann {
-        steering: 0.0,
-        throttle: 0.0,
-    };
 }
 
 /// Simulated GNSS receiver.

@@ -16,6 +16,7 @@ mod magnetic;
 mod nmea_out;
 mod obstacles;
 mod scanner;
+mod seed;
 mod vehicle;
 mod world;
 mod world_file;
@@ -23,11 +24,10 @@ mod world_file;
 #[cfg(test)]
 mod tests;
 
-pub use battery::BatterySample;
-pub use config::{
-    AckermannConfig, ActuatorDemand, BatterySimConfig, DifferentialConfig, GeoPoint, GnssSimConfig, VehicleModel,
-    WorldConfig,
-};
+// The values the world shares with the core: their one home is vehicle_types.
+use vehicle_types::{ActuatorDemand, BatterySample, GeoPoint};
+
+pub use config::{AckermannConfig, BatterySimConfig, DifferentialConfig, GnssSimConfig, VehicleModel, WorldConfig};
 pub use magnetic::{
     MAGNETIC_PROBES, MagneticSensor, MagneticSensorConfig, MagneticTape, TapeBuilder, TapeFix, TapeSegment,
 };

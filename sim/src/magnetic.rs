@@ -30,6 +30,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
 use super::VehicleTruth;
+use super::seed::splitmix_finalise;
 
 /// Probes per sensor.
 pub const MAGNETIC_PROBES: usize = 16;
@@ -400,14 +401,7 @@ impl MagneticSensorConfig {
 /// SplitMix64 finaliser over the seed (tagged, so this stream is not the
 /// GNSS receiver's) and the instant.
 fn mix(seed: u64, time_ns: u128) -> u64 {
-    let mut z = seed ^ 0x4d41_474e_4554_4943 ^ (time_ns as u64) ^ ((time_ns >> 64) as u64).rotate_left(17);
-    for _ in 0..2 {
-        z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^= z >> 31;
-    }
-    z
+    splitmix_finalise(seed ^ 0x4d41_474e_4554_4943 ^ (time_ns as u64) ^ ((time_ns >> 64) as u64).rotate_left(17))
 }
 
 #[cfg(test)]

@@ -37,6 +37,7 @@ use super::VehicleTruth;
 use super::obstacles::{
     FacingOutline, ObstacleWorld, point_segment_distance, ray_circle_m, ray_segment_m, wrap_two_pi,
 };
+use super::seed::splitmix_finalise;
 use drivers::scanner::Scan;
 
 /// A mistyped step must not allocate millions of beams.
@@ -388,16 +389,9 @@ pub(crate) fn scanner_seed(world_seed: u64, index: usize) -> u64 {
     mix(world_seed ^ 0x4c41_5345_5253_4341, index as u64)
 }
 
-/// SplitMix64 finaliser over a seed and a counter.
+/// A seed and a counter, finalised.
 fn mix(seed: u64, counter: u64) -> u64 {
-    let mut z = seed ^ counter.rotate_left(29);
-    for _ in 0..2 {
-        z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^= z >> 31;
-    }
-    z
+    splitmix_finalise(seed ^ counter.rotate_left(29))
 }
 
 #[cfg(test)]

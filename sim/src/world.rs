@@ -5,14 +5,14 @@
 use std::collections::VecDeque;
 use std::time::Duration;
 
-use super::battery::{Battery, BatterySample};
+use super::battery::Battery;
 use super::geo::LocalFrame;
 use super::gnss_sim::GnssSim;
 use super::magnetic::MagneticTape;
 use super::obstacles::{ObstacleWorld, VehicleOutline};
 use super::scanner::{SimScanner, SimScannerConfig, scanner_seed};
 use super::vehicle::{self, VehicleTruth, wrap_pi};
-use super::{ActuatorDemand, GeoPoint, GnssSimConfig, MagneticSensorConfig, VehicleModel, WorldConfig};
+use super::{ActuatorDemand, BatterySample, GeoPoint, GnssSimConfig, MagneticSensorConfig, VehicleModel, WorldConfig};
 use drivers::scanner::Scan;
 
 /// The physics rate used when the configured one is unusable (≤ 0, NaN).

@@ -5,10 +5,8 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use std::time::Duration;
 
 use drivers::scanner::Scan;
-use sim::{
-    ActuatorDemand, GnssSimConfig, MovingObstacle, ObstacleWorld, Shape, SimScannerConfig, VehicleOutline, World,
-    WorldConfig,
-};
+use sim::{GnssSimConfig, MovingObstacle, ObstacleWorld, Shape, SimScannerConfig, VehicleOutline, World, WorldConfig};
+use vehicle_types::ActuatorDemand;
 
 const STEP: Duration = Duration::from_millis(20);
 

@@ -10,7 +10,7 @@
 //!
 //! Sources: docs/references.md §Seed 002.
 
-use sim::ActuatorDemand;
+use vehicle_types::ActuatorDemand;
 
 use super::ackermann::{AckermannGeometry, front_wheel_angles, rear_wheel_speeds};
 

@@ -27,7 +27,7 @@
 //! Sources: docs/references.md §Seed 002.
 
 use params::{Param, ParamDef, ParamFlags, ParamName, ParamTable, ParamTableBuilder, ParamType};
-use sim::ActuatorDemand;
+use vehicle_types::ActuatorDemand;
 
 use super::mixer::WheelOutputs;
 

@@ -25,7 +25,7 @@
 //! (with the seed's K_I = 0: whatever steering the guide took over, see
 //! [`MagneticGuide::engaged_at`]).
 //!
-//! Beyond the seed, each for a reason found in SITL (`magnetic_scenario`):
+//! Beyond the seed, each for a reason found in SITL (`sitl::magnetic_scenario`):
 //! - the D term's rate is by default the kinematic one, v·tan α − ω·x_mid
 //!   ([`LateralRate::Kinematic`]): the reading moves in 2.5 mm steps, and
 //!   differenced at 50 Hz (eq. 15 as written) that is 0.125 m/s of noise per

@@ -3,7 +3,6 @@
 //! the modes.
 
 pub mod magnetic;
-pub mod magnetic_scenario;
 pub mod manoeuvre;
 pub mod navigator;
 pub mod path;

@@ -9,7 +9,7 @@
 use std::time::Duration;
 
 use params::ParamTable;
-use sim::ActuatorDemand;
+use vehicle_types::ActuatorDemand;
 
 use super::params::SimParams;
 

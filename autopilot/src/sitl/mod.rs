@@ -8,9 +8,12 @@
 //!   used by the runner, the benchmarks and the in-process tests.
 //! - [`runner`]: `furrow sitl`: the simulation as a platform of the edge
 //!   runner ([`crate::edge`]), paced against the wall clock by `SIM_SPEEDUP`.
+//! - [`magnetic_scenario`]: the world's vehicle driven by the magnetic guide
+//!   alone, no core: tape re-acquisition for tests and `furrow-bench magnetic`.
 
 pub mod faults;
 pub mod gcs;
+pub mod magnetic_scenario;
 pub mod params;
 pub mod runner;
 pub mod simulation;

@@ -10,7 +10,8 @@ use drivers::magnetic::MagneticSample;
 use drivers::scanner::Scan;
 use drivers::scanner::cola::{ColaFramer, encode_lmd_scandata, parse_lmd_scandata, telegram_from_scan};
 use params::{ParamTable, ParamTableBuilder};
-use sim::{AckermannConfig, ActuatorDemand, DifferentialConfig, GeoPoint, VehicleModel, World, WorldConfig};
+use sim::{AckermannConfig, DifferentialConfig, VehicleModel, World, WorldConfig};
+use vehicle_types::{ActuatorDemand, GeoPoint};
 
 use super::faults::Faults;
 use super::params::SimParams;

@@ -6,7 +6,8 @@
 use std::path::Path;
 
 use mission::command::{Position, cmd, position};
-use sim::{GeoPoint as SimGeoPoint, MagneticTape, TapeSegment, World};
+use sim::{MagneticTape, TapeSegment, World};
+use vehicle_types::GeoPoint;
 
 use crate::geo::Ned;
 use crate::guidance::path::fit_corner;
@@ -72,11 +73,7 @@ pub fn load(path: &Path, world: &World, radius_m: f64) -> Result<MagneticTape, S
         .filter(|item| matches!(item.command, cmd::NAV_WAYPOINT | cmd::NAV_TAKEOFF))
         .filter_map(|item| match position(item).ok()? {
             Position::Global { lat_e7, lon_e7 } => {
-                let (north_m, east_m) = world.geodetic_to_local(&SimGeoPoint {
-                    lat_deg: f64::from(lat_e7) * 1e-7,
-                    lon_deg: f64::from(lon_e7) * 1e-7,
-                    alt_m: 0.0,
-                });
+                let (north_m, east_m) = world.geodetic_to_local(&GeoPoint::from_e7(lat_e7, lon_e7, 0.0));
                 Some(Ned::new(north_m, east_m))
             }
             Position::Local { north_m, east_m } => Some(Ned::new(north_m, east_m)),

@@ -143,31 +143,8 @@ impl Core {
     fn execute(&mut self, inbound: &Inbound, c: &Command, follow_up: &mut Vec<(Destination, MavMessage)>) -> MavResult {
         let [p1, p2, _p3, _p4] = c.params;
         match c.command {
-            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
-                let force = p2 == FORCE_ARM_MAGIC;
-                let ok = if p1 == 1.0 {
-                    self.arm(force)
-                } else if p1 == 0.0 {
-                    self.disarm()
-                } else {
-                    return MavResult::MAV_RESULT_DENIED;
-                };
-                if ok {
-                    MavResult::MAV_RESULT_ACCEPTED
-                } else {
-                    MavResult::MAV_RESULT_FAILED
-                }
-            }
-            MavCmd::MAV_CMD_DO_SET_MODE => {
-                let (Some(flags), Some(mode)) = (whole(p1, u32::from(u8::MAX)), whole(p2, u32::MAX)) else {
-                    return MavResult::MAV_RESULT_DENIED;
-                };
-                let flags = MavModeFlag::from_bits_truncate(flags as u8);
-                if !flags.contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED) {
-                    return MavResult::MAV_RESULT_DENIED;
-                }
-                self.set_mode_result(mode)
-            }
+            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => self.arm_disarm(p1, p2),
+            MavCmd::MAV_CMD_DO_SET_MODE => self.do_set_mode(p1, p2),
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => self.set_mode_result(Mode::Rtl.number()),
             MavCmd::MAV_CMD_MISSION_START => {
                 // First/last item selection is not supported (as ArduPilot).
@@ -176,56 +153,12 @@ impl Core {
                 }
                 self.set_mode_result(Mode::Auto.number())
             }
-            MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT => {
-                // -1 keeps the current item (only resetting jump counters).
-                let seq = if p1 == -1.0 {
-                    self.missions.executor.current()
-                } else {
-                    match whole(p1, u32::from(u16::MAX)) {
-                        Some(seq) => seq as u16,
-                        None => return MavResult::MAV_RESULT_DENIED,
-                    }
-                };
-                if self.set_mission_current(seq, p2 == 1.0) {
-                    MavResult::MAV_RESULT_ACCEPTED
-                } else {
-                    MavResult::MAV_RESULT_DENIED
-                }
-            }
+            MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT => self.do_set_mission_current(p1, p2),
             MavCmd::MAV_CMD_DO_REPOSITION => self.do_reposition(c),
             MavCmd::MAV_CMD_DO_SET_HOME => self.do_set_home(c),
             MavCmd::MAV_CMD_DO_CHANGE_SPEED => self.do_change_speed(p1, p2),
-            // As ArduPilot: only a channel no function owns (SERVOn_FUNCTION
-            // 0 or 1) takes a pulse from the GCS.
-            MavCmd::MAV_CMD_DO_SET_SERVO => {
-                let channel = whole(p1, 64).map_or(0, |c| c as usize);
-                let servos = self.p.servos.config(&self.params);
-                match servos.channels.get(channel.wrapping_sub(1)) {
-                    Some(ch) if ch.function.accepts_direct_pulse() && (0.0..=3000.0).contains(&p2) => {
-                        self.missions.servo_us[channel - 1] = p2 as u16;
-                        MavResult::MAV_RESULT_ACCEPTED
-                    }
-                    _ => MavResult::MAV_RESULT_DENIED,
-                }
-            }
-            MavCmd::MAV_CMD_DO_SET_RELAY => {
-                let Some(relay) = whole(p1, 15).map(|r| r as usize) else {
-                    return MavResult::MAV_RESULT_DENIED;
-                };
-                let servos = self.p.servos.config(&self.params);
-                let fitted = servos.relay_channels.get(relay).is_some_and(Option::is_some);
-                if !(fitted && (p2 == 0.0 || p2 == 1.0)) {
-                    return MavResult::MAV_RESULT_DENIED;
-                }
-                let bit = 1u16 << relay;
-                self.missions.relays_used |= bit;
-                if p2 == 1.0 {
-                    self.missions.relays_on |= bit;
-                } else {
-                    self.missions.relays_on &= !bit;
-                }
-                MavResult::MAV_RESULT_ACCEPTED
-            }
+            MavCmd::MAV_CMD_DO_SET_SERVO => self.do_set_servo(p1, p2),
+            MavCmd::MAV_CMD_DO_SET_RELAY => self.do_set_relay(p1, p2),
             // Continue releases an obstacle stop held for the GCS
             // (OA_RESUME 0) once the way is clear; pausing is not supported.
             MavCmd::MAV_CMD_DO_PAUSE_CONTINUE if p1 == 1.0 => {
@@ -235,39 +168,9 @@ impl Core {
                     MavResult::MAV_RESULT_TEMPORARILY_REJECTED
                 }
             }
-            MavCmd::MAV_CMD_REQUEST_MESSAGE => {
-                let response = if c.z == 2.0 {
-                    Destination::AllLinks
-                } else {
-                    Destination::Link(inbound.link)
-                };
-                let Some(id) = whole(p1, u32::MAX) else {
-                    return MavResult::MAV_RESULT_DENIED;
-                };
-                match self.build_requested(id) {
-                    Some(message) => {
-                        follow_up.push((response, message));
-                        MavResult::MAV_RESULT_ACCEPTED
-                    }
-                    None if self.can_build(id) => MavResult::MAV_RESULT_FAILED,
-                    None => MavResult::MAV_RESULT_UNSUPPORTED,
-                }
-            }
+            MavCmd::MAV_CMD_REQUEST_MESSAGE => self.request_message(inbound, c, follow_up),
             MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => self.set_message_interval(inbound, p1, p2),
-            MavCmd::MAV_CMD_GET_MESSAGE_INTERVAL => {
-                let Some(msg) = whole(p1, u32::MAX).and_then(StreamMsg::from_message_id) else {
-                    return MavResult::MAV_RESULT_UNSUPPORTED;
-                };
-                let interval_us = self.message_interval_us(inbound, msg);
-                follow_up.push((
-                    Destination::Link(inbound.link),
-                    MavMessage::MESSAGE_INTERVAL(MESSAGE_INTERVAL_DATA {
-                        interval_us,
-                        message_id: msg.message_id() as u16,
-                    }),
-                ));
-                MavResult::MAV_RESULT_ACCEPTED
-            }
+            MavCmd::MAV_CMD_GET_MESSAGE_INTERVAL => self.get_message_interval(inbound, p1, follow_up),
             MavCmd::MAV_CMD_GET_HOME_POSITION => match self.build_home_position() {
                 Some(home) => {
                     follow_up.push((Destination::Link(inbound.link), home));
@@ -288,6 +191,129 @@ impl Core {
             }
             _ => MavResult::MAV_RESULT_UNSUPPORTED,
         }
+    }
+
+    fn arm_disarm(&mut self, p1: f32, p2: f32) -> MavResult {
+        let force = p2 == FORCE_ARM_MAGIC;
+        let ok = if p1 == 1.0 {
+            self.arm(force)
+        } else if p1 == 0.0 {
+            self.disarm()
+        } else {
+            return MavResult::MAV_RESULT_DENIED;
+        };
+        if ok {
+            MavResult::MAV_RESULT_ACCEPTED
+        } else {
+            MavResult::MAV_RESULT_FAILED
+        }
+    }
+
+    fn do_set_mode(&mut self, p1: f32, p2: f32) -> MavResult {
+        let (Some(flags), Some(mode)) = (whole(p1, u32::from(u8::MAX)), whole(p2, u32::MAX)) else {
+            return MavResult::MAV_RESULT_DENIED;
+        };
+        let flags = MavModeFlag::from_bits_truncate(flags as u8);
+        if !flags.contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED) {
+            return MavResult::MAV_RESULT_DENIED;
+        }
+        self.set_mode_result(mode)
+    }
+
+    fn do_set_mission_current(&mut self, p1: f32, p2: f32) -> MavResult {
+        // -1 keeps the current item (only resetting jump counters).
+        let seq = if p1 == -1.0 {
+            self.missions.executor.current()
+        } else {
+            match whole(p1, u32::from(u16::MAX)) {
+                Some(seq) => seq as u16,
+                None => return MavResult::MAV_RESULT_DENIED,
+            }
+        };
+        if self.set_mission_current(seq, p2 == 1.0) {
+            MavResult::MAV_RESULT_ACCEPTED
+        } else {
+            MavResult::MAV_RESULT_DENIED
+        }
+    }
+
+    /// As ArduPilot: only a channel no function owns (SERVOn_FUNCTION 0 or
+    /// 1) takes a pulse from the GCS.
+    fn do_set_servo(&mut self, p1: f32, p2: f32) -> MavResult {
+        let channel = whole(p1, 64).map_or(0, |c| c as usize);
+        let servos = self.p.servos.config(&self.params);
+        match servos.channels.get(channel.wrapping_sub(1)) {
+            Some(ch) if ch.function.accepts_direct_pulse() && (0.0..=3000.0).contains(&p2) => {
+                self.missions.servo_us[channel - 1] = p2 as u16;
+                MavResult::MAV_RESULT_ACCEPTED
+            }
+            _ => MavResult::MAV_RESULT_DENIED,
+        }
+    }
+
+    fn do_set_relay(&mut self, p1: f32, p2: f32) -> MavResult {
+        let Some(relay) = whole(p1, 15).map(|r| r as usize) else {
+            return MavResult::MAV_RESULT_DENIED;
+        };
+        let servos = self.p.servos.config(&self.params);
+        let fitted = servos.relay_channels.get(relay).is_some_and(Option::is_some);
+        if !(fitted && (p2 == 0.0 || p2 == 1.0)) {
+            return MavResult::MAV_RESULT_DENIED;
+        }
+        let bit = 1u16 << relay;
+        self.missions.relays_used |= bit;
+        if p2 == 1.0 {
+            self.missions.relays_on |= bit;
+        } else {
+            self.missions.relays_on &= !bit;
+        }
+        MavResult::MAV_RESULT_ACCEPTED
+    }
+
+    /// REQUEST_MESSAGE: param 1 the message id; param 7 = 2 answers on
+    /// every link, else on the asking one.
+    fn request_message(
+        &mut self,
+        inbound: &Inbound,
+        c: &Command,
+        follow_up: &mut Vec<(Destination, MavMessage)>,
+    ) -> MavResult {
+        let response = if c.z == 2.0 {
+            Destination::AllLinks
+        } else {
+            Destination::Link(inbound.link)
+        };
+        let Some(id) = whole(c.params[0], u32::MAX) else {
+            return MavResult::MAV_RESULT_DENIED;
+        };
+        match self.build_requested(id) {
+            Some(message) => {
+                follow_up.push((response, message));
+                MavResult::MAV_RESULT_ACCEPTED
+            }
+            None if self.can_build(id) => MavResult::MAV_RESULT_FAILED,
+            None => MavResult::MAV_RESULT_UNSUPPORTED,
+        }
+    }
+
+    fn get_message_interval(
+        &self,
+        inbound: &Inbound,
+        p1: f32,
+        follow_up: &mut Vec<(Destination, MavMessage)>,
+    ) -> MavResult {
+        let Some(msg) = whole(p1, u32::MAX).and_then(StreamMsg::from_message_id) else {
+            return MavResult::MAV_RESULT_UNSUPPORTED;
+        };
+        let interval_us = self.message_interval_us(inbound, msg);
+        follow_up.push((
+            Destination::Link(inbound.link),
+            MavMessage::MESSAGE_INTERVAL(MESSAGE_INTERVAL_DATA {
+                interval_us,
+                message_id: msg.message_id() as u16,
+            }),
+        ));
+        MavResult::MAV_RESULT_ACCEPTED
     }
 
     fn set_mode_result(&mut self, number: u32) -> MavResult {

@@ -1,7 +1,7 @@
 //! Each tick: the mode decides what to do (`modes/`), guidance turns it into a
 //! steering angle and speed, control into normalised actuator commands.
 
-use sim::ActuatorDemand;
+use vehicle_types::ActuatorDemand;
 
 use super::Core;
 use crate::control::ackermann::{AckermannGeometry, curvature_from_steer, differential_wheel_speeds};

@@ -4,7 +4,7 @@ use drivers::gnss::GnssSample;
 use drivers::magnetic::MagneticSample;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::{MavHeader, MavlinkVersion};
-use sim::{ActuatorDemand, BatterySample};
+use vehicle_types::{ActuatorDemand, BatterySample};
 
 /// One MAVLink link (a TCP client, the UDP peer, a serial port…), numbered by
 /// the link layer in the order links appear.

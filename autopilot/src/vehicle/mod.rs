@@ -30,7 +30,7 @@ use ::params::ParamTable;
 use ::params::service::ParamService;
 use drivers::magnetic::MagneticSample;
 use mavlink::dialects::ardupilotmega::{MavMessage, MavSeverity};
-use sim::BatterySample;
+use vehicle_types::BatterySample;
 
 use crate::control::mixer::DriveTrain;
 use crate::control::speed::SpeedController;

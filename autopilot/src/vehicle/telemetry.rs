@@ -11,7 +11,7 @@ use mavlink::dialects::ardupilotmega::{
     NAV_CONTROLLER_OUTPUT_DATA, POSITION_TARGET_GLOBAL_INT_DATA, PositionTargetTypemask, RELAY_STATUS_DATA,
     SERVO_OUTPUT_RAW_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA,
 };
-use sim::BatterySample;
+use vehicle_types::BatterySample;
 
 use super::failsafe::Failsafe;
 use super::{Core, Destination};

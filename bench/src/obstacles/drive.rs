@@ -11,7 +11,7 @@ use sim::{ObstacleWorld, VehicleOutline};
 
 use super::truth::{Judge, Limits, MOVING_MPS, Pose, STALL_S, TruthLog, on_its_line_s, rectangle};
 use autopilot::edge::clock::InstantTimer;
-use autopilot::geo::{GeoPoint, LocalFrame, Ned};
+use autopilot::geo::{LocalFrame, Ned};
 use autopilot::obstacles::TrackStatus;
 use autopilot::sitl::gcs;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
@@ -504,5 +504,5 @@ fn record_kf_errors(sim: &Simulation, world: &ObstacleWorld, t: f64, recorded: &
 /// The simulator's point in the autopilot's frame, through WGS-84.
 fn sim_to_core(sim: &Simulation, frame: &LocalFrame, north_m: f64, east_m: f64) -> Ned {
     let g = sim.world().local_to_geodetic(north_m, east_m);
-    frame.to_local(&GeoPoint::new(g.lat_deg, g.lon_deg, g.alt_m))
+    frame.to_local(&g)
 }

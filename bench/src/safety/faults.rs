@@ -307,6 +307,84 @@ impl Drive {
 }
 
 fn run_scenario(s: &Scenario, course: &crate::tracking::Course, seed: u64) -> Result<Row, String> {
+    let (mut d, plan, params_before) = drive_auto_until_fault(s, course, seed)?;
+    let seq_at_fault = d.sim.core().mission_current_seq();
+    let inject_t = d.t();
+    for (name, value) in s.inject {
+        d.set(name, *value)?;
+    }
+    let texts_before = d.texts.len();
+    let phase = watch_fault(&mut d, s, inject_t)?;
+    // The failsafe texts of this fault (a later failsafe, while the mission
+    // is finished, is another story).
+    let texts_of_fault = d.texts.len();
+    let said = match s.text {
+        Some(prefix) => d.texts[texts_before..].iter().any(|t| t.starts_with(prefix)),
+        None => true,
+    };
+    let action_ok = match s.expect {
+        Expect::StaysOnPath(limit) => phase.worst_xtrack_m <= limit,
+        Expect::HoldOffPath(_) => match (phase.off_path_at, phase.acted_after) {
+            (Some(off), Some(acted)) => inject_t + acted - off <= s.deadline_s,
+            _ => false,
+        },
+        _ => phase.acted_after.is_some_and(|t| t <= s.deadline_s),
+    };
+    // Then finish the mission: resumed by itself, or by the operator.
+    let (completed, operator_actions) = finish_mission(&mut d)?;
+
+    let plan_intact = *d.sim.core().plan(MissionType::Mission) == plan;
+    let mut params_after = snapshot(&d.sim);
+    // The fault parameters themselves are what the test changed.
+    params_after.retain(|(n, _)| !n.starts_with("SIM_"));
+    let mut params_before = params_before;
+    params_before.retain(|(n, _)| !n.starts_with("SIM_"));
+    let params_intact = params_after == params_before;
+    let resumed_from = d.sim.core().mission_current_seq();
+    let outcome = if completed {
+        let how = if operator_actions.is_empty() {
+            "went on by itself".to_string()
+        } else {
+            format!("operator: {}", operator_actions.join(", "))
+        };
+        format!("completed ({how}; stopped at item {seq_at_fault})")
+    } else {
+        format!("NOT completed (item {resumed_from}, {:?})", d.sim.core().mode())
+    };
+    let action = action_text(s, &phase, inject_t);
+    let expected = format!(
+        "{}; failsafe on while the fault lasts, cleared <= {CLEAR_WITHIN_S} s after",
+        expected_action(s)
+    );
+    let failsafe_texts = &d.texts[texts_before..texts_of_fault];
+    let (held, held_ok) = phase.watch.held(s.causes, phase.fault_end);
+    let (clearing, clearing_ok) = phase.watch.clearing(phase.fault_end, failsafe_texts);
+    let ok = action_ok && said && completed && plan_intact && params_intact && held_ok && clearing_ok;
+    Ok(Row {
+        part: "fault",
+        case: s.name.to_string(),
+        expected,
+        measured: format!(
+            "{action}; text {}; {held}; {clearing}; {outcome}; mission {}, params {}",
+            match (s.text, said) {
+                (None, _) => "none (link down)",
+                (Some(_), true) => "sent",
+                (Some(_), false) => "MISSING",
+            },
+            if plan_intact { "intact" } else { "CHANGED" },
+            if params_intact { "intact" } else { "CHANGED" }
+        ),
+        ok,
+    })
+}
+
+/// The course loaded, the scenario's setup applied, armed in AUTO and
+/// driven until the fault is due; the plan and the parameters before it.
+fn drive_auto_until_fault(
+    s: &Scenario,
+    course: &crate::tracking::Course,
+    seed: u64,
+) -> Result<(Drive, Plan, Vec<(String, f64)>), String> {
     let config = SimulationConfig {
         home: course.home,
         model: ModelKind::Ackermann,
@@ -339,14 +417,25 @@ fn run_scenario(s: &Scenario, course: &crate::tracking::Course, seed: u64) -> Re
     if !(d.sim.core().is_armed() && d.sim.core().mode() == Mode::Auto) {
         return Err(format!("{}: not driving AUTO before the fault: {:?}", s.name, d.texts));
     }
-    let seq_at_fault = d.sim.core().mission_current_seq();
-    let inject_t = d.t();
-    for (name, value) in s.inject {
-        d.set(name, *value)?;
-    }
-    let texts_before = d.texts.len();
-    // The action, within the deadline (looked for a little past it, to say
-    // how late a late one was).
+    Ok((d, plan, params_before))
+}
+
+/// What happened from the fault's injection until its failsafes are over.
+struct FaultPhase {
+    /// Seconds from the injection to the expected action.
+    acted_after: Option<f64>,
+    /// When the vehicle left the path (`HoldOffPath`).
+    off_path_at: Option<f64>,
+    /// Largest |crosstrack| while the fault lasted (`StaysOnPath`).
+    worst_xtrack_m: f64,
+    watch: Watch,
+    fault_end: Option<f64>,
+}
+
+/// Steps through the fault: clears it after `clear_after_s`, and looks for
+/// the action within the deadline (a little past it, to say how late a late
+/// one was).
+fn watch_fault(d: &mut Drive, s: &Scenario, inject_t: f64) -> Result<FaultPhase, String> {
     let mut acted_after: Option<f64> = None;
     let mut off_path_at: Option<f64> = None;
     let mut worst_xtrack_m: f64 = 0.0;
@@ -401,22 +490,19 @@ fn run_scenario(s: &Scenario, course: &crate::tracking::Course, seed: u64) -> Re
             break;
         }
     }
-    // The failsafe texts of this fault (a later failsafe, while the mission
-    // is finished, is another story).
-    let texts_of_fault = d.texts.len();
-    let said = match s.text {
-        Some(prefix) => d.texts[texts_before..].iter().any(|t| t.starts_with(prefix)),
-        None => true,
-    };
-    let action_ok = match s.expect {
-        Expect::StaysOnPath(limit) => worst_xtrack_m <= limit,
-        Expect::HoldOffPath(_) => match (off_path_at, acted_after) {
-            (Some(off), Some(acted)) => inject_t + acted - off <= s.deadline_s,
-            _ => false,
-        },
-        _ => acted_after.is_some_and(|t| t <= s.deadline_s),
-    };
-    // Then finish the mission: resumed by itself, or by the operator.
+    Ok(FaultPhase {
+        acted_after,
+        off_path_at,
+        worst_xtrack_m,
+        watch,
+        fault_end,
+    })
+}
+
+/// Drives on until the mission completes, acting as the operator would when
+/// the vehicle stands still for 5 s: re-arm, disarm a latched failsafe, or
+/// AUTO again. Whether it completed, and what the operator did.
+fn finish_mission(d: &mut Drive) -> Result<(bool, Vec<&'static str>), String> {
     let mut operator_actions = Vec::new();
     let mission_end = d.t() + MISSION_LIMIT_S;
     let mut quiet_since = d.t();
@@ -446,29 +532,13 @@ fn run_scenario(s: &Scenario, course: &crate::tracking::Course, seed: u64) -> Re
             }
         }
     }
-    let completed = d.sim.core().mission_state() == ExecState::Complete;
+    Ok((d.sim.core().mission_state() == ExecState::Complete, operator_actions))
+}
 
-    let plan_intact = *d.sim.core().plan(MissionType::Mission) == plan;
-    let mut params_after = snapshot(&d.sim);
-    // The fault parameters themselves are what the test changed.
-    params_after.retain(|(n, _)| !n.starts_with("SIM_"));
-    let mut params_before = params_before;
-    params_before.retain(|(n, _)| !n.starts_with("SIM_"));
-    let params_intact = params_after == params_before;
-    let resumed_from = d.sim.core().mission_current_seq();
-    let outcome = if completed {
-        let how = if operator_actions.is_empty() {
-            "went on by itself".to_string()
-        } else {
-            format!("operator: {}", operator_actions.join(", "))
-        };
-        format!("completed ({how}; stopped at item {seq_at_fault})")
-    } else {
-        format!("NOT completed (item {resumed_from}, {:?})", d.sim.core().mode())
-    };
-    let action = match (s.expect, acted_after) {
-        (Expect::StaysOnPath(_), _) => format!("max |xtrack| {:.3} m during the jump", worst_xtrack_m),
-        (Expect::HoldOffPath(limit_m), Some(t)) => match off_path_at {
+fn action_text(s: &Scenario, phase: &FaultPhase, inject_t: f64) -> String {
+    match (s.expect, phase.acted_after) {
+        (Expect::StaysOnPath(_), _) => format!("max |xtrack| {:.3} m during the jump", phase.worst_xtrack_m),
+        (Expect::HoldOffPath(limit_m), Some(t)) => match phase.off_path_at {
             Some(off) => format!(
                 "off the path by {limit_m} m {:.2} s after the fault, HOLD {:.2} s later",
                 off - inject_t,
@@ -478,35 +548,17 @@ fn run_scenario(s: &Scenario, course: &crate::tracking::Course, seed: u64) -> Re
         },
         (_, Some(t)) => format!("acted after {t:.2} s"),
         (_, None) => "no action".to_string(),
-    };
-    let action_expected = match s.expect {
+    }
+}
+
+fn expected_action(s: &Scenario) -> String {
+    match s.expect {
         Expect::Mode(m) => format!("{m} within {:.1} s", s.deadline_s),
         Expect::Disarmed => format!("disarm within {:.1} s", s.deadline_s),
         Expect::SlowerThan(v) => format!("AUTO slowed < {v} m/s within {:.1} s", s.deadline_s),
         Expect::StaysOnPath(m) => format!("jump rejected, |xtrack| <= {m} m"),
         Expect::HoldOffPath(m) => format!("HOLD within {:.1} s of |xtrack| > {m} m", s.deadline_s),
-    };
-    let expected = format!("{action_expected}; failsafe on while the fault lasts, cleared <= {CLEAR_WITHIN_S} s after");
-    let failsafe_texts = &d.texts[texts_before..texts_of_fault];
-    let (held, held_ok) = watch.held(s.causes, fault_end);
-    let (clearing, clearing_ok) = watch.clearing(fault_end, failsafe_texts);
-    let ok = action_ok && said && completed && plan_intact && params_intact && held_ok && clearing_ok;
-    Ok(Row {
-        part: "fault",
-        case: s.name.to_string(),
-        expected,
-        measured: format!(
-            "{action}; text {}; {held}; {clearing}; {outcome}; mission {}, params {}",
-            match (s.text, said) {
-                (None, _) => "none (link down)",
-                (Some(_), true) => "sent",
-                (Some(_), false) => "MISSING",
-            },
-            if plan_intact { "intact" } else { "CHANGED" },
-            if params_intact { "intact" } else { "CHANGED" }
-        ),
-        ok,
-    })
+    }
 }
 
 /// Every failsafe that starts while the fault lasts, sampled every tick.

@@ -136,13 +136,12 @@ fn sitl_args(udp_port: u16, seed: u64, dir: &Path) -> Vec<String> {
 
 fn course_run(exe: &Path, rate: u32, seed: u64) -> Result<CourseRun, String> {
     let tag = if rate == 0 { "quiet" } else { "flood" };
-    let dir = std::env::temp_dir().join(format!("furrow-flood-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let scratch = crate::scratch_dir(&format!("furrow-flood-{tag}-"))?;
+    let dir = scratch.path();
     // The SITL's UDP link sends to this socket, which floods it back.
     let udp = UdpSocket::bind("127.0.0.1:0").map_err(|e| format!("udp: {e}"))?;
     let udp_port = udp.local_addr().map_err(|e| e.to_string())?.port();
-    let args = sitl_args(udp_port, seed, &dir);
+    let args = sitl_args(udp_port, seed, dir);
     let sitl = SitlProcess::start(exe, &args, &dir.join("furrow.log"))?;
     let result = drive_course(&sitl, udp, rate, seed);
     let stopped = sitl.interrupt(Duration::from_secs(10));
@@ -156,7 +155,6 @@ fn course_run(exe: &Path, rate: u32, seed: u64) -> Result<CourseRun, String> {
     let mut run = driven.run;
     run.exit = parse_exit_report(&log).ok_or_else(|| format!("{tag} run: no exit report in the log"))?;
     (run.absorbed_frames, run.dropped_to_core) = flood_link_counts(&log, &driven.flood_link_names);
-    let _ = std::fs::remove_dir_all(&dir);
     Ok(run)
 }
 

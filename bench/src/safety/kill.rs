@@ -157,9 +157,8 @@ struct Bench<'a> {
 }
 
 pub fn run(exe: &Path, runs: u32, seed: u64) -> Result<Vec<Row>, String> {
-    let dir = std::env::temp_dir().join(format!("furrow-kill-{}-{seed}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let scratch = crate::scratch_dir(&format!("furrow-kill-{seed}-"))?;
+    let dir = scratch.path().to_path_buf();
     // The UDP link sends here; held so nothing else receives it.
     let udp_sink = UdpSocket::bind("127.0.0.1:0").map_err(|e| format!("udp: {e}"))?;
     let udp_port = udp_sink.local_addr().map_err(|e| e.to_string())?.port();
@@ -175,11 +174,10 @@ pub fn run(exe: &Path, runs: u32, seed: u64) -> Result<Vec<Row>, String> {
     if bench.params.len() < BURST_PARAMS {
         return Err(format!("only {} burst parameters found", bench.params.len()));
     }
-    let result = bench.run_all(runs);
-    if result.is_ok() {
-        let _ = std::fs::remove_dir_all(&dir);
-    }
-    result
+    // A failed run keeps its directory: the logs and data say what happened.
+    bench
+        .run_all(runs)
+        .map_err(|e| format!("{e} (logs kept in {})", scratch.keep().display()))
 }
 
 impl Bench<'_> {

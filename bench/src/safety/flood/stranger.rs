@@ -50,18 +50,16 @@ struct Stranger {
 }
 
 pub fn run(exe: &Path, seed: u64) -> Result<Vec<Row>, String> {
-    let dir = std::env::temp_dir().join(format!("furrow-flood-{}-stranger", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let scratch = crate::scratch_dir("furrow-flood-stranger-")?;
+    let dir = scratch.path();
     let gcs = UdpSocket::bind("127.0.0.1:0").map_err(|e| format!("gcs udp: {e}"))?;
     gcs.set_read_timeout(Some(Duration::from_millis(20)))
         .map_err(|e| e.to_string())?;
     let gcs_port = gcs.local_addr().map_err(|e| e.to_string())?.port();
-    let args = sitl_args(gcs_port, seed, &dir);
+    let args = sitl_args(gcs_port, seed, dir);
     let sitl = SitlProcess::start(exe, &args, &dir.join("furrow.log"))?;
     let measured = measure(&gcs, sitl.udp_local, seed);
     let _ = sitl.interrupt(Duration::from_secs(10));
-    let _ = std::fs::remove_dir_all(&dir);
     let (quiet, flooded, stranger) = measured?;
     Ok(rows(&quiet, &flooded, &stranger))
 }

@@ -1,7 +1,7 @@
 //! Re-acquiring a magnetic tape ("Path tracking of a wheeled AGV with double
 //! magnetic guide" §4.3: back on a curved path within 2 s at 1.5 m/s,
 //! correction within ±10°): the SITL world's vehicle
-//! driven by [`super::magnetic::MagneticGuide`] alone, no autopilot core.
+//! driven by [`crate::guidance::magnetic::MagneticGuide`] alone, no autopilot core.
 //! [`run`] is pure and deterministic, for tests and benchmarks.
 //!
 //! The run:
@@ -45,11 +45,12 @@
 use std::f64::consts::{PI, TAU};
 
 use sim::{
-    AckermannConfig, ActuatorDemand, GnssSimConfig, MagneticSensor, MagneticSensorConfig, MagneticTape, TapeBuilder,
-    VehicleModel, World, WorldConfig,
+    AckermannConfig, GnssSimConfig, MagneticSensor, MagneticSensorConfig, MagneticTape, TapeBuilder, VehicleModel,
+    World, WorldConfig,
 };
+use vehicle_types::ActuatorDemand;
 
-use super::magnetic::{IncrementalPidGains, MagneticGuide, MagneticGuideConfig, MagneticInput};
+use crate::guidance::magnetic::{IncrementalPidGains, MagneticGuide, MagneticGuideConfig, MagneticInput};
 
 /// Run-up: long enough for the bench drive (1 m/s², 0.3 s lag) to settle at
 /// any speed it can reach.
@@ -243,7 +244,7 @@ pub struct ScenarioSample {
     pub front_offset_m: f64,
     pub rear_offset_m: f64,
     /// The guide's view: lateral and angle deviation (see
-    /// [`super::magnetic::MagneticStatus`]).
+    /// [`crate::guidance::magnetic::MagneticStatus`]).
     pub lateral_m: f64,
     pub angle_rad: f64,
     /// Commanded and actual centre steering angle, positive = right.
