@@ -385,30 +385,54 @@ impl<'a> Tokens<'a> {
         self.raw(field).map(|_| ())
     }
 
-    /// The next token as 1–8 hex digits, decoded as it is scanned (the
-    /// data of a scan is hundreds of these).
+    /// The next token as 1–8 hex digits, decoded as it is scanned.
     fn hex_u32(&mut self, field: &'static str) -> Result<u32, ColaError> {
-        let rest = self.rest;
-        let mut at = 0;
-        while at < rest.len() && rest[at] == b' ' {
-            at += 1;
+        let (value, at) = next_hex(self.rest);
+        self.take_hex(field, value, at)
+    }
+
+    /// `count` tokens of hex no greater than `max` (the data of a channel,
+    /// hundreds of them), each into `out` if given: one tight loop, an
+    /// error built only for a bad token.
+    fn hex_run(
+        &mut self,
+        field: &'static str,
+        count: usize,
+        max: u32,
+        mut out: Option<&mut Vec<u16>>,
+    ) -> Result<(), ColaError> {
+        for _ in 0..count {
+            let ((value, invalid), at) = next_hex(self.rest);
+            if invalid || at.1 - at.0 > 8 || at.0 == at.1 || value > max {
+                let value = self.take_hex(field, (value, invalid), at)?;
+                return Err(ColaError::OutOfRange { field, value, max });
+            }
+            self.rest = &self.rest[at.1..];
+            self.remaining -= 1;
+            if let Some(out) = out.as_deref_mut() {
+                // Bounded by max ≤ u16::MAX above.
+                out.push(value as u16);
+            }
         }
-        let start = at;
-        let (mut value, mut invalid) = (0u32, 0u8);
-        while at < rest.len() && rest[at] != b' ' {
-            let digit = HEX_VALUES[usize::from(rest[at])];
-            // 0xFF has the high bit set; no digit does.
-            invalid |= digit;
-            value = (value << 4) | u32::from(digit & 0xF);
-            at += 1;
-        }
-        if start == at {
+        Ok(())
+    }
+
+    /// Consumes the token [`next_hex`] found at `at` (start, end): its value,
+    /// or why it is not one.
+    fn take_hex(
+        &mut self,
+        field: &'static str,
+        (value, invalid): (u32, bool),
+        at: (usize, usize),
+    ) -> Result<u32, ColaError> {
+        let (start, end) = at;
+        if start == end {
             return Err(ColaError::MissingField { field });
         }
-        self.rest = &rest[at..];
+        let token = &self.rest[start..end];
+        self.rest = &self.rest[end..];
         self.remaining -= 1;
-        let token = &rest[start..at];
-        if invalid & 0x80 != 0 || token.len() > 8 {
+        if invalid || token.len() > 8 {
             return Err(ColaError::BadHex {
                 field,
                 token: quote(token),
@@ -447,6 +471,27 @@ impl<'a> Tokens<'a> {
         }
         Ok(count)
     }
+}
+
+/// The first token of `rest` read as hex: (value, whether a byte was not a
+/// hex digit) and where it lies, (start, end) (equal when there is none).
+/// The value is meaningful only for 1–8 valid digits.
+#[inline(always)]
+fn next_hex(rest: &[u8]) -> ((u32, bool), (usize, usize)) {
+    let mut at = 0;
+    while at < rest.len() && rest[at] == b' ' {
+        at += 1;
+    }
+    let start = at;
+    let (mut value, mut invalid) = (0u32, 0u8);
+    while at < rest.len() && rest[at] != b' ' {
+        let digit = HEX_VALUES[usize::from(rest[at])];
+        // 0xFF has the high bit set; no digit does.
+        invalid |= digit;
+        value = (value << 4) | u32::from(digit & 0xF);
+        at += 1;
+    }
+    ((value, invalid & 0x80 != 0), (start, at))
 }
 
 /// Each byte's value as a hex digit (either case), 0xFF for any other byte.
@@ -529,21 +574,12 @@ fn parse_channel<'a>(
     let start_angle_1e4deg = tokens.hex_u32("start angle")? as i32;
     let step_1e4deg = u32::from(tokens.hex_u16("angular step")?);
     let count = tokens.count("number of data", 1)?;
-    match keep {
-        Some(data) => {
-            data.clear();
-            data.reserve(count);
-            for _ in 0..count {
-                // hex_max bounded it by data_max ≤ u16::MAX.
-                data.push(tokens.hex_max("channel data", data_max)? as u16);
-            }
-        }
-        None => {
-            for _ in 0..count {
-                tokens.hex_max("channel data", data_max)?;
-            }
-        }
+    let mut keep = keep;
+    if let Some(data) = keep.as_deref_mut() {
+        data.clear();
+        data.reserve(count);
     }
+    tokens.hex_run("channel data", count, data_max, keep)?;
     Ok(ChannelHeader {
         name,
         scale_factor,
