@@ -32,7 +32,10 @@ pub use magnetic::{
     MAGNETIC_PROBES, MagneticSensor, MagneticSensorConfig, MagneticTape, TapeBuilder, TapeFix, TapeSegment,
 };
 pub use obstacles::{MovingObstacle, ObstacleWorld, Rectangle, Shape, VehicleOutline};
-pub use scanner::{MAX_BEAMS, SimScanner, SimScannerConfig, SimScannerConfigError, render_scan};
+pub use scanner::{
+    MAX_BEAMS, RenderScratch, ScanStamp, SimScanner, SimScannerConfig, SimScannerConfigError, render_scan,
+    render_scan_into,
+};
 pub use vehicle::VehicleTruth;
-pub use world::World;
+pub use world::{World, WorldStageTimes};
 pub use world_file::{PERSON_RADIUS_M, WorldFile, WorldFileError, load_world_file, parse_world_file};

@@ -89,14 +89,41 @@ impl Rectangle {
 }
 
 /// The parts of an outline that a ray from a point outside can meet first.
-pub(crate) enum FacingOutline {
+pub(crate) enum FacingOutline<'a> {
     Circle {
         center: [f64; 2],
         radius_m: f64,
     },
     /// The edges whose outer side faces the point (all of them for an
     /// outline without area, e.g. a wall of thickness 0).
-    Edges(Vec<([f64; 2], [f64; 2])>),
+    Edges(FacingEdges<'a>),
+}
+
+/// The facing edges of a polygonal outline, picked as they are iterated
+/// (a scanner asks for them every scan: nothing is collected).
+pub(crate) struct FacingEdges<'a> {
+    outline: Outline<'a>,
+    origin: [f64; 2],
+    /// Positive for anticlockwise in (north, east) axes: the inside is then
+    /// to the left of each edge.
+    twice_area: f64,
+}
+
+impl FacingEdges<'_> {
+    fn new(outline: Outline<'_>, origin: [f64; 2]) -> FacingEdges<'_> {
+        let twice_area = edges(outline.points()).map(|(a, b)| cross(a, b)).sum();
+        FacingEdges {
+            outline,
+            origin,
+            twice_area,
+        }
+    }
+
+    pub(crate) fn iter(&self) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + '_ {
+        let (origin, twice_area) = (self.origin, self.twice_area);
+        edges(self.outline.points())
+            .filter(move |&(a, b)| twice_area == 0.0 || cross(sub(b, a), sub(origin, a)) * twice_area < 0.0)
+    }
 }
 
 /// The outline as the geometry routines see it.
@@ -104,6 +131,17 @@ enum Outline<'a> {
     Circle { center: [f64; 2], radius_m: f64 },
     Quad([[f64; 2]; 4]),
     Polygon(&'a [[f64; 2]]),
+}
+
+impl Outline<'_> {
+    /// The corners of a polygonal outline (none for a circle).
+    fn points(&self) -> &[[f64; 2]] {
+        match self {
+            Outline::Circle { .. } => &[],
+            Outline::Quad(corners) => corners,
+            Outline::Polygon(points) => points,
+        }
+    }
 }
 
 impl Shape {
@@ -136,19 +174,10 @@ impl Shape {
     /// What a ray from `origin`, outside the shape, can hit first: a ray
     /// entering an outline crosses an edge whose outer side holds the origin,
     /// so the edges facing away never give the nearest hit.
-    pub(crate) fn facing_outline(&self, origin: [f64; 2]) -> FacingOutline {
-        let facing = |points: &[[f64; 2]]| {
-            // Positive for anticlockwise in (north, east) axes: the inside
-            // is then to the left of each edge.
-            let twice_area: f64 = edges(points).map(|(a, b)| cross(a, b)).sum();
-            edges(points)
-                .filter(|&(a, b)| twice_area == 0.0 || cross(sub(b, a), sub(origin, a)) * twice_area < 0.0)
-                .collect()
-        };
+    pub(crate) fn facing_outline(&self, origin: [f64; 2]) -> FacingOutline<'_> {
         match self.outline() {
             Outline::Circle { center, radius_m } => FacingOutline::Circle { center, radius_m },
-            Outline::Quad(corners) => FacingOutline::Edges(facing(&corners)),
-            Outline::Polygon(points) => FacingOutline::Edges(facing(points)),
+            polygonal => FacingOutline::Edges(FacingEdges::new(polygonal, origin)),
         }
     }
 
@@ -339,6 +368,16 @@ impl ObstacleWorld {
     pub fn shapes_at(&self, t_s: f64) -> Vec<Shape> {
         let movers = self.movers.iter().filter_map(|m| m.shape_at(t_s));
         self.statics.iter().cloned().chain(movers).collect()
+    }
+
+    /// [`Self::shapes_at`] one by one, without copying the statics.
+    pub(crate) fn for_each_shape_at(&self, t_s: f64, mut visit: impl FnMut(&Shape)) {
+        self.statics.iter().for_each(&mut visit);
+        for mover in &self.movers {
+            if let Some(shape) = mover.shape_at(t_s) {
+                visit(&shape);
+            }
+        }
     }
 
     /// True position and velocity of mover `index` at `t_s` (for measuring

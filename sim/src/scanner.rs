@@ -175,42 +175,139 @@ pub fn render_scan(
     scan_counter: u32,
     noise_seed: u64,
 ) -> Scan {
+    let mut scan = Scan {
+        t,
+        scan_counter,
+        start_angle_rad: 0.0,
+        step_rad: 0.0,
+        ranges_m: Vec::new(),
+    };
+    let stamp = ScanStamp {
+        t,
+        scan_counter,
+        noise_seed,
+    };
+    render_scan_into(
+        config,
+        obstacles,
+        truth,
+        stamp,
+        &mut RenderScratch::default(),
+        &mut scan,
+    );
+    scan
+}
+
+/// When a scan is taken, its number, and the seed of its noise.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ScanStamp {
+    pub t: Duration,
+    pub scan_counter: u32,
+    pub noise_seed: u64,
+}
+
+/// Per-beam working buffers of [`render_scan_into`], kept between scans so
+/// rendering allocates nothing once they have grown.
+#[derive(Clone, Debug, Default)]
+pub struct RenderScratch {
+    directions: Vec<[f64; 2]>,
+    true_range_m: Vec<f64>,
+}
+
+/// [`render_scan`] into `out`, reusing its range buffer and `scratch`.
+pub fn render_scan_into(
+    config: &SimScannerConfig,
+    obstacles: &ObstacleWorld,
+    truth: &VehicleTruth,
+    stamp: ScanStamp,
+    scratch: &mut RenderScratch,
+    out: &mut Scan,
+) {
     let beams = config.beam_count();
     let start_angle_rad = -config.fov_rad / 2.0;
-    let (origin, forward_rad) = config.scanner_pose(truth);
-    let first_bearing_rad = forward_rad + start_angle_rad;
-    let step_rad = config.step_rad;
-    let bearing_of = |beam: usize| first_bearing_rad + beam as f64 * step_rad;
+    let true_range_m = &mut scratch.true_range_m;
+    true_range_m.clear();
+    true_range_m.resize(beams, f64::INFINITY);
+    cast_beams(config, obstacles, truth, stamp.t, &mut scratch.directions, true_range_m);
+
+    let sigma_m = if config.range_sigma_m.is_finite() {
+        config.range_sigma_m.max(0.0)
+    } else {
+        0.0
+    };
+    let dropout = if config.dropout_probability.is_nan() {
+        0.0
+    } else {
+        config.dropout_probability.clamp(0.0, 1.0)
+    };
     let max_range_m = config.max_range_m;
-
-    // Unit vectors of the beams: sin_cos every 32nd, rotations between (the
-    // drift over 31 rotations is ~1e-14 rad).
-    let (step_sin, step_cos) = step_rad.sin_cos();
-    let mut directions: Vec<[f64; 2]> = Vec::with_capacity(beams);
-    for beam in 0..beams {
-        let dir = match directions.last() {
-            Some(&[n, e]) if beam % 32 != 0 => [n * step_cos - e * step_sin, n * step_sin + e * step_cos],
-            _ => {
-                let (sin, cos) = bearing_of(beam).sin_cos();
-                [cos, sin]
-            }
+    // Draws are made only for beams with an echo: an empty yard costs none.
+    let mut rng = ChaCha8Rng::seed_from_u64(stamp.noise_seed);
+    out.ranges_m.clear();
+    out.ranges_m.extend(true_range_m.iter().map(|&range_m| {
+        let echo = range_m <= max_range_m;
+        if !echo {
+            return f32::NAN;
+        }
+        if dropout > 0.0 && rng.random::<f64>() < dropout {
+            return f32::NAN;
+        }
+        let noise_m = if sigma_m > 0.0 {
+            sigma_m * rng.sample::<f64, _>(StandardNormal)
+        } else {
+            0.0
         };
-        directions.push(dir);
-    }
+        (range_m + noise_m).max(0.0) as f32
+    }));
+    out.t = stamp.t;
+    out.scan_counter = stamp.scan_counter;
+    out.start_angle_rad = start_angle_rad;
+    out.step_rad = config.step_rad;
+}
 
-    let mut true_range_m = vec![f64::INFINITY; beams];
-    for shape in obstacles.shapes_at(t.as_secs_f64()) {
+/// The true range of each beam to the nearest obstacle (left infinite where
+/// none is in reach). Obstacles whose bounding circle is out of range or
+/// outside the field of view are skipped whole; of the rest, only the beams
+/// between a part's extreme bearings are cast.
+fn cast_beams(
+    config: &SimScannerConfig,
+    obstacles: &ObstacleWorld,
+    truth: &VehicleTruth,
+    t: Duration,
+    directions: &mut Vec<[f64; 2]>,
+    true_range_m: &mut [f64],
+) {
+    let beams = true_range_m.len();
+    let (origin, forward_rad) = config.scanner_pose(truth);
+    let first_bearing_rad = forward_rad - config.fov_rad / 2.0;
+    let step_rad = config.step_rad;
+    let max_range_m = config.max_range_m;
+    let relative_rad = |p: [f64; 2]| wrap_two_pi((p[1] - origin[1]).atan2(p[0] - origin[0]) - first_bearing_rad);
+    obstacles.for_each_shape_at(t.as_secs_f64(), |shape| {
+        let (center, radius_m) = shape.bounding_circle();
+        let center_m = distance(center, origin);
+        if center_m - radius_m > max_range_m {
+            return;
+        }
+        if center_m > radius_m {
+            // Wholly outside the field of view: no beam can reach it.
+            let half_rad = (radius_m / center_m).asin();
+            let mid_rad = relative_rad(center);
+            if beam_windows(mid_rad - half_rad - 1e-9, mid_rad + half_rad + 1e-9, step_rad, beams)
+                .next()
+                .is_none()
+            {
+                return;
+            }
+        }
         if shape.contains(origin) {
             // Inside an obstacle every beam is blocked at once.
             true_range_m.fill(0.0);
-            continue;
+            return;
         }
-        let (center, radius_m) = shape.bounding_circle();
-        let reachable = distance(center, origin) - radius_m <= max_range_m;
-        if !reachable {
-            continue;
+        if directions.len() != beams {
+            fill_directions(directions, beams, first_bearing_rad, step_rad);
         }
-        let relative_rad = |p: [f64; 2]| wrap_two_pi((p[1] - origin[1]).atan2(p[0] - origin[0]) - first_bearing_rad);
         // Only the beams between a part's extreme bearings can hit it: a
         // person 5 m away spans a handful of the 541 beams, a wall's face
         // only the beams that reach it.
@@ -232,7 +329,7 @@ pub fn render_scan(
                 });
             }
             FacingOutline::Edges(edges) => {
-                for (a, b) in edges {
+                for (a, b) in edges.iter() {
                     if point_segment_distance(origin, a, b) > max_range_m {
                         continue;
                     }
@@ -245,45 +342,24 @@ pub fn render_scan(
                 }
             }
         }
-    }
+    });
+    directions.clear();
+}
 
-    let sigma_m = if config.range_sigma_m.is_finite() {
-        config.range_sigma_m.max(0.0)
-    } else {
-        0.0
-    };
-    let dropout = if config.dropout_probability.is_nan() {
-        0.0
-    } else {
-        config.dropout_probability.clamp(0.0, 1.0)
-    };
-    // Draws are made only for beams with an echo: an empty yard costs none.
-    let mut rng = ChaCha8Rng::seed_from_u64(noise_seed);
-    let ranges_m = true_range_m
-        .into_iter()
-        .map(|range_m| {
-            let echo = range_m <= max_range_m;
-            if !echo {
-                return f32::NAN;
+/// Unit vectors of the beams: sin_cos every 32nd, rotations between (the
+/// drift over 31 rotations is ~1e-14 rad).
+fn fill_directions(directions: &mut Vec<[f64; 2]>, beams: usize, first_bearing_rad: f64, step_rad: f64) {
+    let (step_sin, step_cos) = step_rad.sin_cos();
+    directions.clear();
+    for beam in 0..beams {
+        let dir = match directions.last() {
+            Some(&[n, e]) if beam % 32 != 0 => [n * step_cos - e * step_sin, n * step_sin + e * step_cos],
+            _ => {
+                let (sin, cos) = (first_bearing_rad + beam as f64 * step_rad).sin_cos();
+                [cos, sin]
             }
-            if dropout > 0.0 && rng.random::<f64>() < dropout {
-                return f32::NAN;
-            }
-            let noise_m = if sigma_m > 0.0 {
-                sigma_m * rng.sample::<f64, _>(StandardNormal)
-            } else {
-                0.0
-            };
-            (range_m + noise_m).max(0.0) as f32
-        })
-        .collect();
-
-    Scan {
-        t,
-        scan_counter,
-        start_angle_rad,
-        step_rad,
-        ranges_m,
+        };
+        directions.push(dir);
     }
 }
 
@@ -334,6 +410,7 @@ pub struct SimScanner {
     rate_hz: Option<f64>,
     next_k: u64,
     scans_sent: u64,
+    scratch: RenderScratch,
 }
 
 impl SimScanner {
@@ -347,6 +424,7 @@ impl SimScanner {
             seed,
             rate_hz,
             scans_sent: 0,
+            scratch: RenderScratch::default(),
         }
     }
 
@@ -363,18 +441,31 @@ impl SimScanner {
     /// Take the next scan (due at [`Self::next_scan_time`]) with the vehicle
     /// at `truth` at that instant; `None` for a scanner that never scans.
     pub fn scan(&mut self, obstacles: &ObstacleWorld, truth: &VehicleTruth) -> Option<Scan> {
-        let t = self.next_scan_time()?;
-        let scan = render_scan(
-            &self.config,
-            obstacles,
-            truth,
+        let mut scan = Scan {
+            t: Duration::ZERO,
+            scan_counter: 0,
+            start_angle_rad: 0.0,
+            step_rad: 0.0,
+            ranges_m: Vec::new(),
+        };
+        self.scan_into(obstacles, truth, &mut scan).then_some(scan)
+    }
+
+    /// [`Self::scan`] into `out`, reusing its buffer; false (and `out`
+    /// untouched) for a scanner that never scans.
+    pub fn scan_into(&mut self, obstacles: &ObstacleWorld, truth: &VehicleTruth, out: &mut Scan) -> bool {
+        let Some(t) = self.next_scan_time() else {
+            return false;
+        };
+        let stamp = ScanStamp {
             t,
-            self.scans_sent as u32,
-            mix(self.seed, self.scans_sent),
-        );
+            scan_counter: self.scans_sent as u32,
+            noise_seed: mix(self.seed, self.scans_sent),
+        };
+        render_scan_into(&self.config, obstacles, truth, stamp, &mut self.scratch, out);
         self.next_k += 1;
         self.scans_sent += 1;
-        Some(scan)
+        true
     }
 
     /// When the next scan falls; `None` for a scanner that never scans.
@@ -511,6 +602,48 @@ mod tests {
             1,
         );
         assert!(scan.ranges_m.iter().all(|&r| r == 0.0));
+    }
+
+    #[test]
+    fn rendering_into_reused_buffers_matches_a_fresh_render() {
+        let world = cluttered();
+        let mut scratch = RenderScratch::default();
+        let mut out = render_scan(
+            &noiseless(),
+            &ObstacleWorld::default(),
+            &VehicleTruth::default(),
+            Duration::ZERO,
+            0,
+            0,
+        );
+        for (k, yaw_deg) in [0.0, 91.0, -120.0, 179.9].into_iter().enumerate() {
+            // Noise and dropouts on, and a different beam count each time.
+            let config = SimScannerConfig {
+                fov_rad: (180.0 + 30.0 * k as f64).to_radians(),
+                dropout_probability: 0.05,
+                ..SimScannerConfig::default()
+            };
+            let truth = VehicleTruth {
+                north_m: -0.4 * k as f64,
+                east_m: 0.7,
+                yaw_rad: f64::to_radians(yaw_deg),
+                ..VehicleTruth::default()
+            };
+            let stamp = ScanStamp {
+                t: Duration::from_millis(900 * k as u64),
+                scan_counter: k as u32,
+                noise_seed: 40 + k as u64,
+            };
+            render_scan_into(&config, &world, &truth, stamp, &mut scratch, &mut out);
+            let fresh = render_scan(&config, &world, &truth, stamp.t, stamp.scan_counter, stamp.noise_seed);
+            assert_eq!(out.ranges_m.len(), fresh.ranges_m.len());
+            let same = |a: f32, b: f32| a == b || (a.is_nan() && b.is_nan());
+            assert!(out.ranges_m.iter().zip(&fresh.ranges_m).all(|(&a, &b)| same(a, b)));
+            assert_eq!(
+                (out.t, out.scan_counter, out.start_angle_rad, out.step_rad),
+                (fresh.t, fresh.scan_counter, fresh.start_angle_rad, fresh.step_rad)
+            );
+        }
     }
 
     #[test]

@@ -42,6 +42,21 @@ pub struct World {
     scanners: Vec<SimScanner>,
     /// Scans taken and not yet collected, with their scanner's index.
     scans: VecDeque<(usize, Scan)>,
+    /// Scans handed back by [`Self::recycle_scans`], rendered into next.
+    spare_scans: Vec<Scan>,
+    stage_times: WorldStageTimes,
+}
+
+/// Wall time spent in each part of the world's steps, nanoseconds (zero
+/// unless stepped with [`World::step_timed`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct WorldStageTimes {
+    /// Vehicle and battery integration.
+    pub physics_ns: u64,
+    /// The receiver's epochs: noise and NMEA sentences out.
+    pub gnss_out_ns: u64,
+    /// Ray casting the scanners' scans.
+    pub scan_render_ns: u64,
 }
 
 impl World {
@@ -64,6 +79,8 @@ impl World {
             obstacles: None,
             scanners: Vec::new(),
             scans: VecDeque::new(),
+            spare_scans: Vec::new(),
+            stage_times: WorldStageTimes::default(),
         }
     }
 
@@ -77,9 +94,18 @@ impl World {
     /// and sample the state at that instant, re-integrated inside a sub-step
     /// if need be.
     pub fn step(&mut self, dt: Duration, demand: &ActuatorDemand) {
+        self.step_timed(dt, demand, &mut || 0);
+    }
+
+    /// [`Self::step`], adding the wall time of each part to
+    /// [`Self::stage_times`] as read from `now_ns` (a monotonic nanosecond
+    /// clock; the readings change nothing the world computes).
+    pub fn step_timed(&mut self, dt: Duration, demand: &ActuatorDemand, now_ns: &mut dyn FnMut() -> u64) {
+        let started_ns = now_ns();
+        let emitting_before_ns = self.stage_times.gnss_out_ns + self.stage_times.scan_render_ns;
         let end = self.time + dt;
         let now_state = self.truth;
-        self.emit_due_epochs(&now_state, self.time, demand);
+        self.emit_due_epochs(&now_state, self.time, demand, now_ns);
         let sub_step = self.sub_step();
         while self.time < end {
             let h = sub_step.min(end - self.time);
@@ -93,8 +119,16 @@ impl World {
             );
             let sub_step_start = self.time;
             self.time += h;
-            self.emit_due_epochs(&start, sub_step_start, demand);
+            self.emit_due_epochs(&start, sub_step_start, demand, now_ns);
         }
+        let emitting_ns = self.stage_times.gnss_out_ns + self.stage_times.scan_render_ns - emitting_before_ns;
+        let step_ns = now_ns().saturating_sub(started_ns);
+        self.stage_times.physics_ns += step_ns.saturating_sub(emitting_ns);
+    }
+
+    /// Wall time spent so far in each part of [`Self::step_timed`].
+    pub fn stage_times(&self) -> WorldStageTimes {
+        self.stage_times
     }
 
     /// The vehicle at `t`, which lies in the sub-step that began at
@@ -112,7 +146,28 @@ impl World {
     /// Emit every GNSS epoch and laser scan due by now; `start` is the state
     /// at `start_t`, the beginning of the sub-step just taken (or now,
     /// before any).
-    fn emit_due_epochs(&mut self, start: &VehicleTruth, start_t: Duration, demand: &ActuatorDemand) {
+    fn emit_due_epochs(
+        &mut self,
+        start: &VehicleTruth,
+        start_t: Duration,
+        demand: &ActuatorDemand,
+        now_ns: &mut dyn FnMut() -> u64,
+    ) {
+        // The clock is read only when there is something to emit: most
+        // sub-steps have nothing.
+        if self.gnss.due(self.time).is_some() {
+            let started_ns = now_ns();
+            self.emit_due_gnss(start, start_t, demand);
+            self.stage_times.gnss_out_ns += now_ns().saturating_sub(started_ns);
+        }
+        if self.scanners.iter().any(|s| s.due(self.time).is_some()) {
+            let started_ns = now_ns();
+            self.emit_due_scans(start, start_t, demand);
+            self.stage_times.scan_render_ns += now_ns().saturating_sub(started_ns);
+        }
+    }
+
+    fn emit_due_gnss(&mut self, start: &VehicleTruth, start_t: Duration, demand: &ActuatorDemand) {
         while let Some(epoch_t) = self.gnss.due(self.time) {
             // Re-integrate the part of the sub-step up to the epoch.
             let state = self.state_at(start, start_t, epoch_t, demand);
@@ -124,7 +179,6 @@ impl World {
                 self.config.utc_start_unix_us,
             );
         }
-        self.emit_due_scans(start, start_t, demand);
     }
 
     /// Take every scan due by now, earliest first (the lower index on a
@@ -146,11 +200,15 @@ impl World {
             };
             let state = self.state_at(start, start_t, scan_t, demand);
             let obstacles = self.obstacles.as_ref().unwrap_or(&empty);
-            let Some(scan) = self.scanners[index].scan(obstacles, &state) else {
+            let mut scan = self.spare_scans.pop().unwrap_or_else(empty_scan);
+            if !self.scanners[index].scan_into(obstacles, &state, &mut scan) {
+                self.spare_scans.push(scan);
                 return;
-            };
-            if self.scans.len() >= MAX_PENDING_SCANS {
-                self.scans.pop_front();
+            }
+            if self.scans.len() >= MAX_PENDING_SCANS
+                && let Some((_, dropped)) = self.scans.pop_front()
+            {
+                self.spare_scans.push(dropped);
             }
             self.scans.push_back((index, scan));
         }
@@ -258,6 +316,15 @@ impl World {
         out.extend(self.scans.drain(..));
     }
 
+    /// Hand back scans taken with [`Self::take_scans`] once read (`scans`
+    /// is left empty): the next scans are rendered into their buffers, so a
+    /// caller that returns them keeps scanning without allocating.
+    pub fn recycle_scans(&mut self, scans: &mut Vec<(usize, Scan)>) {
+        let room = MAX_PENDING_SCANS.saturating_sub(self.spare_scans.len());
+        self.spare_scans
+            .extend(scans.drain(..).map(|(_, scan)| scan).take(room));
+    }
+
     /// The gap between the vehicle's outline at its true pose and the
     /// nearest obstacle now: ≤ 0 is a collision. `None` without obstacles.
     pub fn clearance_m(&self, outline: &VehicleOutline) -> Option<f64> {
@@ -282,5 +349,15 @@ impl World {
                 .magnetic
                 .read_both(tape, &self.truth, self.seed, self.time.as_nanos()),
         )
+    }
+}
+
+fn empty_scan() -> Scan {
+    Scan {
+        t: Duration::ZERO,
+        scan_counter: 0,
+        start_angle_rad: 0.0,
+        step_rad: 0.0,
+        ranges_m: Vec::new(),
     }
 }

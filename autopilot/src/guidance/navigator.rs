@@ -216,6 +216,9 @@ pub struct Navigator {
     tracker: TrackerState,
     speed: SpeedState,
     status: NavStatus,
+    /// The arcs ahead on the path, refilled every update: kept so the
+    /// update allocates nothing.
+    arcs_ahead: Vec<(f64, f64)>,
 }
 
 impl Navigator {
@@ -516,7 +519,8 @@ impl Navigator {
             }
         }
 
-        let arcs: Vec<(f64, f64)> = path.arcs_from(projection.along_m).collect();
+        self.arcs_ahead.clear();
+        self.arcs_ahead.extend(path.arcs_from(projection.along_m));
         let manoeuvre_cap = if self.manoeuvre.is_some() {
             config.manoeuvre_speed_mps
         } else {
@@ -537,7 +541,7 @@ impl Navigator {
             &SpeedInputs {
                 along_m: projection.along_m,
                 stop_at_m: target.stop.then_some(path.end_m()),
-                arcs: &arcs,
+                arcs: &self.arcs_ahead,
                 heading_error_rad: tracker.yaw_error_rad,
             },
             dt_s,

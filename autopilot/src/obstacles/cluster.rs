@@ -66,6 +66,9 @@ pub struct ScanPoint {
 /// give a non-finite point (bad pose or angles) are skipped.
 pub fn scan_points(scan: &Scan, pose: &Pose, mount: &ScannerMount, max_range_m: f64, out: &mut Vec<ScanPoint>) -> Ned {
     out.clear();
+    // Room for every beam at once: a reused buffer then never grows when
+    // more of the scan starts to echo.
+    out.reserve(scan.ranges_m.len());
     let (sin_yaw, cos_yaw) = pose.yaw_rad.sin_cos();
     let to_local = |x_m: f64, y_m: f64| {
         Ned::new(

@@ -135,20 +135,56 @@ pub struct ObstacleTracker {
     tracks: Vec<Track>,
     next_id: u32,
     newest_t: Option<Duration>,
+    scratch: UpdateScratch,
 }
+
+/// Tracks room is made for up front: a yard that fills up does not
+/// reallocate the tracker while driving (more still fit, by growing).
+const EXPECTED_TRACKS: usize = 32;
 
 impl Default for ObstacleTracker {
     fn default() -> Self {
         ObstacleTracker {
-            entries: Vec::new(),
-            tracks: Vec::new(),
+            entries: Vec::with_capacity(EXPECTED_TRACKS),
+            tracks: Vec::with_capacity(EXPECTED_TRACKS),
             next_id: 1,
             newest_t: None,
+            scratch: UpdateScratch::default(),
         }
     }
 }
 
+/// The working buffers of [`ObstacleTracker::update`], kept between
+/// updates so a scan allocates nothing once they have grown. Not part of
+/// the tracker's state: any two compare equal.
+#[derive(Clone, Debug, Default)]
+struct UpdateScratch {
+    measurements: Vec<Measurement>,
+    /// (Mahalanobis distance², track, measurement) inside the gate.
+    pairs: Vec<(f64, usize, usize)>,
+    assigned: Vec<Option<usize>>,
+    taken: Vec<bool>,
+    gated: Vec<bool>,
+    merged: Vec<bool>,
+    pieces: Vec<bool>,
+    /// Per-track flags: a refused filter step, or a track to delete.
+    flags: Vec<bool>,
+}
+
+impl PartialEq for UpdateScratch {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+/// Empties `v` and fills it with `n` copies of `value`, keeping its buffer.
+fn refill<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
+    v.clear();
+    v.resize(n, value);
+}
+
 /// A cluster that can update a track: its index and measurement covariance.
+#[derive(Clone, Debug)]
 struct Measurement {
     cluster: usize,
     r: Matrix2<f64>,
@@ -188,17 +224,22 @@ impl ObstacleTracker {
         let now = self.newest_t.map_or(t, |newest| newest.max(t));
         self.newest_t = Some(now);
 
-        status.deaths += self.predict_all(now, config);
+        let mut scratch = std::mem::take(&mut self.scratch);
+        status.deaths += self.predict_all(now, config, &mut scratch.flags);
 
-        let measurements: Vec<Measurement> = clusters
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| !c.is_structure && c.centroid.north_m.is_finite() && c.centroid.east_m.is_finite())
-            .map(|(cluster, c)| Measurement {
-                cluster,
-                r: measurement_covariance(sensor, c.centroid, config),
-            })
-            .collect();
+        let measurements = &mut scratch.measurements;
+        measurements.clear();
+        measurements.extend(
+            clusters
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| !c.is_structure && c.centroid.north_m.is_finite() && c.centroid.east_m.is_finite())
+                .map(|(cluster, c)| Measurement {
+                    cluster,
+                    r: measurement_covariance(sensor, c.centroid, config),
+                }),
+        );
+        let measurements = &*measurements;
 
         // A partial view's centroid — a partly hidden cluster, or one piece
         // of an object the scan shows in several — can be off by up to the
@@ -214,7 +255,8 @@ impl ObstacleTracker {
         let gate = chi2_gate_2dof(config.gate_probability);
         // Every (track, measurement) pair inside the gate, cheapest first;
         // ties broken by index so the outcome never depends on sort details.
-        let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+        let pairs = &mut scratch.pairs;
+        pairs.clear();
         for (i, entry) in self.entries.iter().enumerate() {
             for (m, meas) in measurements.iter().enumerate() {
                 let d2 = entry
@@ -227,10 +269,14 @@ impl ObstacleTracker {
         }
         pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
 
-        let mut assigned: Vec<Option<usize>> = vec![None; self.entries.len()];
-        let mut taken = vec![false; measurements.len()];
-        let mut gated = vec![false; measurements.len()];
-        for &(_, i, m) in &pairs {
+        let pairs = &*pairs;
+        let assigned = &mut scratch.assigned;
+        refill(assigned, self.entries.len(), None);
+        let taken = &mut scratch.taken;
+        refill(taken, measurements.len(), false);
+        let gated = &mut scratch.gated;
+        refill(gated, measurements.len(), false);
+        for &(_, i, m) in pairs {
             gated[m] = true;
             if assigned[i].is_none() && !taken[m] {
                 assigned[i] = Some(m);
@@ -239,7 +285,8 @@ impl ObstacleTracker {
         }
 
         // Merged objects: a big cluster another, unserved track also claims.
-        let mut merged = vec![false; measurements.len()];
+        let merged = &mut scratch.merged;
+        refill(merged, measurements.len(), false);
         for (i, slot) in assigned.iter().enumerate() {
             let Some(m) = *slot else { continue };
             let cluster = &clusters[measurements[m].cluster];
@@ -259,19 +306,19 @@ impl ObstacleTracker {
         // ordinary update with it turns a few centimetres of offset into a
         // velocity error of a good fraction of a walking speed, predicting a
         // collision the object is not on course for.
-        let pieces: Vec<bool> = assigned
-            .iter()
-            .zip(&self.entries)
-            .map(|(slot, entry)| {
-                slot.is_some_and(|m| {
-                    measurements.iter().enumerate().any(|(other, meas)| {
-                        other != m && !taken[other] && part_of(&entry.track, &clusters[meas.cluster])
-                    })
-                })
+        let pieces = &mut scratch.pieces;
+        pieces.clear();
+        pieces.extend(assigned.iter().zip(&self.entries).map(|(slot, entry)| {
+            slot.is_some_and(|m| {
+                measurements
+                    .iter()
+                    .enumerate()
+                    .any(|(other, meas)| other != m && !taken[other] && part_of(&entry.track, &clusters[meas.cluster]))
             })
-            .collect();
+        }));
 
-        let mut failed = vec![false; self.entries.len()];
+        let failed = &mut scratch.flags;
+        refill(failed, self.entries.len(), false);
         for (i, entry) in self.entries.iter_mut().enumerate() {
             let hit = assigned[i].filter(|&m| !merged[m]);
             match hit {
@@ -298,7 +345,7 @@ impl ObstacleTracker {
                 None => {}
             }
         }
-        status.deaths += self.remove(&failed);
+        status.deaths += self.remove(failed);
         let known = self.entries.len();
 
         for (m, meas) in measurements.iter().enumerate() {
@@ -348,7 +395,8 @@ impl ObstacleTracker {
             status.births += 1;
         }
 
-        status.deaths += self.age_all(now, config);
+        status.deaths += self.age_all(now, config, &mut scratch.flags);
+        self.scratch = scratch;
         self.tracks.clear();
         self.tracks.extend(self.entries.iter().map(|e| e.track));
 
@@ -368,8 +416,8 @@ impl ObstacleTracker {
 
     /// Every filter to `now`; a refused step deletes the track. Returns the
     /// number deleted.
-    fn predict_all(&mut self, now: Duration, config: &TrackingConfig) -> u32 {
-        let mut failed = vec![false; self.entries.len()];
+    fn predict_all(&mut self, now: Duration, config: &TrackingConfig, failed: &mut Vec<bool>) -> u32 {
+        refill(failed, self.entries.len(), false);
         for (entry, failed) in self.entries.iter_mut().zip(failed.iter_mut()) {
             let dt_s = now.saturating_sub(entry.filter_t).as_secs_f64();
             if entry.kf.predict(dt_s, config.accel_density).is_err() {
@@ -378,13 +426,13 @@ impl ObstacleTracker {
                 entry.filter_t = now;
             }
         }
-        self.remove(&failed)
+        self.remove(failed)
     }
 
     /// Ages, statuses and the public view of every track; deletes the ones
     /// unseen too long or too uncertain. Returns the number deleted.
-    fn age_all(&mut self, now: Duration, config: &TrackingConfig) -> u32 {
-        let mut dead = vec![false; self.entries.len()];
+    fn age_all(&mut self, now: Duration, config: &TrackingConfig, dead: &mut Vec<bool>) -> u32 {
+        refill(dead, self.entries.len(), false);
         for (entry, dead) in self.entries.iter_mut().zip(dead.iter_mut()) {
             let unseen_s = now.saturating_sub(entry.seen_t).as_secs_f64();
             let track = &mut entry.track;
@@ -423,7 +471,7 @@ impl ObstacleTracker {
                 _ => TrackStatus::Confirmed,
             };
         }
-        self.remove(&dead)
+        self.remove(dead)
     }
 
     /// Drops the entries marked in `dead` (same order); returns how many.

@@ -8,15 +8,19 @@ use std::time::Duration;
 use drivers::gnss::NmeaReader;
 use drivers::magnetic::MagneticSample;
 use drivers::scanner::Scan;
-use drivers::scanner::cola::{ColaFramer, encode_lmd_scandata, parse_lmd_scandata, telegram_from_scan};
+use drivers::scanner::cola::{ColaFramer, ScanTelegram, encode_lmd_scandata_into, parse_lmd_scandata_into};
 use params::{ParamTable, ParamTableBuilder};
-use sim::{AckermannConfig, DifferentialConfig, VehicleModel, World, WorldConfig};
+use sim::{AckermannConfig, DifferentialConfig, VehicleModel, World, WorldConfig, WorldStageTimes};
 use vehicle_types::{ActuatorDemand, GeoPoint};
 
 use super::faults::Faults;
 use super::params::SimParams;
+use crate::logging::LogCommand;
 use crate::time::{Now, TaskTimer};
 use crate::vehicle::{Core, CoreParams, Inputs, Outputs, ScanInput, SimTruth};
+
+/// Received scans' buffers kept for reuse: a few ticks' worth of two scanners.
+const MAX_SPARE_SCANS: usize = 8;
 
 /// The simulated vehicle type (`--model`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -111,6 +115,9 @@ pub struct Simulation {
     gnss_bytes: Vec<u8>,
     /// The simulated scanners' scans, and the CoLa-A bytes they travel as.
     scans: Vec<(usize, Scan)>,
+    /// Buffers of scans the core has read, for the next ones received.
+    spare_scans: Vec<Scan>,
+    stage_times: StageTimes,
     scanner_links: Vec<ScannerLink>,
     param_generation: u64,
     faults: Faults,
@@ -118,13 +125,35 @@ pub struct Simulation {
     applied: ActuatorDemand,
 }
 
+/// Wall time spent in each stage of the simulation's steps, nanoseconds, as
+/// read from the timer each step is given (all zero with a frozen timer;
+/// the readings change nothing that is computed).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StageTimes {
+    /// Physics, GNSS epochs out (NMEA formatting) and scan ray casting.
+    pub world: WorldStageTimes,
+    /// The NMEA driver reading the receiver's bytes.
+    pub gnss_in_ns: u64,
+    /// Scans to CoLa-A telegrams.
+    pub scan_encode_ns: u64,
+    /// Telegrams framed, parsed and converted back to scans.
+    pub scan_parse_ns: u64,
+    /// [`Core::step`].
+    pub core_ns: u64,
+}
+
 /// One simulated scanner's wire: the scan is sent as the LMS1xx's CoLa-A
 /// telegram and read back by the real driver's framer and parser, so SITL
-/// exercises the same bytes a vehicle does.
+/// exercises the same bytes a vehicle does. Its buffers are kept from scan
+/// to scan, so carrying one allocates nothing once they have grown.
 struct ScannerLink {
     framer: ColaFramer,
     telegram_counter: u32,
+    /// The telegram as sent and as parsed back.
+    sent: ScanTelegram,
+    received: ScanTelegram,
     bytes: Vec<u8>,
+    frame: Vec<u8>,
     /// Telegrams the parser refused (never expected; counted for tests).
     malformed: u64,
 }
@@ -134,23 +163,42 @@ impl ScannerLink {
         ScannerLink {
             framer: ColaFramer::new(),
             telegram_counter: 0,
+            sent: ScanTelegram::default(),
+            received: ScanTelegram::default(),
             bytes: Vec::new(),
+            frame: Vec::new(),
             malformed: 0,
         }
     }
 
-    fn carry(&mut self, scan: &Scan, rate_hz: f64) -> Option<Scan> {
+    /// Sends `scan` over the wire; the scan read back lands in `out`
+    /// (whose buffer is reused). False if nothing usable arrived.
+    fn carry(
+        &mut self,
+        scan: &Scan,
+        rate_hz: f64,
+        out: &mut Scan,
+        timer: &mut dyn TaskTimer,
+        times: &mut StageTimes,
+    ) -> bool {
+        let started_ns = timer.now_ns();
         self.telegram_counter = self.telegram_counter.wrapping_add(1);
-        let telegram = telegram_from_scan(scan, rate_hz, self.telegram_counter);
-        self.bytes = encode_lmd_scandata(&telegram);
+        self.sent.set_from_scan(scan, rate_hz, self.telegram_counter);
+        encode_lmd_scandata_into(&self.sent, &mut self.bytes);
+        let encoded_ns = timer.now_ns();
+        times.scan_encode_ns += encoded_ns.saturating_sub(started_ns);
         self.framer.push(&self.bytes);
-        let mut received = None;
-        while let Some(frame) = self.framer.pop() {
-            match parse_lmd_scandata(&frame) {
-                Ok(t) => received = Some(t.to_scan(scan.t)),
+        let mut received = false;
+        while self.framer.pop_into(&mut self.frame) {
+            match parse_lmd_scandata_into(&self.frame, &mut self.received) {
+                Ok(()) => {
+                    self.received.to_scan_into(scan.t, out);
+                    received = true;
+                }
                 Err(_) => self.malformed += 1,
             }
         }
+        times.scan_parse_ns += timer.now_ns().saturating_sub(encoded_ns);
         received
     }
 }
@@ -179,6 +227,8 @@ impl Simulation {
             outputs: Outputs::default(),
             gnss_bytes: Vec::new(),
             scans: Vec::new(),
+            spare_scans: Vec::new(),
+            stage_times: StageTimes::default(),
             scanner_links: Vec::new(),
             param_generation: generation,
             faults: Faults::default(),
@@ -204,20 +254,22 @@ impl Simulation {
     pub fn step(&mut self, wall: Duration, timer: &mut dyn TaskTimer) -> &mut Outputs {
         // The log's commands are this call's alone (a caller that wants
         // them takes them after each call).
-        self.outputs.log.clear();
+        self.recycle_log_commands();
         let period = self.core.loop_period();
         let actuators = self.faults.actuate(self.outputs.actuators, self.core.is_armed());
         let speed_before_mps = self.world.truth().speed_mps;
-        self.world.step(period, &actuators);
+        self.world.step_timed(period, &actuators, &mut || timer.now_ns());
         self.applied = actuators;
         let now = Now {
             boot: self.world.time(),
             wall,
         };
 
+        let gnss_in_started_ns = timer.now_ns();
         self.gnss_bytes.clear();
         self.world.take_gnss_bytes(&mut self.gnss_bytes);
         self.nmea.push(now.boot, &self.gnss_bytes, &mut self.inputs.gnss);
+        self.stage_times.gnss_in_ns += timer.now_ns().saturating_sub(gnss_in_started_ns);
         let mut battery = self.world.battery();
         let forced_v = f64::from(self.sim.battery_volt.get(self.core.params()));
         if forced_v > 0.0 {
@@ -234,20 +286,7 @@ impl Simulation {
                 rear_mask,
             });
 
-        self.scans.clear();
-        self.world.take_scans(&mut self.scans);
-        let rate_hz = f64::from(self.sim.scan_rate_hz.get(self.core.params()));
-        for (scanner, scan) in &self.scans {
-            if self.scanner_links.len() <= *scanner {
-                self.scanner_links.resize_with(*scanner + 1, ScannerLink::new);
-            }
-            if let Some(scan) = self.scanner_links[*scanner].carry(scan, rate_hz) {
-                self.inputs.scans.push(ScanInput {
-                    scanner: *scanner,
-                    scan,
-                });
-            }
-        }
+        self.carry_scans(timer);
 
         // A stalled core reads nothing: its inputs wait in the queues (as
         // bytes in a serial buffer would) while the world drives on.
@@ -258,8 +297,10 @@ impl Simulation {
             self.lose_link_traffic();
         }
         let sent_before = self.outputs.mavlink.len();
+        let core_started_ns = timer.now_ns();
         self.core.step(now, &self.inputs, &mut self.outputs, timer);
-        self.inputs.clear();
+        self.stage_times.core_ns += timer.now_ns().saturating_sub(core_started_ns);
+        self.recycle_inputs();
         if self.faults.link_lost(now.boot) {
             self.outputs.mavlink.truncate(sent_before);
         }
@@ -268,6 +309,46 @@ impl Simulation {
             self.params_changed(now.boot);
         }
         &mut self.outputs
+    }
+
+    /// The scans the world took, over the simulated wires into the inputs.
+    fn carry_scans(&mut self, timer: &mut dyn TaskTimer) {
+        self.world.take_scans(&mut self.scans);
+        let rate_hz = f64::from(self.sim.scan_rate_hz.get(self.core.params()));
+        for (scanner, scan) in &self.scans {
+            if self.scanner_links.len() <= *scanner {
+                self.scanner_links.resize_with(*scanner + 1, ScannerLink::new);
+            }
+            let mut received = self.spare_scans.pop().unwrap_or_else(|| scan.clone());
+            let link = &mut self.scanner_links[*scanner];
+            if link.carry(scan, rate_hz, &mut received, timer, &mut self.stage_times) {
+                self.inputs.scans.push(ScanInput {
+                    scanner: *scanner,
+                    scan: received,
+                });
+            } else {
+                self.spare_scans.push(received);
+            }
+        }
+        self.world.recycle_scans(&mut self.scans);
+    }
+
+    /// Drops the last call's log commands, handing their record buffers
+    /// back to the core for the next records.
+    fn recycle_log_commands(&mut self) {
+        for command in self.outputs.log.drain(..) {
+            if let LogCommand::Records(buffer) = command {
+                self.core.recycle_log_records(buffer);
+            }
+        }
+    }
+
+    /// Clears the inputs for the next step, keeping the scans' buffers.
+    fn recycle_inputs(&mut self) {
+        let room = MAX_SPARE_SCANS.saturating_sub(self.spare_scans.len());
+        self.spare_scans
+            .extend(self.inputs.scans.drain(..).map(|input| input.scan).take(room));
+        self.inputs.clear();
     }
 
     /// The world's true pose for the core to report (SIMSTATE, a stop's
@@ -319,7 +400,7 @@ impl Simulation {
     /// Between steps: the core answers the link traffic queued in the inputs
     /// at once (link events and messages); sensors wait for the next step.
     pub fn service_links(&mut self, wall: Duration) -> &mut Outputs {
-        self.outputs.log.clear();
+        self.recycle_log_commands();
         let now = self.world.time();
         if self.faults.core_stalled(now) {
             return &mut self.outputs;
@@ -343,6 +424,14 @@ impl Simulation {
             .sim
             .scanner_configs(self.core.params(), &self.core.param_handles().obstacles.scanners);
         self.world.set_scanners(configs);
+    }
+
+    /// Wall time spent so far in each stage of [`Self::step`].
+    pub fn stage_times(&self) -> StageTimes {
+        StageTimes {
+            world: self.world.stage_times(),
+            ..self.stage_times
+        }
     }
 
     /// Telegrams the scanner parser refused on the simulated wire.

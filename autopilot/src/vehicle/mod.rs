@@ -96,6 +96,8 @@ pub struct Core {
     manual: ManualInput,
     drive: DriveState,
     links: BTreeMap<LinkId, LinkStreams>,
+    /// The telemetry due on a link this tick (kept: refilled every tick).
+    due_streams: Vec<crate::telemetry::streams::StreamMsg>,
     missions: mission_state::MissionState,
     battery: Option<BatterySample>,
     magnetic_sample: Option<MagneticSample>,
@@ -150,6 +152,7 @@ impl Core {
             manual: ManualInput::default(),
             drive: DriveState::neutral(drive_train),
             links: BTreeMap::new(),
+            due_streams: Vec::new(),
             missions: mission_state::MissionState::new(mission::Plans::default()),
             battery: None,
             magnetic_sample: None,
@@ -216,8 +219,14 @@ impl Core {
         self.request_param_save();
         out.saves.append(&mut self.persist.take_requests());
         out.mavlink.append(&mut self.outbox);
-        out.log.append(&mut self.onboard_log.take_commands());
+        self.onboard_log.drain_commands_into(&mut out.log);
         self.sched.record_tick(timer.now_ns().saturating_sub(tick_start));
+    }
+
+    /// Hands back the buffer of a [`crate::logging::LogCommand::Records`] once its records
+    /// are written out, so later steps reuse it rather than allocate.
+    pub fn recycle_log_records(&mut self, buffer: Vec<u8>) {
+        self.onboard_log.recycle_records(buffer);
     }
 
     /// Between ticks: answers what the links brought (link events and
@@ -235,7 +244,7 @@ impl Core {
         self.request_param_save();
         out.saves.append(&mut self.persist.take_requests());
         out.mavlink.append(&mut self.outbox);
-        out.log.append(&mut self.onboard_log.take_commands());
+        self.onboard_log.drain_commands_into(&mut out.log);
     }
 
     fn receive(&mut self, inputs: &Inputs) {

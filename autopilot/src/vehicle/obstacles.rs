@@ -7,6 +7,7 @@
 
 use std::time::Duration;
 
+use drivers::scanner::Scan;
 use mavlink::dialects::ardupilotmega::{MavDistanceSensor, MavFrame, MavSeverity, OBSTACLE_DISTANCE_DATA};
 
 use super::{Core, ScanInput};
@@ -282,15 +283,14 @@ impl Core {
             view.t = Some(input.scan.t);
             view.body_points.clear();
             view.local_points.clear();
+            // Room for every beam: the buffers never grow as more echo.
+            view.body_points.reserve(input.scan.ranges_m.len());
+            view.local_points.reserve(input.scan.ranges_m.len());
             for p in &obs.points {
                 view.body_points.push((p.body_x_m, p.body_y_m));
                 view.local_points.push(p.position);
             }
-            view.covered = [false; SECTORS];
-            for beam in 0..input.scan.ranges_m.len() {
-                let body_deg = (input.scan.angle_rad(beam) + mount.yaw_rad).to_degrees();
-                view.covered[sector_of(body_deg)] = true;
-            }
+            view.covered = covered_sectors(&input.scan, mount.yaw_rad);
             if located {
                 cluster_points(&obs.points, &cluster_config, &mut obs.clusters);
                 obs.tracker.update(input.scan.t, sensor, &obs.clusters, &tracking);
@@ -685,28 +685,27 @@ impl Core {
     /// of the outline, clockwise from ahead; sectors no scanner sees are
     /// "unknown", seen but empty ones "beyond range".
     pub(super) fn obstacle_distance(&self) -> Option<OBSTACLE_DISTANCE_DATA> {
-        let views: Vec<&ScannerView> = self
-            .obstacles
-            .views
-            .iter()
-            .filter(|v| v.t.is_some_and(|t| self.now.boot.saturating_sub(t) <= VIEW_TIMEOUT))
-            .collect();
-        if views.is_empty() {
-            return None;
-        }
+        // An iterator, not a Vec: OBSTACLE_DISTANCE goes out every few ticks.
+        let views = || {
+            self.obstacles
+                .views
+                .iter()
+                .filter(|v| v.t.is_some_and(|t| self.now.boot.saturating_sub(t) <= VIEW_TIMEOUT))
+        };
+        views().next()?;
         let footprint = self.footprint();
         let max_range_m = f64::from(self.p.obstacles.scanners.max_range_m.get(&self.params));
         let max_cm = (max_range_m * 100.0).round().min(f64::from(u16::MAX - 2)) as u16;
         let centre_x = (footprint.front_m - footprint.rear_m) / 2.0;
         let mut distances = [u16::MAX; SECTORS];
-        for view in &views {
+        for view in views() {
             for (i, covered) in view.covered.iter().enumerate() {
                 if *covered && distances[i] == u16::MAX {
                     distances[i] = max_cm + 1;
                 }
             }
         }
-        for view in &views {
+        for view in views() {
             for &(x, y) in &view.body_points {
                 let (dx, dy) = (x - centre_x, y);
                 let sector = sector_of(dy.atan2(dx).to_degrees());
@@ -769,38 +768,51 @@ impl Core {
         let corridor_m = f64::from(a.corridor_m.get(&self.params));
         let sign = target.direction.sign();
         // The obstacle: the returns ahead within the corridor, in the
-        // driving direction; the others the detour must also clear.
-        let (mut obstacle, mut others) = (Vec::new(), Vec::new());
-        let moving: Vec<Ned> = self
-            .obstacles
-            .tracker
-            .tracks()
-            .iter()
-            .filter(|t| t.speed_mps() >= STATIC_SPEED_MPS)
-            .map(|t| t.position)
-            .collect();
-        for view in &self.obstacles.views {
-            for (p, &(x, _)) in view.local_points.iter().zip(&view.body_points) {
-                let ahead = if sign > 0.0 {
-                    x - footprint.front_m
-                } else {
-                    -footprint.rear_m - x
-                };
-                let lateral = cross_track(from, target.point, *p);
-                let moving_near = moving.iter().any(|m| m.distance_to(p) < 1.0);
-                if (0.0..DETOUR_LOOKAHEAD_M).contains(&ahead)
-                    && lateral.abs() <= footprint.half_width_m + 0.5
-                    && !moving_near
-                {
-                    obstacle.push(*p);
-                } else if lateral.abs() <= corridor_m + footprint.half_width_m + 1.0 {
-                    others.push(*p);
-                }
+        // driving direction (Some(true)); the others the detour must also
+        // clear (Some(false)).
+        let moving = || {
+            self.obstacles
+                .tracker
+                .tracks()
+                .iter()
+                .filter(|t| t.speed_mps() >= STATIC_SPEED_MPS)
+                .map(|t| t.position)
+        };
+        let class = |p: &Ned, x: f64| {
+            let ahead = if sign > 0.0 {
+                x - footprint.front_m
+            } else {
+                -footprint.rear_m - x
+            };
+            let lateral = cross_track(from, target.point, *p);
+            let moving_near = moving().any(|m| m.distance_to(p) < 1.0);
+            if (0.0..DETOUR_LOOKAHEAD_M).contains(&ahead)
+                && lateral.abs() <= footprint.half_width_m + 0.5
+                && !moving_near
+            {
+                Some(true)
+            } else {
+                (lateral.abs() <= corridor_m + footprint.half_width_m + 1.0).then_some(false)
             }
-        }
-        if obstacle.is_empty() {
+        };
+        let points = || {
+            self.obstacles
+                .views
+                .iter()
+                .flat_map(|view| view.local_points.iter().zip(&view.body_points))
+        };
+        // Most ticks have nothing in the lane: look before collecting.
+        if !points().any(|(p, &(x, _))| class(p, x) == Some(true)) {
             self.obstacles.detour_refusal_reported = false;
             return;
+        }
+        let (mut obstacle, mut others) = (Vec::new(), Vec::new());
+        for (p, &(x, _)) in points() {
+            match class(p, x) {
+                Some(true) => obstacle.push(*p),
+                Some(false) => others.push(*p),
+                None => {}
+            }
         }
         let config = DetourConfig {
             clearance_m: 0.5,
@@ -915,6 +927,33 @@ fn track_shape(track: &Track, settled: bool) -> Shape<'_> {
     }
 }
 
+/// The body sectors the scan's beams fall in.
+fn covered_sectors(scan: &Scan, mount_yaw_rad: f64) -> [bool; SECTORS] {
+    let mut covered = [false; SECTORS];
+    let beams = scan.ranges_m.len();
+    let body_deg = |beam: usize| (scan.angle_rad(beam) + mount_yaw_rad).to_degrees();
+    let step_deg = scan.step_rad.to_degrees().abs();
+    let span_deg = step_deg * beams.saturating_sub(1) as f64;
+    if beams > 0 && step_deg < SECTOR_DEG && span_deg < 360.0 - SECTOR_DEG {
+        // Beams closer than a sector skip none between the first beam's
+        // sector and the last's: walk from one to the other, the way the
+        // beams go, instead of placing every beam.
+        let (first, last) = (sector_of(body_deg(0)), sector_of(body_deg(beams - 1)));
+        let next = if scan.step_rad >= 0.0 { 1 } else { SECTORS - 1 };
+        let mut sector = first;
+        covered[sector] = true;
+        while sector != last {
+            sector = (sector + next) % SECTORS;
+            covered[sector] = true;
+        }
+    } else {
+        for beam in 0..beams {
+            covered[sector_of(body_deg(beam))] = true;
+        }
+    }
+    covered
+}
+
 fn sector_of(body_deg: f64) -> usize {
     let wrapped = wrap_pi((body_deg + SECTOR_DEG / 2.0).to_radians()).to_degrees();
     let from_zero = if wrapped < 0.0 { wrapped + 360.0 } else { wrapped };
@@ -948,5 +987,40 @@ impl Mode {
     /// The modes the obstacle policy governs: those that drive by themselves.
     pub fn self_driving(self) -> bool {
         matches!(self, Mode::Auto | Mode::Guided | Mode::Rtl | Mode::Magnetic)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use proptest::prelude::*;
+
+    use super::*;
+
+    proptest! {
+        /// Walking the sectors from the first beam's to the last's marks
+        /// the same sectors as placing every beam.
+        #[test]
+        fn covered_sectors_match_placing_every_beam(
+            start_deg in -400.0f64..400.0,
+            step_deg in prop_oneof![-6.0f64..6.0, Just(0.5), Just(-0.5), Just(0.0)],
+            beams in 0usize..1100,
+            mount_yaw_deg in -360.0f64..360.0,
+        ) {
+            let scan = Scan {
+                t: Duration::ZERO,
+                scan_counter: 0,
+                start_angle_rad: start_deg.to_radians(),
+                step_rad: step_deg.to_radians(),
+                ranges_m: vec![1.0; beams],
+            };
+            let mount_yaw_rad = mount_yaw_deg.to_radians();
+            let mut expected = [false; SECTORS];
+            for beam in 0..beams {
+                expected[sector_of((scan.angle_rad(beam) + mount_yaw_rad).to_degrees())] = true;
+            }
+            prop_assert_eq!(covered_sectors(&scan, mount_yaw_rad), expected);
+        }
     }
 }

@@ -18,6 +18,9 @@ use mission::MissionType;
 const TRACKS_EVERY: Duration = Duration::from_millis(200);
 /// The battery is logged at most this often.
 const BATTERY_EVERY: Duration = Duration::from_secs(1);
+/// Record buffers kept for reuse: a reader that hands each back before the
+/// next step needs one.
+const MAX_SPARE_RECORD_BUFFERS: usize = 2;
 /// At most this many tracks a time (the nearest-numbered first).
 const MAX_TRACKS: usize = 16;
 /// GPS time starts 1980-01-06; UTC is 18 leap seconds behind it.
@@ -29,6 +32,8 @@ pub(super) struct LogState {
     open: bool,
     /// Records of this step, sent as one [`LogCommand::Records`].
     records: Vec<u8>,
+    /// Record buffers the log's reader handed back, for the next steps.
+    spare_records: Vec<Vec<u8>>,
     commands: Vec<LogCommand>,
     last_fast: Option<Duration>,
     last_tracks: Option<Duration>,
@@ -57,16 +62,28 @@ impl LogState {
     /// as large for the next tick (no regrowth while it fills).
     fn flush_records(&mut self) {
         if !self.records.is_empty() {
-            let next = Vec::with_capacity(self.records.len());
+            let next = self
+                .spare_records
+                .pop()
+                .unwrap_or_else(|| Vec::with_capacity(self.records.len()));
             let records = std::mem::replace(&mut self.records, next);
             self.commands.push(LogCommand::Records(records));
         }
     }
 
-    /// What to hand to the edge this step.
-    pub(super) fn take_commands(&mut self) -> Vec<LogCommand> {
+    /// What to hand to the edge this step, appended to `out`.
+    pub(super) fn drain_commands_into(&mut self, out: &mut Vec<LogCommand>) {
         self.flush_records();
-        std::mem::take(&mut self.commands)
+        out.append(&mut self.commands);
+    }
+
+    /// A [`LogCommand::Records`] buffer whose records have been read: the
+    /// next steps write into it instead of a new one.
+    pub(super) fn recycle_records(&mut self, mut buffer: Vec<u8>) {
+        if self.spare_records.len() < MAX_SPARE_RECORD_BUFFERS {
+            buffer.clear();
+            self.spare_records.push(buffer);
+        }
     }
 
     pub(super) fn request(&mut self, link: LinkId, message: MavMessage) {

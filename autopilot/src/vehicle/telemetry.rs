@@ -3,6 +3,8 @@
 // PROTOCOL_VERSION is deprecated but still requested (see telemetry::identity).
 #![allow(deprecated)]
 
+use std::ops::Bound;
+
 use mavlink::dialects::ardupilotmega::{
     ATTITUDE_DATA, BATTERY_STATUS_DATA, EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA, EkfStatusFlags,
     GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, GpsFixType, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA,
@@ -43,9 +45,16 @@ impl Core {
     }
 
     pub(super) fn send_streams(&mut self) {
-        let mut due = Vec::new();
-        let links: Vec<_> = self.links.keys().copied().collect();
-        for link in links {
+        // Every tick: the links are walked by key and the buffer is the
+        // core's, so telemetry allocates nothing.
+        let mut due = std::mem::take(&mut self.due_streams);
+        let mut next = self.links.keys().next().copied();
+        while let Some(link) = next {
+            next = self
+                .links
+                .range((Bound::Excluded(link), Bound::Unbounded))
+                .next()
+                .map(|(k, _)| *k);
             due.clear();
             let Some(streams) = self.links.get(&link) else {
                 continue;
@@ -62,6 +71,7 @@ impl Core {
                 }
             }
         }
+        self.due_streams = due;
     }
 
     /// Whether REQUEST_MESSAGE for `id` is something Furrow can answer.

@@ -51,7 +51,7 @@
 //! `ours = 90° − sick` and a positive SICK step becomes a negative `step_rad`.
 
 use std::collections::VecDeque;
-use std::fmt::{self, Write as _};
+use std::fmt;
 use std::time::Duration;
 
 use super::Scan;
@@ -67,6 +67,9 @@ pub const MAX_TELEGRAM_LEN: usize = 64 * 1024;
 /// Complete telegrams held until popped. A reader pops after every push, so
 /// this is only reached by a caller that stops popping; the oldest go first.
 pub const MAX_PENDING_TELEGRAMS: usize = 32;
+
+/// Buffers kept from [`ColaFramer::pop_into`] for reuse.
+const MAX_SPARE_BUFFERS: usize = 2;
 
 const SCAN_DATA: &[u8] = b"LMDscandata";
 const DIST1: &[u8] = b"DIST1";
@@ -109,6 +112,8 @@ pub struct ColaFramer {
     state: FramerState,
     body: Vec<u8>,
     pending: VecDeque<Vec<u8>>,
+    /// Buffers handed back by [`ColaFramer::pop_into`], for the next bodies.
+    spare: Vec<Vec<u8>>,
     max_len: usize,
     stats: FramerStats,
 }
@@ -130,6 +135,7 @@ impl ColaFramer {
             state: FramerState::Hunting,
             body: Vec::new(),
             pending: VecDeque::new(),
+            spare: Vec::new(),
             max_len,
             stats: FramerStats::default(),
         }
@@ -201,13 +207,31 @@ impl ColaFramer {
             self.pending.pop_front();
             self.stats.overrun += 1;
         }
-        self.pending.push_back(std::mem::take(&mut self.body));
+        let next_body = self.spare.pop().unwrap_or_default();
+        self.pending.push_back(std::mem::replace(&mut self.body, next_body));
         self.state = FramerState::Hunting;
     }
 
     /// The oldest complete telegram body, without STX/ETX.
     pub fn pop(&mut self) -> Option<Vec<u8>> {
         self.pending.pop_front()
+    }
+
+    /// The oldest complete telegram body into `out`, whose old buffer the
+    /// framer keeps for a later body: a reader that pops this way frames
+    /// without allocating once the buffers have grown. False if none.
+    pub fn pop_into(&mut self, out: &mut Vec<u8>) -> bool {
+        let Some(body) = self.pending.pop_front() else {
+            return false;
+        };
+        let mut old = std::mem::replace(out, body);
+        // A reader that pops after every push needs one spare; keeping
+        // a couple at most bounds what the framer holds.
+        if self.spare.len() < MAX_SPARE_BUFFERS {
+            old.clear();
+            self.spare.push(old);
+        }
+        true
     }
 
     pub fn stats(&self) -> FramerStats {
@@ -306,9 +330,12 @@ fn quote(token: &[u8]) -> String {
 // ---------------------------------------------------------------------------
 // Tokens
 
+/// The tokens of one telegram, read in order without collecting them: the
+/// count is taken once up front so a count field can be checked against what
+/// is left before anything is sized from it.
 struct Tokens<'a> {
-    tokens: Vec<&'a [u8]>,
-    next: usize,
+    rest: &'a [u8],
+    remaining: usize,
 }
 
 impl<'a> Tokens<'a> {
@@ -316,32 +343,102 @@ impl<'a> Tokens<'a> {
     fn new(telegram: &'a [u8]) -> Self {
         let body = telegram.strip_prefix(&[STX]).unwrap_or(telegram);
         let body = body.strip_suffix(&[ETX]).unwrap_or(body);
-        Self {
-            tokens: body.split(|&b| b == b' ').filter(|t| !t.is_empty()).collect(),
-            next: 0,
-        }
+        // A token starts at each non-space byte after a space (or at the
+        // start). Pairwise, so the count vectorises.
+        let starts_inside = body
+            .windows(2)
+            .filter(|pair| pair[0] == b' ' && pair[1] != b' ')
+            .count();
+        let remaining = starts_inside + usize::from(body.first().is_some_and(|&b| b != b' '));
+        Self { rest: body, remaining }
     }
 
     fn remaining(&self) -> usize {
-        self.tokens.len() - self.next
+        self.remaining
+    }
+
+    /// The next token without taking it.
+    fn peek(&self) -> Option<&'a [u8]> {
+        let start = self.rest.iter().position(|&b| b != b' ')?;
+        let rest = &self.rest[start..];
+        let len = rest.iter().position(|&b| b == b' ').unwrap_or(rest.len());
+        Some(&rest[..len])
+    }
+
+    fn next_token(&mut self) -> Option<&'a [u8]> {
+        let start = self.rest.iter().position(|&b| b != b' ')?;
+        let rest = &self.rest[start..];
+        let len = rest.iter().position(|&b| b == b' ').unwrap_or(rest.len());
+        self.rest = &rest[len..];
+        self.remaining -= 1;
+        Some(&rest[..len])
     }
 
     fn raw(&mut self, field: &'static str) -> Result<&'a [u8], ColaError> {
-        let token = self.tokens.get(self.next).ok_or(ColaError::MissingField { field })?;
-        self.next += 1;
-        Ok(token)
+        match self.next_token() {
+            Some(token) => Ok(token),
+            None => Err(ColaError::MissingField { field }),
+        }
     }
 
     fn skip(&mut self, field: &'static str) -> Result<(), ColaError> {
         self.raw(field).map(|_| ())
     }
 
+    /// The next token as 1–8 hex digits, decoded as it is scanned.
     fn hex_u32(&mut self, field: &'static str) -> Result<u32, ColaError> {
-        let token = self.raw(field)?;
-        parse_hex_u32(token).ok_or_else(|| ColaError::BadHex {
-            field,
-            token: quote(token),
-        })
+        let (value, at) = next_hex(self.rest);
+        self.take_hex(field, value, at)
+    }
+
+    /// `count` tokens of hex no greater than `max` (the data of a channel,
+    /// hundreds of them), each into `out` if given: one tight loop, an
+    /// error built only for a bad token.
+    fn hex_run(
+        &mut self,
+        field: &'static str,
+        count: usize,
+        max: u32,
+        mut out: Option<&mut Vec<u16>>,
+    ) -> Result<(), ColaError> {
+        for _ in 0..count {
+            let ((value, invalid), at) = next_hex(self.rest);
+            if invalid || at.1 - at.0 > 8 || at.0 == at.1 || value > max {
+                let value = self.take_hex(field, (value, invalid), at)?;
+                return Err(ColaError::OutOfRange { field, value, max });
+            }
+            self.rest = &self.rest[at.1..];
+            self.remaining -= 1;
+            if let Some(out) = out.as_deref_mut() {
+                // Bounded by max ≤ u16::MAX above.
+                out.push(value as u16);
+            }
+        }
+        Ok(())
+    }
+
+    /// Consumes the token [`next_hex`] found at `at` (start, end): its value,
+    /// or why it is not one.
+    fn take_hex(
+        &mut self,
+        field: &'static str,
+        (value, invalid): (u32, bool),
+        at: (usize, usize),
+    ) -> Result<u32, ColaError> {
+        let (start, end) = at;
+        if start == end {
+            return Err(ColaError::MissingField { field });
+        }
+        let token = &self.rest[start..end];
+        self.rest = &self.rest[end..];
+        self.remaining -= 1;
+        if invalid || token.len() > 8 {
+            return Err(ColaError::BadHex {
+                field,
+                token: quote(token),
+            });
+        }
+        Ok(value)
     }
 
     fn hex_max(&mut self, field: &'static str, max: u32) -> Result<u32, ColaError> {
@@ -376,15 +473,43 @@ impl<'a> Tokens<'a> {
     }
 }
 
-fn parse_hex_u32(token: &[u8]) -> Option<u32> {
-    if token.is_empty() || token.len() > 8 {
-        return None;
+/// The first token of `rest` read as hex: (value, whether a byte was not a
+/// hex digit) and where it lies, (start, end) (equal when there is none).
+/// The value is meaningful only for 1–8 valid digits.
+#[inline(always)]
+fn next_hex(rest: &[u8]) -> ((u32, bool), (usize, usize)) {
+    let mut at = 0;
+    while at < rest.len() && rest[at] == b' ' {
+        at += 1;
     }
-    token.iter().try_fold(0u32, |acc, &b| {
-        let digit = char::from(b).to_digit(16)?;
-        Some((acc << 4) | digit)
-    })
+    let start = at;
+    let (mut value, mut invalid) = (0u32, 0u8);
+    while at < rest.len() && rest[at] != b' ' {
+        let digit = HEX_VALUES[usize::from(rest[at])];
+        // 0xFF has the high bit set; no digit does.
+        invalid |= digit;
+        value = (value << 4) | u32::from(digit & 0xF);
+        at += 1;
+    }
+    ((value, invalid & 0x80 != 0), (start, at))
 }
+
+/// Each byte's value as a hex digit (either case), 0xFF for any other byte.
+const HEX_VALUES: [u8; 256] = {
+    let mut table = [0xFF; 256];
+    let mut i = 0;
+    while i < 10 {
+        table[b'0' as usize + i] = i as u8;
+        i += 1;
+    }
+    let mut i = 0;
+    while i < 6 {
+        table[b'A' as usize + i] = 10 + i as u8;
+        table[b'a' as usize + i] = 10 + i as u8;
+        i += 1;
+    }
+    table
+};
 
 // ---------------------------------------------------------------------------
 // Scan telegram
@@ -398,7 +523,7 @@ pub struct EncoderReading {
 
 /// The fields of one `LMDscandata` telegram that Furrow uses, in SICK's own
 /// units; [`ScanTelegram::to_scan`] converts to Furrow's frame and metres.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ScanTelegram {
     pub version: u16,
     pub device_number: u16,
@@ -425,41 +550,42 @@ pub struct ScanTelegram {
     pub dist_raw: Vec<u16>,
 }
 
-struct Channel<'a> {
+/// A channel's header; its data went to the caller's buffer, if kept.
+struct ChannelHeader<'a> {
     name: &'a [u8],
     scale_factor: f32,
     scale_offset: f32,
     start_angle_1e4deg: i32,
     step_1e4deg: u32,
-    data: Vec<u16>,
 }
 
-/// Reads one channel; keeps its data only if `keep` (others are validated
-/// and skipped without allocating).
-fn parse_channel<'a>(tokens: &mut Tokens<'a>, data_max: u32, keep: bool) -> Result<Channel<'a>, ColaError> {
+/// Reads one channel; its data goes into `keep` (cleared first) if given
+/// and the channel is `DIST1`, else it is validated and skipped.
+fn parse_channel<'a>(
+    tokens: &mut Tokens<'a>,
+    data_max: u32,
+    keep: Option<&mut Vec<u16>>,
+) -> Result<ChannelHeader<'a>, ColaError> {
     let name = tokens.raw("channel content")?;
-    let keep = keep && name == DIST1;
+    let keep = keep.filter(|_| name == DIST1);
     let scale_factor = tokens.hex_f32("scale factor")?;
     let scale_offset = tokens.hex_f32("scale offset")?;
     // Two's complement: the bit pattern is the signed value.
     let start_angle_1e4deg = tokens.hex_u32("start angle")? as i32;
     let step_1e4deg = u32::from(tokens.hex_u16("angular step")?);
     let count = tokens.count("number of data", 1)?;
-    let mut data = Vec::with_capacity(if keep { count } else { 0 });
-    for _ in 0..count {
-        let value = tokens.hex_max("channel data", data_max)?;
-        if keep {
-            // hex_max bounded it by data_max ≤ u16::MAX.
-            data.push(value as u16);
-        }
+    let mut keep = keep;
+    if let Some(data) = keep.as_deref_mut() {
+        data.clear();
+        data.reserve(count);
     }
-    Ok(Channel {
+    tokens.hex_run("channel data", count, data_max, keep)?;
+    Ok(ChannelHeader {
         name,
         scale_factor,
         scale_offset,
         start_angle_1e4deg,
         step_1e4deg,
-        data,
     })
 }
 
@@ -468,9 +594,9 @@ fn parse_channel<'a>(tokens: &mut Tokens<'a>, data_max: u32, keep: bool) -> Resu
 /// negative. A factor near `f32::MAX` made infinite ranges, a negative
 /// offset negative ones (found by fuzzing): neither is a calibration a
 /// scanner has, so the scan is refused rather than half believed.
-fn echoes_in_range(channel: &Channel<'_>) -> bool {
+fn echoes_in_range(channel: &ChannelHeader<'_>, data: &[u16]) -> bool {
     let (factor, offset) = (f64::from(channel.scale_factor), f64::from(channel.scale_offset));
-    let echoes = channel.data.iter().filter(|&&raw| raw != 0);
+    let echoes = data.iter().filter(|&&raw| raw != 0);
     let (Some(min), Some(max)) = (echoes.clone().min(), echoes.max()) else {
         return true;
     };
@@ -495,113 +621,121 @@ fn check_scan_header(tokens: &mut Tokens<'_>) -> Result<(), ColaError> {
 /// `DIST1` channel (16-bit, else 8-bit); other channels are checked and
 /// skipped, and the optional trailing blocks are ignored.
 pub fn parse_lmd_scandata(telegram: &[u8]) -> Result<ScanTelegram, ColaError> {
-    let mut tokens = Tokens::new(telegram);
-    check_scan_header(&mut tokens)?;
-    parse_scan_fields(&mut tokens)
+    let mut scan = ScanTelegram::default();
+    parse_lmd_scandata_into(telegram, &mut scan)?;
+    Ok(scan)
 }
 
-fn parse_scan_fields(tokens: &mut Tokens<'_>) -> Result<ScanTelegram, ColaError> {
-    let version = tokens.hex_u16("version number")?;
-    let device_number = tokens.hex_u16("device number")?;
-    let serial_number = tokens.hex_u32("serial number")?;
-    let device_status = [tokens.hex_u16("device status")?, tokens.hex_u16("device status")?];
-    let telegram_counter = tokens.hex_u32("telegram counter")?;
-    let scan_counter = tokens.hex_u32("scan counter")?;
-    let time_since_startup_us = tokens.hex_u32("time since start-up")?;
-    let time_of_transmission_us = tokens.hex_u32("time of transmission")?;
-    let digital_inputs = [tokens.hex_u16("digital inputs")?, tokens.hex_u16("digital inputs")?];
-    let digital_outputs = [tokens.hex_u16("digital outputs")?, tokens.hex_u16("digital outputs")?];
+/// [`parse_lmd_scandata`] into `scan`, reusing its buffers: a reader that
+/// keeps one telegram parses every scan without allocating. On an error
+/// `scan` holds a partial parse and must not be used.
+pub fn parse_lmd_scandata_into(telegram: &[u8], scan: &mut ScanTelegram) -> Result<(), ColaError> {
+    let mut tokens = Tokens::new(telegram);
+    check_scan_header(&mut tokens)?;
+    parse_scan_fields(&mut tokens, scan)
+}
+
+fn parse_scan_fields(tokens: &mut Tokens<'_>, scan: &mut ScanTelegram) -> Result<(), ColaError> {
+    scan.version = tokens.hex_u16("version number")?;
+    scan.device_number = tokens.hex_u16("device number")?;
+    scan.serial_number = tokens.hex_u32("serial number")?;
+    scan.device_status = [tokens.hex_u16("device status")?, tokens.hex_u16("device status")?];
+    scan.telegram_counter = tokens.hex_u32("telegram counter")?;
+    scan.scan_counter = tokens.hex_u32("scan counter")?;
+    scan.time_since_startup_us = tokens.hex_u32("time since start-up")?;
+    scan.time_of_transmission_us = tokens.hex_u32("time of transmission")?;
+    scan.digital_inputs = [tokens.hex_u16("digital inputs")?, tokens.hex_u16("digital inputs")?];
+    scan.digital_outputs = [tokens.hex_u16("digital outputs")?, tokens.hex_u16("digital outputs")?];
     // Reserved: content undefined across firmware versions, only its slot.
     tokens.skip("reserved")?;
-    let scan_frequency_hz = f64::from(tokens.hex_u32("scan frequency")?) / 100.0;
-    let measurement_frequency_hz = f64::from(tokens.hex_u32("measurement frequency")?) * 100.0;
+    scan.scan_frequency_hz = f64::from(tokens.hex_u32("scan frequency")?) / 100.0;
+    scan.measurement_frequency_hz = f64::from(tokens.hex_u32("measurement frequency")?) * 100.0;
 
     let encoder_count = tokens.count("number of encoders", 2)?;
-    let mut encoders = Vec::with_capacity(encoder_count);
+    scan.encoders.clear();
     for _ in 0..encoder_count {
-        encoders.push(EncoderReading {
+        scan.encoders.push(EncoderReading {
             position_ticks: tokens.hex_u32("encoder position")?,
             speed_raw: tokens.hex_u16("encoder speed")?,
         });
     }
 
-    // A channel is at least 6 tokens (content … number of data).
-    let mut dist: Option<Channel<'_>> = None;
-    for _ in 0..tokens.count("number of 16-bit channels", 6)? {
-        let channel = parse_channel(tokens, u32::from(u16::MAX), dist.is_none())?;
-        if dist.is_none() && channel.name == DIST1 {
-            dist = Some(channel);
-        }
-    }
-    for _ in 0..tokens.count("number of 8-bit channels", 6)? {
-        let channel = parse_channel(tokens, u32::from(u8::MAX), dist.is_none())?;
-        if dist.is_none() && channel.name == DIST1 {
-            dist = Some(channel);
-        }
-    }
-    let dist = dist.ok_or(ColaError::NoDistanceChannel)?;
+    let dist = parse_channels(tokens, &mut scan.dist_raw)?;
     if !dist.scale_factor.is_finite()
         || dist.scale_factor <= 0.0
         || !dist.scale_offset.is_finite()
-        || !echoes_in_range(&dist)
+        || !echoes_in_range(&dist, &scan.dist_raw)
     {
         return Err(ColaError::InvalidScale {
             scale_factor: dist.scale_factor,
             scale_offset: dist.scale_offset,
         });
     }
-    if dist.step_1e4deg == 0 && dist.data.len() > 1 {
+    if dist.step_1e4deg == 0 && scan.dist_raw.len() > 1 {
         return Err(ColaError::ZeroAngularStep);
     }
+    scan.start_angle_sick_1e4deg = dist.start_angle_1e4deg;
+    scan.step_1e4deg = dist.step_1e4deg;
+    scan.scale_factor = dist.scale_factor;
+    scan.scale_offset = dist.scale_offset;
+    Ok(())
+}
 
-    Ok(ScanTelegram {
-        version,
-        device_number,
-        serial_number,
-        device_status,
-        telegram_counter,
-        scan_counter,
-        time_since_startup_us,
-        time_of_transmission_us,
-        digital_inputs,
-        digital_outputs,
-        scan_frequency_hz,
-        measurement_frequency_hz,
-        encoders,
-        start_angle_sick_1e4deg: dist.start_angle_1e4deg,
-        step_1e4deg: dist.step_1e4deg,
-        scale_factor: dist.scale_factor,
-        scale_offset: dist.scale_offset,
-        dist_raw: dist.data,
-    })
+/// The 16-bit then the 8-bit channels: the first `DIST1`'s header, its data
+/// in `dist_raw`.
+fn parse_channels<'a>(tokens: &mut Tokens<'a>, dist_raw: &mut Vec<u16>) -> Result<ChannelHeader<'a>, ColaError> {
+    let mut dist: Option<ChannelHeader<'a>> = None;
+    // A channel is at least 6 tokens (content … number of data).
+    for data_max in [u32::from(u16::MAX), u32::from(u8::MAX)] {
+        let field = if data_max == u32::from(u16::MAX) {
+            "number of 16-bit channels"
+        } else {
+            "number of 8-bit channels"
+        };
+        for _ in 0..tokens.count(field, 6)? {
+            let keep = dist.is_none().then_some(&mut *dist_raw);
+            let channel = parse_channel(tokens, data_max, keep)?;
+            if dist.is_none() && channel.name == DIST1 {
+                dist = Some(channel);
+            }
+        }
+    }
+    dist.ok_or(ColaError::NoDistanceChannel)
 }
 
 impl ScanTelegram {
     /// The scan in Furrow's scanner frame (clockwise from forward, metres),
     /// stamped `t` (the receiver's clock at arrival).
     pub fn to_scan(&self, t: Duration) -> Scan {
+        let mut scan = Scan {
+            t,
+            scan_counter: 0,
+            start_angle_rad: 0.0,
+            step_rad: 0.0,
+            ranges_m: Vec::with_capacity(self.dist_raw.len()),
+        };
+        self.to_scan_into(t, &mut scan);
+        scan
+    }
+
+    /// [`Self::to_scan`] into `scan`, reusing its range buffer.
+    pub fn to_scan_into(&self, t: Duration, scan: &mut Scan) {
         let start_deg = (SICK_FORWARD_1E4DEG - f64::from(self.start_angle_sick_1e4deg)) / 1e4;
         let step_deg = -f64::from(self.step_1e4deg) / 1e4;
         let scale = f64::from(self.scale_factor);
         let offset = f64::from(self.scale_offset);
-        let ranges_m = self
-            .dist_raw
-            .iter()
-            .map(|&raw| {
-                if raw == 0 {
-                    f32::NAN
-                } else {
-                    ((f64::from(raw) * scale + offset) / 1000.0) as f32
-                }
-            })
-            .collect();
-        Scan {
-            t,
-            scan_counter: self.scan_counter,
-            start_angle_rad: start_deg.to_radians(),
-            step_rad: step_deg.to_radians(),
-            ranges_m,
-        }
+        scan.ranges_m.clear();
+        scan.ranges_m.extend(self.dist_raw.iter().map(|&raw| {
+            if raw == 0 {
+                f32::NAN
+            } else {
+                ((f64::from(raw) * scale + offset) / 1000.0) as f32
+            }
+        }));
+        scan.t = t;
+        scan.scan_counter = self.scan_counter;
+        scan.start_angle_rad = start_deg.to_radians();
+        scan.step_rad = step_deg.to_radians();
     }
 }
 
@@ -633,50 +767,57 @@ fn range_to_mm(range_m: f32) -> u16 {
 /// reversed, last beam first, as the same set of beams), at most 6.5535°
 /// and at most 65535 beams (further ones are left out).
 pub fn telegram_from_scan(scan: &Scan, scan_frequency_hz: f64, telegram_counter: u32) -> ScanTelegram {
-    let n = scan.ranges_m.len().min(usize::from(u16::MAX));
-    let clockwise = scan.step_rad > 0.0 && n > 1;
-    let (start_rad, step_rad) = if clockwise {
-        (scan.angle_rad(n - 1), -scan.step_rad)
-    } else {
-        (scan.start_angle_rad, scan.step_rad)
-    };
-    let ranges = &scan.ranges_m[..n];
-    let dist_raw: Vec<u16> = if clockwise {
-        ranges.iter().rev().map(|&r| range_to_mm(r)).collect()
-    } else {
-        ranges.iter().map(|&r| range_to_mm(r)).collect()
-    };
-    // `as` saturates (NaN → 0), which is the clamping wanted here.
-    let start_angle_sick_1e4deg = (SICK_FORWARD_1E4DEG - start_rad.to_degrees() * 1e4).round() as i32;
-    let step_1e4deg = ((-step_rad.to_degrees() * 1e4).round() as u32).min(u32::from(u16::MAX));
-    let scan_frequency_hz = (scan_frequency_hz * 100.0).round().max(0.0) / 100.0;
-    let measurement_frequency_hz = if step_1e4deg > 0 {
-        // Beams per revolution × revolutions per second, in SICK's 100 Hz unit.
-        ((360.0 * 1e4 / f64::from(step_1e4deg)) * scan_frequency_hz / 100.0).round() * 100.0
-    } else {
-        0.0
-    };
-    // µs since start-up, wrapping like the scanner's own 32-bit clock.
-    let t_us = (scan.t.as_micros() % (1u128 << 32)) as u32;
-    ScanTelegram {
-        version: 1,
-        device_number: 1,
-        serial_number: 0,
-        device_status: [0, 0],
-        telegram_counter,
-        scan_counter: scan.scan_counter,
-        time_since_startup_us: t_us,
-        time_of_transmission_us: t_us,
-        digital_inputs: [0, 0],
-        digital_outputs: [0, 0],
-        scan_frequency_hz,
-        measurement_frequency_hz,
-        encoders: Vec::new(),
-        start_angle_sick_1e4deg,
-        step_1e4deg,
-        scale_factor: 1.0,
-        scale_offset: 0.0,
-        dist_raw,
+    let mut telegram = ScanTelegram::default();
+    telegram.set_from_scan(scan, scan_frequency_hz, telegram_counter);
+    telegram
+}
+
+impl ScanTelegram {
+    /// [`telegram_from_scan`] into this telegram, reusing its buffers.
+    pub fn set_from_scan(&mut self, scan: &Scan, scan_frequency_hz: f64, telegram_counter: u32) {
+        let n = scan.ranges_m.len().min(usize::from(u16::MAX));
+        let clockwise = scan.step_rad > 0.0 && n > 1;
+        let (start_rad, step_rad) = if clockwise {
+            (scan.angle_rad(n - 1), -scan.step_rad)
+        } else {
+            (scan.start_angle_rad, scan.step_rad)
+        };
+        let ranges = &scan.ranges_m[..n];
+        self.dist_raw.clear();
+        if clockwise {
+            self.dist_raw.extend(ranges.iter().rev().map(|&r| range_to_mm(r)));
+        } else {
+            self.dist_raw.extend(ranges.iter().map(|&r| range_to_mm(r)));
+        }
+        // `as` saturates (NaN → 0), which is the clamping wanted here.
+        let start_angle_sick_1e4deg = (SICK_FORWARD_1E4DEG - start_rad.to_degrees() * 1e4).round() as i32;
+        let step_1e4deg = ((-step_rad.to_degrees() * 1e4).round() as u32).min(u32::from(u16::MAX));
+        let scan_frequency_hz = (scan_frequency_hz * 100.0).round().max(0.0) / 100.0;
+        let measurement_frequency_hz = if step_1e4deg > 0 {
+            // Beams per revolution × revolutions per second, in SICK's 100 Hz unit.
+            ((360.0 * 1e4 / f64::from(step_1e4deg)) * scan_frequency_hz / 100.0).round() * 100.0
+        } else {
+            0.0
+        };
+        // µs since start-up, wrapping like the scanner's own 32-bit clock.
+        let t_us = (scan.t.as_micros() % (1u128 << 32)) as u32;
+        self.version = 1;
+        self.device_number = 1;
+        self.serial_number = 0;
+        self.device_status = [0, 0];
+        self.telegram_counter = telegram_counter;
+        self.scan_counter = scan.scan_counter;
+        self.time_since_startup_us = t_us;
+        self.time_of_transmission_us = t_us;
+        self.digital_inputs = [0, 0];
+        self.digital_outputs = [0, 0];
+        self.scan_frequency_hz = scan_frequency_hz;
+        self.measurement_frequency_hz = measurement_frequency_hz;
+        self.encoders.clear();
+        self.start_angle_sick_1e4deg = start_angle_sick_1e4deg;
+        self.step_1e4deg = step_1e4deg;
+        self.scale_factor = 1.0;
+        self.scale_offset = 0.0;
     }
 }
 
@@ -684,48 +825,99 @@ pub fn telegram_from_scan(scan: &Scan, scan_frequency_hz: f64, telegram_counter:
 /// 16-bit channel, no 8-bit channels, every optional block absent. Fields
 /// wider than the format are clamped; more than 65535 beams are cut.
 pub fn encode_lmd_scandata(scan: &ScanTelegram) -> Vec<u8> {
+    let mut out = Vec::new();
+    encode_lmd_scandata_into(scan, &mut out);
+    out
+}
+
+/// [`encode_lmd_scandata`] into `out` (cleared first), so a caller that
+/// keeps the buffer encodes every scan without allocating.
+pub fn encode_lmd_scandata_into(scan: &ScanTelegram, out: &mut Vec<u8>) {
     let clamp_u32 = |x: f64| x.round().clamp(0.0, f64::from(u32::MAX)) as u32;
     let n = scan.dist_raw.len().min(usize::from(u16::MAX));
-    let mut s = String::with_capacity(160 + 5 * n);
-    // Writing to a String cannot fail.
-    let _ = write!(
-        s,
-        "\x02sSN LMDscandata {:X} {:X} {:X} {:X} {:X} {:X} {:X} {:X} {:X} {:X} {:X} {:X} {:X} 0 {:X} {:X} {:X}",
-        scan.version,
-        scan.device_number,
+    out.clear();
+    out.reserve(160 + 5 * n);
+    out.extend_from_slice(b"\x02sSN LMDscandata");
+    let header = [
+        u32::from(scan.version),
+        u32::from(scan.device_number),
         scan.serial_number,
-        scan.device_status[0],
-        scan.device_status[1],
+        u32::from(scan.device_status[0]),
+        u32::from(scan.device_status[1]),
         scan.telegram_counter,
         scan.scan_counter,
         scan.time_since_startup_us,
         scan.time_of_transmission_us,
-        scan.digital_inputs[0],
-        scan.digital_inputs[1],
-        scan.digital_outputs[0],
-        scan.digital_outputs[1],
+        u32::from(scan.digital_inputs[0]),
+        u32::from(scan.digital_inputs[1]),
+        u32::from(scan.digital_outputs[0]),
+        u32::from(scan.digital_outputs[1]),
+        // Reserved.
+        0,
         clamp_u32(scan.scan_frequency_hz * 100.0),
         clamp_u32(scan.measurement_frequency_hz / 100.0),
-        scan.encoders.len().min(usize::from(u16::MAX)),
-    );
-    for encoder in scan.encoders.iter().take(usize::from(u16::MAX)) {
-        let _ = write!(s, " {:X} {:X}", encoder.position_ticks, encoder.speed_raw);
+    ];
+    for value in header {
+        push_hex(out, value);
     }
-    let _ = write!(
-        s,
-        " 1 DIST1 {:08X} {:08X} {:X} {:X} {:X}",
-        scan.scale_factor.to_bits(),
-        scan.scale_offset.to_bits(),
-        scan.start_angle_sick_1e4deg as u32,
-        scan.step_1e4deg.min(u32::from(u16::MAX)),
-        n,
-    );
-    for raw in &scan.dist_raw[..n] {
-        let _ = write!(s, " {raw:X}");
+    let encoders = &scan.encoders[..scan.encoders.len().min(usize::from(u16::MAX))];
+    push_hex(out, encoders.len() as u32);
+    for encoder in encoders {
+        push_hex(out, encoder.position_ticks);
+        push_hex(out, u32::from(encoder.speed_raw));
     }
+    out.extend_from_slice(b" 1 DIST1");
+    push_hex_8_digits(out, scan.scale_factor.to_bits());
+    push_hex_8_digits(out, scan.scale_offset.to_bits());
+    // Two's complement: the bit pattern is the signed value.
+    push_hex(out, scan.start_angle_sick_1e4deg as u32);
+    push_hex(out, scan.step_1e4deg.min(u32::from(u16::MAX)));
+    push_hex(out, n as u32);
+    push_hex_u16s(out, &scan.dist_raw[..n]);
     // 8-bit channels, position, name, comment, time, event info: all absent.
-    s.push_str(" 0 0 0 0 0 0\x03");
-    s.into_bytes()
+    out.extend_from_slice(b" 0 0 0 0 0 0\x03");
+}
+
+const HEX_DIGITS: &[u8; 16] = b"0123456789ABCDEF";
+
+/// Appends a space and `value` in upper-case hex without leading zeros
+/// (what `{:X}` writes), one table look-up per digit.
+fn push_hex(out: &mut Vec<u8>, value: u32) {
+    let digits = (8 - value.leading_zeros() as usize / 4).max(1);
+    let mut text = [b' '; 9];
+    for (i, slot) in text[1..=digits].iter_mut().enumerate() {
+        let shift = 4 * (digits - 1 - i);
+        *slot = HEX_DIGITS[((value >> shift) & 0xF) as usize];
+    }
+    out.extend_from_slice(&text[..=digits]);
+}
+
+/// Appends ` {:X}` of each value: the buffer is grown once for the longest
+/// text and the digits written in place (a scan is hundreds of values).
+fn push_hex_u16s(out: &mut Vec<u8>, values: &[u16]) {
+    let start = out.len();
+    out.resize(start + 5 * values.len(), 0);
+    let mut end = start;
+    for &value in values {
+        let value = u32::from(value);
+        let digits = (35 - (value | 1).leading_zeros() as usize) / 4;
+        let text = &mut out[end..end + 1 + digits];
+        text[0] = b' ';
+        for (i, slot) in text[1..].iter_mut().enumerate() {
+            *slot = HEX_DIGITS[((value >> (4 * (digits - 1 - i))) & 0xF) as usize];
+        }
+        end += 1 + digits;
+    }
+    out.truncate(end);
+}
+
+/// Appends a space and all eight hex digits of `value` (`{:08X}`).
+fn push_hex_8_digits(out: &mut Vec<u8>, value: u32) {
+    let mut text = [b' '; 9];
+    for (i, slot) in text[1..].iter_mut().enumerate() {
+        *slot = HEX_DIGITS[((value >> (28 - 4 * i)) & 0xF) as usize];
+    }
+    out.extend_from_slice(&text);
 }
 
 // ---------------------------------------------------------------------------
@@ -781,9 +973,10 @@ pub fn parse_telegram(telegram: &[u8]) -> Result<ColaTelegram, ColaError> {
             };
             Ok(ColaTelegram::EventAck { event, subscribed })
         }
-        b"sRA" | b"sSN" if tokens.tokens.get(1).is_some_and(|name| *name == SCAN_DATA) => {
+        b"sRA" | b"sSN" if tokens.peek() == Some(SCAN_DATA) => {
             tokens.skip("command name")?;
-            parse_scan_fields(&mut tokens).map(|scan| ColaTelegram::ScanData(Box::new(scan)))
+            let mut scan = Box::<ScanTelegram>::default();
+            parse_scan_fields(&mut tokens, &mut scan).map(|()| ColaTelegram::ScanData(scan))
         }
         _ => Ok(ColaTelegram::Other {
             command_type: quote(command_type),
@@ -1385,6 +1578,84 @@ mod tests {
                     prop_assert!((a - b).abs() <= 0.5e-3 + 1e-5, "beam {} range {} vs {}", i, a, b);
                 }
             }
+        }
+
+        /// Every field the encoder writes comes back from the parser,
+        /// whatever its value, and parsing into a telegram left over from
+        /// another scan (as the simulator does) gives the same as a fresh one.
+        #[test]
+        fn any_telegram_round_trips_through_encoder_and_parser(
+            header in proptest::collection::vec(any::<u32>(), 9),
+            status in proptest::collection::vec(any::<u16>(), 6),
+            start_1e4deg in any::<i32>(),
+            step_1e4deg in 1u32..=65535,
+            scale_factor in 1e-3f32..1e3,
+            scale_offset in -1.0f32..1e3,
+            encoders in proptest::collection::vec((any::<u32>(), any::<u16>()), 0..4),
+            dist_raw in proptest::collection::vec(any::<u16>(), 0..700),
+            previous in proptest::collection::vec(any::<u16>(), 0..700),
+        ) {
+            let telegram = ScanTelegram {
+                version: status[0],
+                device_number: status[1],
+                serial_number: header[0],
+                device_status: [status[2], status[3]],
+                telegram_counter: header[1],
+                scan_counter: header[2],
+                time_since_startup_us: header[3],
+                time_of_transmission_us: header[4],
+                digital_inputs: [status[4], status[5]],
+                digital_outputs: [(header[5] & 0xFFFF) as u16, (header[6] & 0xFFFF) as u16],
+                // Whole units of the wire's 1/100 Hz and 100 Hz.
+                scan_frequency_hz: f64::from(header[7]) / 100.0,
+                measurement_frequency_hz: f64::from(header[8] >> 8) * 100.0,
+                encoders: encoders
+                    .iter()
+                    .map(|&(position_ticks, speed_raw)| EncoderReading { position_ticks, speed_raw })
+                    .collect(),
+                start_angle_sick_1e4deg: start_1e4deg,
+                step_1e4deg,
+                scale_factor,
+                scale_offset: scale_offset.max(0.0),
+                dist_raw,
+            };
+            let mut bytes = vec![b'x'; 3];
+            encode_lmd_scandata_into(&telegram, &mut bytes);
+            prop_assert_eq!(&bytes, &encode_lmd_scandata(&telegram));
+            let fresh = parse_lmd_scandata(&bytes).unwrap();
+            prop_assert_eq!(&fresh, &telegram);
+            let mut reused = telegram_from_scan(
+                &Scan {
+                    t: Duration::ZERO,
+                    scan_counter: 7,
+                    start_angle_rad: 0.1,
+                    step_rad: 0.01,
+                    ranges_m: previous.iter().map(|&r| f32::from(r) / 1000.0).collect(),
+                },
+                25.0,
+                9,
+            );
+            parse_lmd_scandata_into(&bytes, &mut reused).unwrap();
+            prop_assert_eq!(&reused, &telegram);
+        }
+
+        /// The table-driven hex writer writes what `{:X}` and `{:08X}` do.
+        #[test]
+        fn hex_writer_matches_the_formatter(
+            value in any::<u32>(),
+            small in 0u32..0x100,
+            beams in proptest::collection::vec(any::<u16>(), 0..40),
+        ) {
+            for v in [value, small] {
+                let mut out = Vec::new();
+                push_hex(&mut out, v);
+                push_hex_8_digits(&mut out, v);
+                prop_assert_eq!(String::from_utf8(out).unwrap(), format!(" {v:X} {v:08X}"));
+            }
+            let mut out = b"head".to_vec();
+            push_hex_u16s(&mut out, &beams);
+            let expected: String = beams.iter().map(|b| format!(" {b:X}")).collect();
+            prop_assert_eq!(String::from_utf8(out).unwrap(), format!("head{expected}"));
         }
     }
 }
