@@ -1,7 +1,9 @@
 """A pose goal beside the rover and RTL with home behind it, as a ground
 station drives them: DO_REPOSITION with a heading (param 4), then RTL; the
 final pose is checked from the telemetry (GLOBAL_POSITION_INT, ATTITUDE),
-and every "Reached destination" against it."""
+and every verdict against it: "Reached destination" when the estimate can
+confirm the tolerance, "Stopped at … unconfirmed" when its σ cannot (the
+simulator's GNSS wanders 5 mm per axis against a 10 mm tolerance)."""
 
 import math
 import time
@@ -18,7 +20,7 @@ def wait_verdict(m, seconds):
         if msg is None:
             continue
         texts.append(msg.text)
-        if msg.text.startswith("Reached destination") or msg.text.startswith("Destination NOT reached"):
+        if msg.text.startswith(("Reached destination", "Destination NOT reached", "Stopped at")):
             return msg.text, texts
     raise AssertionError(f"no verdict: {texts}")
 
@@ -43,7 +45,7 @@ def test_rtl_with_home_behind_ends_on_home_facing_the_start_heading(start_sitl):
     assert ack.result == mavlink.MAV_RESULT_ACCEPTED
     assert wait_mode(m, "GUIDED")
     verdict, texts = wait_verdict(m, 120)
-    assert verdict.startswith("Reached destination"), texts
+    assert verdict.startswith(("Reached destination", "Stopped at destination")), texts
     assert distance(*position(m), *target) < 0.03
     assert abs((yaw_deg(m) - 90 + 180) % 360 - 180) < 0.2
 
@@ -52,7 +54,7 @@ def test_rtl_with_home_behind_ends_on_home_facing_the_start_heading(start_sitl):
     m.set_mode("RTL")
     assert wait_mode(m, "RTL")
     verdict, texts = wait_verdict(m, 120)
-    assert verdict == "Reached destination: home", texts
+    assert verdict == "Reached destination: home" or verdict.startswith("Stopped at home"), texts
     assert not any("ailsafe" in t for t in texts), texts
     # GLOBAL_POSITION_INT's 1e-7° steps are about 1 cm.
     assert distance(*position(m), lat0, lon0) < 0.03
