@@ -161,3 +161,50 @@ fn an_rtk_grade_fix_confirms_the_stop_and_the_default_one_does_not() {
     assert!(verdict.contains("unconfirmed"), "{:?}", h.texts());
     check_reached(&h, &verdict, -3.0, 2.0, Some(0.0));
 }
+
+/// AUTO: a mission stop with a heading (NAV_WAYPOINT param 4, 90° true)
+/// beside-ahead of the vehicle is reached as a pose goal when `MNV_WP_YAW`
+/// is set, and reported reached (MISSION_ITEM_REACHED) only by the stop on
+/// that heading; without it the heading is ignored, as ArduPilot Rover does.
+#[test]
+fn a_mission_stop_with_a_heading_is_reached_facing_it() {
+    use mission::command::{cmd, frame};
+    use mission::{ExecState, MissionType, Plan};
+    for honour in [true, false] {
+        let mut h = Harness::new(5, ModelKind::Ackermann);
+        h.sim
+            .core_mut()
+            .params_mut()
+            .set_by_name("MNV_WP_YAW", f64::from(u8::from(honour)))
+            .unwrap();
+        let items = vec![
+            common::item(0, cmd::NAV_WAYPOINT, frame::LOCAL_NED, [0.0; 4], 0.0, 0.0),
+            common::item(1, cmd::NAV_WAYPOINT, frame::LOCAL_NED, [0.0, 0.0, 0.0, 90.0], 10.0, 0.0),
+        ];
+        h.sim
+            .core_mut()
+            .load_plan(MissionType::Mission, Plan::new(MissionType::Mission, items));
+        h.run_for(5.0);
+        h.arm();
+        h.set_mode(10);
+        let done = h.run_until(240.0, |s| s.core().mission_state() == ExecState::Complete);
+        let texts = h.texts();
+        assert!(done, "{texts:?}");
+        // LOCAL_NED items are about the estimator's origin (the first fix).
+        let origin = h.sim.core().estimator().frame().expect("a local frame").origin();
+        let (north, east) = h.sim.world().geodetic_to_local(&drivers::sim::GeoPoint {
+            lat_deg: origin.lat_deg,
+            lon_deg: origin.lon_deg,
+            alt_m: 0.0,
+        });
+        let (m, yaw_deg) = pose_error(&h, north + 10.0, east, Some(if honour { 90.0 } else { 0.0 }));
+        assert!(
+            m < 0.03 && yaw_deg.abs() < 0.1,
+            "honour {honour}: truth {:.1} mm, {yaw_deg:.3}°: {texts:?}",
+            m * 1000.0
+        );
+        assert!(texts.iter().any(|t| t == "Reached waypoint #1"), "{texts:?}");
+        let manoeuvres = texts.iter().filter(|t| t.starts_with("Manoeuvre")).count();
+        assert_eq!(manoeuvres > 0, honour, "{texts:?}");
+    }
+}

@@ -51,6 +51,9 @@ pub(super) struct PoseGoal {
     pub retried: bool,
     /// Driving a straight leg to a far goal: its heading comes after.
     pub turn_after_leg: bool,
+    /// The mission item this is the stop of (AUTO), reported reached or
+    /// not by the final stop.
+    pub seq: Option<u16>,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -101,10 +104,48 @@ impl Core {
             speed_mps,
             retried: false,
             turn_after_leg: false,
+            seq: None,
         };
         self.goals.goal = Some(goal);
         self.goals.confirming = None;
         self.drive_to_goal(goal, false)
+    }
+
+    /// AUTO: a mission stop (item `seq`) with a heading, driven as a pose
+    /// goal. False (with a STATUSTEXT) when no manoeuvre fits.
+    pub(super) fn navigate_to_mission_pose(
+        &mut self,
+        point: Ned,
+        yaw_rad: f64,
+        speed_mps: Option<f64>,
+        seq: u16,
+    ) -> bool {
+        let goal = PoseGoal {
+            point,
+            yaw_rad: Some(yaw_rad),
+            speed_mps,
+            retried: true,
+            turn_after_leg: false,
+            seq: Some(seq),
+        };
+        self.goals.goal = Some(goal);
+        self.goals.confirming = None;
+        self.drive_to_goal(goal, false)
+    }
+
+    /// AUTO: the straight leg of a mission pose has ended; the manoeuvre
+    /// onto its heading follows (the mission sees no arrival until then).
+    /// True when one was started.
+    pub(super) fn turn_after_mission_leg(&mut self) -> bool {
+        let Some(mut goal) = self.goals.goal.filter(|g| g.turn_after_leg && g.seq.is_some()) else {
+            return false;
+        };
+        if !self.navigator.arrived() {
+            return false;
+        }
+        goal.turn_after_leg = false;
+        self.goals.goal = Some(goal);
+        self.drive_to_goal(goal, true)
     }
 
     fn drive_to_goal(&mut self, mut goal: PoseGoal, manoeuvre_only: bool) -> bool {
@@ -126,6 +167,8 @@ impl Core {
                 NavTarget {
                     speed_mps: goal.speed_mps,
                     direction,
+                    // A heading still to come: this stop is not the item's.
+                    seq: goal.seq.filter(|_| !turn_after_leg),
                     ..NavTarget::stop_at(goal.point)
                 },
             );
@@ -143,7 +186,7 @@ impl Core {
                         ),
                     );
                 }
-                self.navigator.set_manoeuvre(manoeuvre, goal.speed_mps, None);
+                self.navigator.set_manoeuvre(manoeuvre, goal.speed_mps, goal.seq);
                 true
             }
             Err(why) => {
