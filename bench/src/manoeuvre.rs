@@ -106,6 +106,8 @@ impl Run {
         let mut last_sign = 0.0;
         while self.sim.time().as_secs_f64() < end {
             let out = self.sim.step(Duration::ZERO, &mut self.timer);
+            // A long text goes out in 50-character chunks, several a step.
+            let before = texts.len();
             for o in out.mavlink.drain(..) {
                 if let MavMessage::STATUSTEXT(t) = o.message {
                     texts.push(t.text.to_str().unwrap_or("").to_string());
@@ -118,7 +120,7 @@ impl Run {
                 }
                 last_sign = speed.signum();
             }
-            if texts.last().is_some_and(|t| done(t)) {
+            if texts[before..].iter().any(|t| done(t)) {
                 return (texts, changes, true);
             }
         }
