@@ -320,9 +320,11 @@ impl Core {
             .map_or(f64::INFINITY, |s| s.heading_sigma_rad);
         let position_bound_m = error_m + CONFIRM_POSITION_SIGMAS * sigma_m;
         let yaw_bound_rad = yaw_error_rad.abs() + CONFIRM_YAW_SIGMAS * yaw_sigma_rad;
-        if !(position_bound_m <= tolerance.position_m) {
+        // False for a NaN bound: an estimate that cannot say is not sure.
+        let confirms = |bound: f64, limit: f64| bound <= limit;
+        if !confirms(position_bound_m, tolerance.position_m) {
             Some(format!("position sigma {:.1} mm", sigma_m * 1000.0))
-        } else if !(yaw_bound_rad <= tolerance.yaw_rad) {
+        } else if !confirms(yaw_bound_rad, tolerance.yaw_rad) {
             Some(format!("heading sigma {:.3} deg", yaw_sigma_rad.to_degrees()))
         } else {
             None
