@@ -29,13 +29,22 @@ fn guided_goto_40_m_reaches_and_holds_then_rtl_returns() {
     h.set_mode(11);
     let home = h.run_until(120.0, |s| s.core().navigator().arrived());
     assert!(home, "RTL did not arrive");
-    h.run_for(3.0);
+    // The verdict waits up to 8 s at rest for the estimate to be sure.
+    h.run_for(10.0);
     assert!(
         h.distance_to(0.0, 0.0) < 2.0,
         "RTL ended {:.2} m from home",
         h.distance_to(0.0, 0.0)
     );
-    assert!(h.texts().iter().any(|t| t.contains("Reached destination")));
+    // Arrived at home: claimed, or (the default GNSS cannot confirm 10 mm)
+    // said to be stopped there unconfirmed.
+    assert!(
+        h.texts()
+            .iter()
+            .any(|t| t.starts_with("Reached destination") || t.starts_with("Stopped at home")),
+        "{:?}",
+        h.texts()
+    );
 }
 
 #[test]

@@ -70,10 +70,12 @@ pub enum Position {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MissionCommand {
     /// NAV_WAYPOINT (and NAV_TAKEOFF): drive there; `hold_s` > 0 stops and
-    /// waits.
+    /// waits. `yaw_deg`: param 4, the true heading to stop facing (NaN:
+    /// none); the vehicle decides whether it honours it.
     Waypoint {
         position: Position,
         hold_s: f32,
+        yaw_deg: Option<f32>,
     },
     /// NAV_LOITER_UNLIM: drive there, stop, never complete.
     LoiterUnlimited {
@@ -339,9 +341,15 @@ fn waypoint(item: &MissionItem) -> Result<MissionCommand> {
     if !(0.0..=limits::MAX_DURATION_S).contains(&hold_s) {
         return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
     }
+    let yaw_deg = if item.command == cmd::NAV_WAYPOINT {
+        optional(item, 4)?
+    } else {
+        None
+    };
     Ok(MissionCommand::Waypoint {
         position: position(item)?,
         hold_s,
+        yaw_deg,
     })
 }
 
@@ -580,7 +588,8 @@ mod tests {
                     lat_e7: 291_330_000,
                     lon_e7: 1_196_400_000
                 },
-                hold_s: 5.0
+                hold_s: 5.0,
+                yaw_deg: None,
             })
         );
         // ENU: x east, y north, 0.1 mm units.
@@ -592,8 +601,30 @@ mod tests {
                     north_m: -6.7891,
                     east_m: 1.2345
                 },
-                hold_s: 0.0
+                hold_s: 0.0,
+                yaw_deg: Some(0.0),
             })
+        );
+        // Param 4: the heading to stop facing, NaN for none; infinite is
+        // refused.
+        let facing_east = item(cmd::NAV_WAYPOINT, frame::LOCAL_ENU, [0.0, 0.0, 0.0, 90.0], 1, 1);
+        assert!(matches!(
+            interpret_mission(&facing_east, 10),
+            Ok(MissionCommand::Waypoint {
+                yaw_deg: Some(90.0),
+                ..
+            })
+        ));
+        let bad_yaw = item(
+            cmd::NAV_WAYPOINT,
+            frame::LOCAL_ENU,
+            [0.0, 0.0, 0.0, f32::INFINITY],
+            1,
+            1,
+        );
+        assert_eq!(
+            interpret_mission(&bad_yaw, 10),
+            Err(MavMissionResult::MAV_MISSION_INVALID_PARAM4)
         );
     }
 
@@ -741,7 +772,8 @@ mod tests {
             interpret_mission(&here, 5),
             Ok(MissionCommand::Waypoint {
                 position: Position::Current,
-                hold_s: 0.0
+                hold_s: 0.0,
+                yaw_deg: Some(0.0),
             })
         );
         let rally = item(cmd::NAV_RALLY_POINT, frame::GLOBAL, [0.0; 4], 0, 0);

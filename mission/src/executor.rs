@@ -34,6 +34,8 @@ pub struct NavLeg {
     pub reverse: bool,
     /// Stop exactly at `to` (a precision stop) rather than drive through.
     pub stop: bool,
+    /// A stop's heading (NAV_WAYPOINT param 4, true, degrees), if given.
+    pub yaw_deg: Option<f32>,
 }
 
 /// What the vehicle should do.
@@ -363,7 +365,11 @@ impl MissionExecutor {
         self.last_nav_seq = Some(seq);
         actions.push(Action::CurrentChanged(seq));
         match command {
-            MissionCommand::Waypoint { position, hold_s } => {
+            MissionCommand::Waypoint {
+                position,
+                hold_s,
+                yaw_deg,
+            } => {
                 let stop = hold_s > 0.0 || self.stops_after(seq);
                 let next = if stop { None } else { self.next_nav_position(seq) };
                 actions.push(Action::Navigate(NavLeg {
@@ -373,6 +379,7 @@ impl MissionExecutor {
                     next,
                     reverse: self.reverse,
                     stop,
+                    yaw_deg: yaw_deg.filter(|_| stop),
                 }));
                 self.last_nav_position = Some(position);
             }
@@ -384,6 +391,7 @@ impl MissionExecutor {
                     next: None,
                     reverse: self.reverse,
                     stop: true,
+                    yaw_deg: None,
                 }));
                 self.last_nav_position = Some(position);
             }

@@ -169,6 +169,10 @@ declare_params! {
             default: 0.5, range: 0.05, 5.0, unit: "m/s",
             desc: "Speed limit on a manoeuvre",
         },
+        mission_yaw: bool = "MNV_WP_YAW" => {
+            default: false, range: 0, 1, unit: "",
+            desc: "1: a mission stop's NAV_WAYPOINT param 4 is the heading to stop facing (NaN none); 0 ignores it as ArduPilot Rover does",
+        },
     }
 }
 

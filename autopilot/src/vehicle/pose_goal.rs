@@ -29,6 +29,17 @@ const MIN_LEG_M: f64 = 0.01;
 /// behind: the capture turn and the settling after it fit in the leg.
 const FAR_RADII: f64 = 4.0;
 
+/// "Reached" is claimed only when the estimate's stop error plus its
+/// uncertainty is within tolerance: the stop error plus the radius that holds
+/// 95 % of a circular Gaussian whose horizontal σ is `horiz_sigma_m`
+/// (per axis σ/√2, radius √(−2·ln 0.05)·σ/√2 = 1.731 σ)…
+const CONFIRM_POSITION_SIGMAS: f64 = 1.731;
+/// …and the yaw error plus 1.96 σ of the heading. At rest the estimate
+/// keeps averaging fixes, so an unconfirmed stop waits up to this long for
+/// its σ to shrink before it is reported unconfirmed.
+const CONFIRM_YAW_SIGMAS: f64 = 1.96;
+const CONFIRM_WAIT_S: f64 = 8.0;
+
 /// Where GUIDED or RTL is driving to.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct PoseGoal {
@@ -40,6 +51,9 @@ pub(super) struct PoseGoal {
     pub retried: bool,
     /// Driving a straight leg to a far goal: its heading comes after.
     pub turn_after_leg: bool,
+    /// The mission item this is the stop of (AUTO), reported reached or
+    /// not by the final stop.
+    pub seq: Option<u16>,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -51,6 +65,19 @@ pub(super) struct PoseGoalState {
     /// A mission stop that ended out of tolerance: it is not reported
     /// reached.
     pub missed_seq: Option<u16>,
+    /// A GUIDED/RTL stop in tolerance by the estimate, waiting for the
+    /// estimate to be sure of it.
+    pub confirming: Option<Confirming>,
+}
+
+/// A stop waiting for its verdict: where it should be, facing which way,
+/// in which mode, and for how long it has waited.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Confirming {
+    point: Ned,
+    yaw_rad: f64,
+    mode: Mode,
+    waited_s: f64,
 }
 
 impl Core {
@@ -77,9 +104,48 @@ impl Core {
             speed_mps,
             retried: false,
             turn_after_leg: false,
+            seq: None,
         };
         self.goals.goal = Some(goal);
+        self.goals.confirming = None;
         self.drive_to_goal(goal, false)
+    }
+
+    /// AUTO: a mission stop (item `seq`) with a heading, driven as a pose
+    /// goal. False (with a STATUSTEXT) when no manoeuvre fits.
+    pub(super) fn navigate_to_mission_pose(
+        &mut self,
+        point: Ned,
+        yaw_rad: f64,
+        speed_mps: Option<f64>,
+        seq: u16,
+    ) -> bool {
+        let goal = PoseGoal {
+            point,
+            yaw_rad: Some(yaw_rad),
+            speed_mps,
+            retried: true,
+            turn_after_leg: false,
+            seq: Some(seq),
+        };
+        self.goals.goal = Some(goal);
+        self.goals.confirming = None;
+        self.drive_to_goal(goal, false)
+    }
+
+    /// AUTO: the straight leg of a mission pose has ended; the manoeuvre
+    /// onto its heading follows (the mission sees no arrival until then).
+    /// True when one was started.
+    pub(super) fn turn_after_mission_leg(&mut self) -> bool {
+        let Some(mut goal) = self.goals.goal.filter(|g| g.turn_after_leg && g.seq.is_some()) else {
+            return false;
+        };
+        if !self.navigator.arrived() {
+            return false;
+        }
+        goal.turn_after_leg = false;
+        self.goals.goal = Some(goal);
+        self.drive_to_goal(goal, true)
     }
 
     fn drive_to_goal(&mut self, mut goal: PoseGoal, manoeuvre_only: bool) -> bool {
@@ -101,6 +167,8 @@ impl Core {
                 NavTarget {
                     speed_mps: goal.speed_mps,
                     direction,
+                    // A heading still to come: this stop is not the item's.
+                    seq: goal.seq.filter(|_| !turn_after_leg),
                     ..NavTarget::stop_at(goal.point)
                 },
             );
@@ -118,7 +186,7 @@ impl Core {
                         ),
                     );
                 }
-                self.navigator.set_manoeuvre(manoeuvre, goal.speed_mps, None);
+                self.navigator.set_manoeuvre(manoeuvre, goal.speed_mps, goal.seq);
                 true
             }
             Err(why) => {
@@ -173,16 +241,17 @@ impl Core {
             self.drive_to_goal(goal, true);
             return;
         }
-        let within = report.is_some_and(|r| r.within_tolerance);
-        if within {
-            let text = match self.mode {
-                Mode::Rtl => "Reached destination: home".to_string(),
-                _ => format!(
-                    "Reached destination: {:.1} mm",
-                    report.map_or(0.0, StopReport::position_error_m) * 1000.0
-                ),
+        if let Some(report) = report.filter(|r| r.within_tolerance) {
+            let (Some(target), estimate) = (self.navigator.target(), self.estimator.estimate()) else {
+                return;
             };
-            self.send_text(MavSeverity::MAV_SEVERITY_INFO, &text);
+            self.goals.confirming = Some(Confirming {
+                point: target.point,
+                yaw_rad: wrap_pi(estimate.yaw_rad - report.yaw_error_rad),
+                mode: self.mode,
+                waited_s: 0.0,
+            });
+            self.confirm_arrival(0.0);
             return;
         }
         let miss = report.map_or(String::from("no stop report"), |r| {
@@ -206,6 +275,59 @@ impl Core {
                 MavSeverity::MAV_SEVERITY_WARNING,
                 &format!("Destination NOT reached: {miss}"),
             ),
+        }
+    }
+
+    /// A stop in tolerance by the estimate, resting: "Reached destination"
+    /// once the estimate is sure of it (its error plus its uncertainty
+    /// within tolerance); after `CONFIRM_WAIT_S` without, "Stopped at
+    /// destination … unconfirmed" with the σ that kept it from a claim
+    /// (another approach would end as uncertain, so there is no retry).
+    pub(super) fn confirm_arrival(&mut self, dt_s: f64) {
+        let Some(mut confirming) = self.goals.confirming.filter(|c| c.mode == self.mode) else {
+            self.goals.confirming = None;
+            return;
+        };
+        confirming.waited_s += dt_s;
+        let estimate = *self.estimator.estimate();
+        let error_m = estimate.position.distance_to(&confirming.point);
+        let yaw_error_rad = wrap_pi(estimate.yaw_rad - confirming.yaw_rad);
+        let error_mm = error_m * 1000.0;
+        let text = match (self.unconfirmed_because(error_m, yaw_error_rad), self.mode) {
+            (None, Mode::Rtl) => "Reached destination: home".to_string(),
+            (None, _) => format!("Reached destination: {error_mm:.1} mm"),
+            (Some(_), _) if confirming.waited_s < CONFIRM_WAIT_S => {
+                self.goals.confirming = Some(confirming);
+                return;
+            }
+            (Some(why), Mode::Rtl) => format!("Stopped at home: {error_mm:.1} mm, unconfirmed ({why})"),
+            (Some(why), _) => format!("Stopped at destination: {error_mm:.1} mm, unconfirmed ({why})"),
+        };
+        self.goals.confirming = None;
+        self.send_text(MavSeverity::MAV_SEVERITY_INFO, &text);
+    }
+
+    /// Why a stop `error_m`, `yaw_error_rad` from its pose by the estimate
+    /// cannot be claimed within tolerance: the error is past it, or the
+    /// estimate's uncertainty reaches past it (a GNSS whose wander is a good
+    /// part of `WP_STOP_TOL_MM`). None: confirmed.
+    fn unconfirmed_because(&self, error_m: f64, yaw_error_rad: f64) -> Option<String> {
+        let tolerance = self.nav_config().stop;
+        let sigma_m = self.estimator.estimate().horiz_sigma_m;
+        let yaw_sigma_rad = self
+            .estimator
+            .ekf_status()
+            .map_or(f64::INFINITY, |s| s.heading_sigma_rad);
+        let position_bound_m = error_m + CONFIRM_POSITION_SIGMAS * sigma_m;
+        let yaw_bound_rad = yaw_error_rad.abs() + CONFIRM_YAW_SIGMAS * yaw_sigma_rad;
+        // False for a NaN bound: an estimate that cannot say is not sure.
+        let confirms = |bound: f64, limit: f64| bound <= limit;
+        if !confirms(position_bound_m, tolerance.position_m) {
+            Some(format!("position sigma {:.1} mm", sigma_m * 1000.0))
+        } else if !confirms(yaw_bound_rad, tolerance.yaw_rad) {
+            Some(format!("heading sigma {:.3} deg", yaw_sigma_rad.to_degrees()))
+        } else {
+            None
         }
     }
 

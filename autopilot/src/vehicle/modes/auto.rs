@@ -43,6 +43,16 @@ impl Core {
         }
     }
 
+    /// The heading (local frame) a mission stop is to end facing: its
+    /// NAV_WAYPOINT param 4 when `MNV_WP_YAW` is set.
+    fn mission_stop_yaw(&self, leg: &mission::NavLeg, to: Ned) -> Option<f64> {
+        let yaw_deg = leg
+            .yaw_deg
+            .filter(|_| leg.stop && self.p.manoeuvre.mission_yaw.get(&self.params))?;
+        let at = self.frame()?.to_geodetic(&to);
+        self.local_yaw(&at, f64::from(yaw_deg).to_radians())
+    }
+
     /// AUTO entered: start the mission, or resume it (`MIS_RESTART` 0).
     pub(in crate::vehicle) fn start_mission(&mut self) {
         let restart = self.p.mission.restart.get(&self.params);
@@ -56,6 +66,9 @@ impl Core {
 
     /// One AUTO step of the executor.
     pub(in crate::vehicle) fn run_mission(&mut self) {
+        // A stop with a heading: its straight leg ended, the manoeuvre onto
+        // the heading starts, and the mission waits for it.
+        self.turn_after_mission_leg();
         let status = self.navigator.status();
         let report = VehicleReport {
             // On a detour the leg's waypoint is not reached yet.
@@ -84,6 +97,13 @@ impl Core {
                         continue;
                     };
                     let next = leg.next.and_then(|p| self.resolve(&p));
+                    let speed_mps = self.missions.speed_mps;
+                    if let Some(yaw_rad) = self.mission_stop_yaw(&leg, to)
+                        && self.navigate_to_mission_pose(to, yaw_rad, speed_mps, leg.seq)
+                    {
+                        continue;
+                    }
+                    self.goals.goal = None;
                     let target = NavTarget {
                         point: to,
                         speed_mps: self.missions.speed_mps,

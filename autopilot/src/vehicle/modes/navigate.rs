@@ -30,6 +30,8 @@ impl Core {
         // AUTO reports its own arrivals (MISSION_ITEM_REACHED).
         if self.mode != Mode::Auto && self.navigator.arrived() && !was_arrived && self.navigator.target().is_some() {
             self.announce_arrival(report.as_ref());
+        } else if self.goals.confirming.is_some() {
+            self.confirm_arrival(dt_s);
         }
         // Arrived (or nothing to do): stop outright, so no integrator
         // keeps the wheels creeping.
