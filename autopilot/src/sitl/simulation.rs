@@ -14,6 +14,8 @@ use params::{ParamTable, ParamTableBuilder};
 
 use super::faults::Faults;
 use super::params::SimParams;
+use crate::control::defaults;
+use crate::control::mixer::DriveTrain;
 use crate::time::{Now, TaskTimer};
 use crate::vehicle::{Core, CoreParams, Inputs, Outputs, ScanInput, SimTruth};
 
@@ -66,7 +68,7 @@ impl SimulationParams {
         builder.override_default("GPS_POS1_X", 0.5);
         if model == ModelKind::Differential {
             let diff = DifferentialConfig::default();
-            builder.override_default("VEH_DRIVE", 1.0);
+            defaults::apply(&mut builder, DriveTrain::Differential);
             builder.override_default("VEH_TRACK", diff.track_m);
             builder.override_default("VEH_WHEELBASE", 1.0);
             builder.override_default("CRUISE_SPEED", diff.wheel_speed_max_mps / 2.0);
