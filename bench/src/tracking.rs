@@ -40,6 +40,39 @@ const AFTER_TURN_M: f64 = 3.0;
 /// A stop's settling time runs from the vehicle first coming this close to
 /// the point (true pose) to the stop report.
 const SETTLE_WINDOW_M: f64 = 0.03;
+/// The vehicle is at rest below this true speed, and moving again (a
+/// re-approach) above the second figure.
+const REST_MPS: f64 = 0.002;
+const MOVING_AGAIN_MPS: f64 = 0.005;
+
+/// Where a stop's settling time goes, from the truth: from first coming
+/// within [`SETTLE_WINDOW_M`] of the point to first resting (the final
+/// creep), and how often it moved off again (re-approaches).
+#[derive(Clone, Copy, Debug, Default)]
+struct SettleWatch {
+    within_since_s: Option<f64>,
+    first_rest_s: Option<f64>,
+    resting: bool,
+    restarts: u32,
+}
+
+impl SettleWatch {
+    fn update(&mut self, time_s: f64, to_go_m: f64, speed_mps: f64) {
+        if self.within_since_s.is_none() && to_go_m <= SETTLE_WINDOW_M {
+            self.within_since_s = Some(time_s);
+        }
+        if self.within_since_s.is_none() {
+            return;
+        }
+        if speed_mps.abs() < REST_MPS {
+            self.first_rest_s.get_or_insert(time_s);
+            self.resting = true;
+        } else if self.resting && speed_mps.abs() > MOVING_AGAIN_MPS {
+            self.resting = false;
+            self.restarts += 1;
+        }
+    }
+}
 
 #[derive(clap::Args, Debug)]
 pub struct TrackingBenchArgs {
@@ -128,6 +161,11 @@ pub struct StopRecord {
     /// From first coming within [`SETTLE_WINDOW_M`] of the point (truth) to
     /// the report; None if it never came that close.
     pub settle_s: Option<f64>,
+    /// Of which the final creep: from within [`SETTLE_WINDOW_M`] to first
+    /// resting.
+    pub creep_s: Option<f64>,
+    /// Times it moved off again after resting (re-approaches).
+    pub restarts: u32,
     pub direction: Direction,
 }
 
@@ -279,7 +317,7 @@ struct LegKey {
     point: Ned,
 }
 
-const TRACE_HEADER: &str = "t_s,seq,piece,class,true_xtrack_mm,est_xtrack_mm,est_minus_true_along_mm,steer_deg,ff_deg,lat_err_mm,yaw_err_deg,speed_cmd_mps,true_speed_mps,true_steer_deg,capturing\n";
+const TRACE_HEADER: &str = "t_s,seq,piece,class,true_xtrack_mm,est_xtrack_mm,est_minus_true_along_mm,steer_deg,ff_deg,lat_err_mm,yaw_err_deg,speed_cmd_mps,true_speed_mps,true_steer_deg,capturing,est_speed_mps,true_to_go_mm\n";
 
 struct RunOptions<'a> {
     seed: u64,
@@ -332,7 +370,7 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
     let mut odometer_m = 0.0;
     let mut turn_end_odometer_m = 0.0;
     let mut last_heading: Option<f64> = None;
-    let mut within_since_s: Option<f64> = None;
+    let mut settle = SettleWatch::default();
     let mut ticks = 0u64;
     while sim.time().as_secs_f64() - start_s < timeout_s {
         let outputs = sim.step(Duration::ZERO, &mut timer);
@@ -373,7 +411,7 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
         if leg != Some(key) {
             leg = Some(key);
             piece = 0;
-            within_since_s = None;
+            settle = SettleWatch::default();
             // A leg that starts with a change of heading and no arc is a
             // turn too (a corner too tight for an arc).
             let start_heading = path.heading_at(0.0);
@@ -424,7 +462,7 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
             let along_true = path.project(&position, piece).along_m;
             let along_est = path.project(&est, piece).along_m;
             record.trace.push(format!(
-                "{:.2},{},{},{:?},{:.1},{:.1},{:.1},{:.3},{:.3},{:.1},{:.4},{:.3},{:.3},{:.3},{}",
+                "{:.2},{},{},{:?},{:.1},{:.1},{:.1},{:.3},{:.3},{:.1},{:.4},{:.3},{:.3},{:.3},{},{:.4},{:.1}",
                 sim.time().as_secs_f64(),
                 target.seq.unwrap_or(0),
                 piece,
@@ -440,6 +478,8 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
                 truth.speed_mps,
                 truth.steer_rad.to_degrees(),
                 st.tracker.capturing as u8,
+                core.estimator().estimate().speed_mps,
+                (path.end_m() - along_true) * 1000.0,
             ));
         }
         if keep_plot && ticks.is_multiple_of(5) {
@@ -447,8 +487,8 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
         }
 
         let to_go_m = (path.end_m() - projection.along_m).hypot(error);
-        if target.stop && to_go_m <= SETTLE_WINDOW_M && within_since_s.is_none() {
-            within_since_s = Some(sim.time().as_secs_f64());
+        if target.stop {
+            settle.update(sim.time().as_secs_f64(), to_go_m, truth.speed_mps);
         }
         for text in texts.iter().filter(|t| t.starts_with("Stop")) {
             let (reported_mm, reported_yaw_deg) = parse_reported(text).unwrap_or((f64::NAN, f64::NAN));
@@ -468,7 +508,9 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
                 reported_yaw_deg,
                 estimate_error_m: core.estimator().estimate().position.distance_to(&position),
                 estimate_yaw_error_rad: wrap_pi(core.estimator().estimate().yaw_rad - yaw),
-                settle_s: within_since_s.map(|t| sim.time().as_secs_f64() - t),
+                settle_s: settle.within_since_s.map(|t| sim.time().as_secs_f64() - t),
+                creep_s: settle.within_since_s.zip(settle.first_rest_s).map(|(a, b)| b - a),
+                restarts: settle.restarts,
                 direction: target.direction,
             });
         }
@@ -662,13 +704,14 @@ fn report_directions(runs: &[RunRecord]) {
 }
 
 /// How long stops take to settle: from first coming within 30 mm of the
-/// point (true pose) to the stop report, by direction of the approach.
+/// point (true pose) to the stop report, by direction of the approach; and
+/// where it goes: the final creep to first rest, and the re-approaches.
 fn report_settling(runs: &[RunRecord]) {
     println!();
     println!(
-        "| stop settling (within 30 mm → report) | stops | median s | p95 s | max s | worst stop | never within 30 mm |"
+        "| stop settling (within 30 mm → report) | stops | median s | p95 s | max s | worst stop | never within 30 mm | creep to first rest median / max s | re-approached stops (moves) |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for (label, direction) in [("forward", Direction::Forward), ("reverse", Direction::Reverse)] {
         let stops: Vec<&StopRecord> = runs
             .iter()
@@ -679,15 +722,21 @@ fn report_settling(runs: &[RunRecord]) {
         let mut times: Vec<(f64, u16)> = stops.iter().filter_map(|s| s.settle_s.map(|t| (t, s.seq))).collect();
         times.sort_by(|a, b| a.0.total_cmp(&b.0));
         let Some(&(max_s, worst_seq)) = times.last() else {
-            println!("| {label} | {} | – | – | – | – | {never} |", stops.len());
+            println!("| {label} | {} | – | – | – | – | {never} | – | – |", stops.len());
             continue;
         };
         let seconds: Vec<f64> = times.iter().map(|t| t.0).collect();
+        let mut creep: Vec<f64> = stops.iter().filter_map(|s| s.creep_s).collect();
+        creep.sort_by(f64::total_cmp);
+        let reapproached = stops.iter().filter(|s| s.restarts > 0).count();
+        let moves: u32 = stops.iter().map(|s| s.restarts).sum();
         println!(
-            "| {label} | {} | {:.1} | {:.1} | {max_s:.1} | #{worst_seq} | {never} |",
+            "| {label} | {} | {:.1} | {:.1} | {max_s:.1} | #{worst_seq} | {never} | {:.1} / {:.1} | {reapproached} ({moves}) |",
             stops.len(),
             quantile(&seconds, 0.5),
             quantile(&seconds, 0.95),
+            quantile(&creep, 0.5),
+            creep.last().copied().unwrap_or(f64::NAN),
         );
     }
 }

@@ -2,6 +2,7 @@
 //! actuator commands and servo pulse widths.
 
 pub mod ackermann;
+pub mod defaults;
 pub mod mixer;
 pub mod pid;
 pub mod servo;

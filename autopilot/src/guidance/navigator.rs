@@ -42,6 +42,11 @@ const CUSP_TOL_M: f64 = 0.05;
 /// would otherwise spread a full-lock change over metres of a stroke that
 /// may be only a few long.
 const PRESTEER_MAX_S: f64 = 4.0;
+/// A stop is done once the vehicle is slow on it, by its speed averaged
+/// over about this long: the estimate's speed alone is noisier (±10–20 mm/s
+/// on RTK fixes) than the final creep, and waiting for one quiet tick took
+/// seconds.
+const STOP_SPEED_FILTER_S: f64 = 0.5;
 
 /// How close a precision stop must end (`WP_STOP_TOL_MM`, `WP_STOP_TOL_DEG`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -210,6 +215,8 @@ pub struct Navigator {
     carry: Option<Carry>,
     arrived: bool,
     approach_s: f64,
+    /// The speed along the leg, low-passed (`STOP_SPEED_FILTER_S`).
+    travel_speed_mps: f64,
     reapproaches: u32,
     settling: Option<Settling>,
     stop_report: Option<StopReport>,
@@ -336,6 +343,7 @@ impl Navigator {
         });
         self.arrived = false;
         self.approach_s = 0.0;
+        self.travel_speed_mps = 0.0;
         self.reapproaches = 0;
         self.settling = None;
         self.tracker.reset();
@@ -484,6 +492,7 @@ impl Navigator {
         );
         // Signed along the direction of travel.
         let travel_speed = est.speed_mps * target.direction.sign();
+        self.travel_speed_mps += (travel_speed - self.travel_speed_mps) * dt_s / (STOP_SPEED_FILTER_S + dt_s);
 
         let half_tol = 0.5
             * if cusp {
@@ -495,7 +504,7 @@ impl Navigator {
             if remaining.abs() < APPROACH_ZONE_M {
                 self.approach_s += dt_s;
             }
-            (remaining.abs() <= half_tol && travel_speed.abs() <= config.speed.approach_gain_per_s * half_tol)
+            (remaining.abs() <= half_tol && self.travel_speed_mps.abs() <= config.speed.approach_gain_per_s * half_tol)
                 || self.approach_s > APPROACH_TIMEOUT_S
         } else if has_corner {
             remaining <= 0.0

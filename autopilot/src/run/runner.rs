@@ -16,6 +16,8 @@ use params::ParamTableBuilder;
 use super::actuators::PwmActuators;
 use super::config::{self, VehicleConfig};
 use super::devices::{DeviceReport, Devices};
+use crate::control::defaults;
+use crate::control::mixer::DriveTrain;
 use crate::edge::clock::{InstantTimer, WallTicks};
 use crate::edge::persistence::{self, Persistence};
 use crate::edge::runner::{EdgeRunner, Platform};
@@ -47,7 +49,7 @@ pub fn vehicle_params(model: ModelKind) -> (params::ParamTable, CoreParams) {
     let mut builder = ParamTableBuilder::new();
     let core = CoreParams::register(&mut builder);
     if model == ModelKind::Differential {
-        builder.override_default("VEH_DRIVE", 1.0);
+        defaults::apply(&mut builder, DriveTrain::Differential);
     }
     (builder.build(), core)
 }

@@ -15,6 +15,8 @@ use vehicle_types::{ActuatorDemand, GeoPoint};
 
 use super::faults::Faults;
 use super::params::SimParams;
+use crate::control::defaults;
+use crate::control::mixer::DriveTrain;
 use crate::logging::LogCommand;
 use crate::time::{Now, TaskTimer};
 use crate::vehicle::{Core, CoreParams, Inputs, Outputs, ScanInput, SimTruth};
@@ -71,7 +73,7 @@ impl SimulationParams {
         builder.override_default("GPS_POS1_X", 0.5);
         if model == ModelKind::Differential {
             let diff = DifferentialConfig::default();
-            builder.override_default("VEH_DRIVE", 1.0);
+            defaults::apply(&mut builder, DriveTrain::Differential);
             builder.override_default("VEH_TRACK", diff.track_m);
             builder.override_default("VEH_WHEELBASE", 1.0);
             builder.override_default("CRUISE_SPEED", diff.wheel_speed_max_mps / 2.0);
