@@ -3,6 +3,7 @@
 //! the modes.
 
 pub mod magnetic;
+pub mod magnetic_estimate;
 pub mod magnetic_scenario;
 pub mod manoeuvre;
 pub mod navigator;
