@@ -390,11 +390,12 @@ impl Default for MagneticGuideConfig {
     /// steering) with the sensors 1 m either side of the rear axle, at
     /// 50 Hz: the seed's P and D, and an integral (learnt while tracking) so
     /// that curves entered from a straight are held without a standing
-    /// offset; no configured correction limit below full lock (the
-    /// geometric one, 12.3° here, applies). `furrow-bench magnetic`
-    /// measures it: back within 3 s from 0.1 m and 5° towards the tape at
-    /// 1.5 m/s on a straight and on 15 and 25 m arcs, never off a tape
-    /// running into arcs of 10 m and more.
+    /// offset; dead reckoning for 1.5 s, so no correction limit below full
+    /// lock (the geometric one, 12.3° here, applies only without it) and
+    /// approaches up to 8°. `furrow-bench magnetic` measures it: back
+    /// within 2.4 s from 0.1 m and 5° towards the tape at 1.5 m/s on a
+    /// straight and on 25, 15 and 10 m arcs, never off a tape running into
+    /// arcs of 10 m and more.
     fn default() -> Self {
         Self {
             probe_pitch_m: 0.010,
