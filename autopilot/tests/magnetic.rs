@@ -178,9 +178,13 @@ fn saturation_is_not_remembered() {
     assert!(pid.update(&pi, -0.5, 0.02, -1.0, 1.0).output < 0.0);
 }
 
+/// The guide on its readings alone: no dead reckoning, no steering-rate
+/// lead (each tested on its own below).
 fn guide_config(hold_s: f64) -> MagneticGuideConfig {
     MagneticGuideConfig {
         lost_hold_s: hold_s,
+        dead_reckon_s: 0.0,
+        steer_rate_rad_s: 0.0,
         ..MagneticGuideConfig::default()
     }
 }
@@ -345,6 +349,87 @@ fn approach_and_correction_are_limited_to_the_sensors_reach() {
         "{}",
         s.steer_rad
     );
+    // With dead reckoning the sensors may leave the tape: the approach is
+    // `approach_max_rad` and the correction only the configured one.
+    let cfg = MagneticGuideConfig {
+        dead_reckon_s: 1.5,
+        approach_max_rad: 8f64.to_radians(),
+        ..cfg
+    };
+    let s = MagneticGuide::default().update(&cfg, &slow, 0.02);
+    let expected = cfg.steer.kd * 0.5 * 8f64.to_radians().sin();
+    assert!((s.steer_rad - expected).abs() < 1e-9, "{} vs {expected}", s.steer_rad);
+}
+
+/// Both sensors off the tape after reading it with an angle: the guide
+/// steers on the deviation carried forward with the vehicle's motion, at
+/// the speed PID's speed, for `dead_reckon_s`; then the hold and the search.
+#[test]
+fn both_sensors_lost_dead_reckons_then_searches() {
+    let cfg = MagneticGuideConfig {
+        dead_reckon_s: 0.5,
+        steer_rate_rad_s: 0.0,
+        angle_deadband_rad: 0.5,
+        ..guide_config(0.0)
+    };
+    let mut guide = MagneticGuide::default();
+    // Tape 50 mm right of the front sensor, 50 mm left of the rear: the
+    // body heads 2.9° left of it, the midpoint on it.
+    let s = guide.update(&cfg, &input(probes(&[3, 4]), probes(&[13, 14])), 0.02);
+    assert!(s.acquired && s.angle_rad > 0.0 && s.lateral_m.abs() < 1e-12);
+    let mut last_lateral_m = s.lateral_m;
+    for step in 0..24 {
+        let s = guide.update(&cfg, &input(0, 0), 0.02);
+        assert!(s.lost, "{step}");
+        // Carried forward: the tape drifts right at v·tan α (no yaw rate),
+        // and each sensor, reading nothing, is beyond its edge on the side
+        // it last saw the tape.
+        assert!(s.lateral_m >= last_lateral_m, "{step}: {s:?}");
+        assert!(s.front_used_m >= 0.08 && s.rear_used_m <= -0.08, "{step}: {s:?}");
+        assert!(
+            s.steer_rad > 0.0 && s.speed_mps == cfg.cruise_speed_mps,
+            "{step}: {s:?}"
+        );
+        last_lateral_m = s.lateral_m;
+    }
+    // Past dead_reckon_s (from the last reading): the search.
+    let s = guide.update(&cfg, &input(0, 0), 0.02);
+    let s = if s.speed_mps == cfg.cruise_speed_mps {
+        guide.update(&cfg, &input(0, 0), 0.02)
+    } else {
+        s
+    };
+    assert!(s.lost && s.speed_mps == cfg.lost_speed_mps, "{s:?}");
+}
+
+/// With the steering's rate known, the law acts on the deviation the
+/// vehicle will have once its steering has unwound: turning towards the
+/// tape at a yaw rate that will close the angle, it eases off sooner.
+#[test]
+fn steering_leads_by_the_time_to_unwind() {
+    let tape = probes(&[3, 4, 5]);
+    let turning = MagneticInput {
+        yaw_rate_rad_s: 0.15,
+        ..input(tape, tape)
+    };
+    let plain = guide_config(0.3);
+    let lead = MagneticGuideConfig {
+        steer_rate_rad_s: 30f64.to_radians(),
+        ..plain
+    };
+    let without = MagneticGuide::default().update(&plain, &turning, 0.02);
+    let with = MagneticGuide::default().update(&lead, &turning, 0.02);
+    assert!(
+        with.steer_rad < without.steer_rad,
+        "{} vs {}",
+        with.steer_rad,
+        without.steer_rad
+    );
+    // Not turning, nothing to unwind: the same.
+    let still = input(tape, tape);
+    let a = MagneticGuide::default().update(&plain, &still, 0.02);
+    let b = MagneticGuide::default().update(&lead, &still, 0.02);
+    assert!((a.steer_rad - b.steer_rad).abs() < 1e-12);
 }
 
 #[test]

@@ -52,7 +52,27 @@
 //!   a correction δ yaws the body at v·tan δ/L, sweeping a sensor at x across
 //!   the tape at that times |x|; kept within the approach limit's v·sin α_max
 //!   that is tan δ ≤ L·sin α_max/|x|max ([`MagneticGuideConfig::correction_limit_rad`]);
-//! - both off the tape: for `lost_hold_s` keep the last demands (the tape
+//! - dead reckoning ([`TapeEstimate`], `dead_reckon_s`): the lateral and
+//!   angle deviation are carried forward between readings with the speed
+//!   and yaw rate. A reading at a sensor's edge (its outer 1.5 pitches) only
+//!   says "this far or further" and is pushed out to the estimate's value
+//!   when that is further; a sensor off the tape is placed from the other
+//!   one's rate once that has settled away from its edge, else from the
+//!   estimate; with both off, the guide steers on the estimate at the speed
+//!   PID's speed, each sensor kept beyond its edge on the side it last saw
+//!   the tape. Found in SITL: from 5° away from the tape the rear sensor
+//!   (behind the rear axle) swings off it whatever the vehicle does, the
+//!   edge readings on the way out collapsed the measured angle, and the
+//!   search at 0.5 m/s took 5–9 s. With dead reckoning on, the approach is
+//!   `approach_max_rad` (or the reach's, if larger) and the correction only
+//!   `steer_correction_max_rad`: the sensors leaving the tape for a moment
+//!   no longer blinds the guide;
+//! - with the steering's slew rate known (`steer_rate_rad_s`), the PD acts
+//!   on the deviation the vehicle will have once its steering has unwound
+//!   to the curve's (`after_unwinding`): found in SITL, a PD on the present
+//!   deviation keeps turning while the steering unwinds at 30°/s and
+//!   overshoots into a limit cycle on any larger error;
+//! - both off the tape past dead reckoning: for `lost_hold_s` keep the last demands (the tape
 //!   passing between the sensors' ranges, an edge probe flickering), then
 //!   search: steer towards the side the sensors last saw the tape on (the
 //!   front sensor's, else the rear's; a sensor cannot cross the tape unseen,
@@ -80,6 +100,8 @@
 //!   demand clamped to 0.5 rad comes back as −0.5 rad when the error goes).
 //!
 //! Sources: docs/references.md §Seed 002.
+
+use super::magnetic_estimate::TapeEstimate;
 
 /// Probes per sensor.
 pub const PROBES: u32 = 16;
@@ -349,6 +371,18 @@ pub struct MagneticGuideConfig {
     pub curvature_pull_s: f64,
     /// Low-pass on the measured curvature.
     pub curvature_filter_hz: f64,
+    /// Both sensors off the tape: steer on the deviation carried forward
+    /// from the last readings ([`TapeEstimate`]) this long, at the speed
+    /// the speed PID sets, before the hold and the search; 0 = never.
+    pub dead_reckon_s: f64,
+    /// The steering's slew rate; 0 = unknown. The control law then acts on
+    /// the deviation the vehicle will have once its steering has unwound
+    /// (see `after_unwinding`).
+    pub steer_rate_rad_s: f64,
+    /// With dead reckoning, the largest approach angle the P term steers to
+    /// (the sensors' reach, [`Self::approach_limit_rad`], when larger);
+    /// the correction is then limited only by `steer_correction_max_rad`.
+    pub approach_max_rad: f64,
 }
 
 impl Default for MagneticGuideConfig {
@@ -356,11 +390,12 @@ impl Default for MagneticGuideConfig {
     /// steering) with the sensors 1 m either side of the rear axle, at
     /// 50 Hz: the seed's P and D, and an integral (learnt while tracking) so
     /// that curves entered from a straight are held without a standing
-    /// offset; no configured correction limit below full lock (the
-    /// geometric one, 12.3° here, applies). `furrow-bench magnetic`
-    /// measures it: back within 3 s from 0.1 m and 5° towards the tape at
-    /// 1.5 m/s on a straight and on 15 and 25 m arcs, never off a tape
-    /// running into arcs of 10 m and more.
+    /// offset; dead reckoning for 1.5 s, so no correction limit below full
+    /// lock (the geometric one, 12.3° here, applies only without it) and
+    /// approaches up to 8°. `furrow-bench magnetic` measures it: back
+    /// within 2.4 s from 0.1 m and 5° towards the tape at 1.5 m/s on a
+    /// straight and on 25, 15 and 10 m arcs, never off a tape running into
+    /// arcs of 10 m and more.
     fn default() -> Self {
         Self {
             probe_pitch_m: 0.010,
@@ -396,6 +431,9 @@ impl Default for MagneticGuideConfig {
             // at 3–5 Hz, 2.5 mm here).
             curvature_pull_s: 0.1,
             curvature_filter_hz: 2.0,
+            dead_reckon_s: 1.5,
+            steer_rate_rad_s: 30f64.to_radians(),
+            approach_max_rad: 8f64.to_radians(),
         }
     }
 }
@@ -426,6 +464,17 @@ impl MagneticGuideConfig {
         // Near the reach `here` goes to 0 and would stall the approach: no
         // less than half the centred angle.
         here.clamp(APPROACH_FLOOR * centred, centred).asin()
+    }
+
+    /// The approach angle the P term steers to at `lateral_m`: the sensors'
+    /// reach, or with dead reckoning `approach_max_rad` if larger.
+    pub fn approach_max_rad(&self, lateral_m: f64) -> f64 {
+        let reach_rad = self.approach_limit_rad(lateral_m);
+        if self.dead_reckon_s > 0.0 {
+            reach_rad.max(self.approach_max_rad.abs())
+        } else {
+            reach_rad
+        }
     }
 
     /// The largest correction whose yaw rate sweeps the outer sensor across
@@ -552,6 +601,8 @@ pub struct MagneticGuide {
     /// The search after losing the tape, once the hold is over.
     search: Option<Search>,
     curvature: CurvatureEstimate,
+    /// The deviation as last measured, carried forward since.
+    estimate: Option<TapeEstimate>,
 }
 
 /// The tape's curvature from the angle deviation and the yaw rate: along
@@ -656,30 +707,19 @@ impl MagneticGuide {
         let spacing_m = config.sensor_spacing_m();
         let speed_mps = input.speed_mps;
         let yaw_rate = input.yaw_rate_rad_s;
-        // A sensor moving along the tape sees it drift across at v·tan α − ω·x.
-        let tan_alpha = |track: &SensorTrack, x_m: f64| {
-            if speed_mps.abs() > MIN_RATE_SPEED_MPS {
-                (track.rate_mps + yaw_rate * x_m) / speed_mps
-            } else {
-                0.0
-            }
-        };
-        let (e1, e2) = match (front_m, rear_m) {
-            (Some(f), Some(r)) => (f, r),
-            (Some(f), None) => {
-                let estimate_m = f - spacing_m * tan_alpha(&self.front, config.front_x_m);
-                (f, Self::place_lost(&mut self.rear, &self.front, estimate_m, config))
-            }
-            (None, Some(r)) => {
-                let estimate_m = r + spacing_m * tan_alpha(&self.rear, config.rear_x_m);
-                (Self::place_lost(&mut self.front, &self.rear, estimate_m, config), r)
-            }
-            (None, None) => {
-                (status.steer_rad, status.speed_mps) = self.lost_demand(config, input, dt_s);
-                return status;
-            }
+        let Some((e1, e2)) = self.used_deviations(config, front_m, rear_m, input, dt_s) else {
+            (status.steer_rad, status.speed_mps) = self.lost_demand(config, input, dt_s);
+            return status;
         };
         let (lateral_m, angle_rad) = lateral_and_angle(e1, e2, spacing_m);
+        if let Some(estimate) = self.estimate.as_mut() {
+            // What the readings and the estimate made of it, its age kept.
+            *estimate = TapeEstimate {
+                lateral_m,
+                angle_rad,
+                ..*estimate
+            };
+        }
         let steer_max_rad = config.steer_max_rad.abs();
         self.pull_towards_curve(config, status.acquired.then_some((e1, e2, angle_rad)), input, dt_s);
         // The integral is for the steering a curve needs, learnt while
@@ -707,10 +747,16 @@ impl MagneticGuide {
             }
             LateralRate::Kinematic => {
                 let mid_x_m = (config.front_x_m + config.rear_x_m) / 2.0;
-                let rate_mps = speed_mps * angle_rad.tan() - yaw_rate * mid_x_m;
-                let terms =
-                    self.steer
-                        .update_with_rate(&steer_gains, lateral_m, rate_mps, dt_s, -steer_max_rad, steer_max_rad);
+                let (lead_lateral_m, lead_angle_rad) = self.after_unwinding(config, lateral_m, angle_rad, input);
+                let rate_mps = speed_mps * lead_angle_rad.tan() - yaw_rate * mid_x_m;
+                let terms = self.steer.update_with_rate(
+                    &steer_gains,
+                    lead_lateral_m,
+                    rate_mps,
+                    dt_s,
+                    -steer_max_rad,
+                    steer_max_rad,
+                );
                 (terms, rate_mps)
             }
         };
@@ -725,7 +771,7 @@ impl MagneticGuide {
         // The seed's "correction angle": the PD part, about the integral
         // (which holds what the path's curvature needs), with the P part
         // limited to the approach angle the sensors can keep.
-        let p_max = config.steer.kd.abs() * speed_mps.abs() * config.approach_limit_rad(lateral_m).sin();
+        let p_max = config.steer.kd.abs() * speed_mps.abs() * config.approach_max_rad(lateral_m).sin();
         let p = if config.steer.kd > 0.0 {
             steer.p.clamp(-p_max, p_max)
         } else {
@@ -749,6 +795,115 @@ impl MagneticGuide {
             speed_mps: config.cruise_speed_mps - speed.output,
             ..status
         }
+    }
+
+    /// The front and rear deviations the control law uses (see the module
+    /// documentation): as read; an edge reading, which only says "this far
+    /// or further", pushed out to where the carried-forward estimate puts
+    /// the tape; a sensor off the tape placed beyond its edge; both off, the
+    /// estimate's for `dead_reckon_s`. `None`: nothing to steer on. Keeps
+    /// the estimate: reset by a trustworthy reading, else carried forward.
+    fn used_deviations(
+        &mut self,
+        config: &MagneticGuideConfig,
+        front_m: Option<f64>,
+        rear_m: Option<f64>,
+        input: &MagneticInput,
+        dt_s: f64,
+    ) -> Option<(f64, f64)> {
+        let spacing_m = config.sensor_spacing_m();
+        let (speed_mps, yaw_rate) = (input.speed_mps, input.yaw_rate_rad_s);
+        let curvature_per_m = if config.wheelbase_m.abs() > f64::EPSILON {
+            self.steer.integral().tan() / config.wheelbase_m.abs()
+        } else {
+            0.0
+        };
+        let mid_x_m = 0.5 * (config.front_x_m + config.rear_x_m);
+        let predicted = self
+            .estimate
+            .filter(|e| e.age_s < config.dead_reckon_s)
+            .map(|e| e.predicted(speed_mps, yaw_rate, curvature_per_m, mid_x_m, dt_s));
+        let (pf, pr) = match predicted {
+            Some(p) => {
+                let (f, r) = p.sensor_deviations_m(spacing_m);
+                (Some(f), Some(r))
+            }
+            None => (None, None),
+        };
+        let trust_m = config.sensor_reach_m() - TRUST_MARGIN_PITCHES * config.probe_pitch_m.abs();
+        let weak = |read: Option<f64>, predicted: Option<f64>| match (read, predicted) {
+            (Some(e), Some(p)) if e.abs() > trust_m && p.signum() == e.signum() && p.abs() > e.abs() => Some(p),
+            _ => read,
+        };
+        let trusted = |e: f64| e.abs() <= trust_m;
+        // A sensor moving along the tape sees it drift across at v·tan α − ω·x.
+        let tan_alpha = |track: &SensorTrack, x_m: f64| {
+            if speed_mps.abs() > MIN_RATE_SPEED_MPS {
+                (track.rate_mps + yaw_rate * x_m) / speed_mps
+            } else {
+                0.0
+            }
+        };
+        let settle_s = RATE_SETTLE_TIME_CONSTANTS / (std::f64::consts::TAU * config.sensor_rate_filter_hz);
+        let (e1, e2, fresh) = match (weak(front_m, pf), weak(rear_m, pr)) {
+            (Some(f), Some(r)) => (
+                f,
+                r,
+                predicted.is_none() || (front_m.is_some_and(trusted) && rear_m.is_some_and(trusted)),
+            ),
+            // The other sensor's placement: from this one's rate once that
+            // has settled away from the edge (where the reading sticks), else
+            // from the estimate while there is one.
+            (Some(f), None) => {
+                let settled = self.front.on_tape_s >= settle_s && trusted(f);
+                let from_rate_m = f - spacing_m * tan_alpha(&self.front, config.front_x_m);
+                let estimate_m = pr.filter(|_| !settled).unwrap_or(from_rate_m);
+                let informed = predicted.is_some() || settled;
+                (
+                    f,
+                    Self::place_lost(&mut self.rear, &self.front, estimate_m, config),
+                    informed,
+                )
+            }
+            (None, Some(r)) => {
+                let settled = self.rear.on_tape_s >= settle_s && trusted(r);
+                let from_rate_m = r + spacing_m * tan_alpha(&self.rear, config.rear_x_m);
+                let estimate_m = pf.filter(|_| !settled).unwrap_or(from_rate_m);
+                let informed = predicted.is_some() || settled;
+                (
+                    Self::place_lost(&mut self.front, &self.rear, estimate_m, config),
+                    r,
+                    informed,
+                )
+            }
+            (None, None) => {
+                let p = predicted.filter(|_| self.seen_tape)?;
+                self.lost_s += dt_s.max(0.0);
+                // Reading nothing, each sensor is beyond its edge on the
+                // side it last saw the tape: an estimate that puts the tape
+                // under it is pushed out that far.
+                let edge_m = LOST_EDGE_PITCHES * config.probe_pitch_m.abs();
+                let beyond = |e: f64, side: Option<f64>| match side {
+                    Some(side) if side * e < edge_m => side * edge_m,
+                    _ => e,
+                };
+                let (f, r) = p.sensor_deviations_m(spacing_m);
+                let (f, r) = (beyond(f, self.front.side), beyond(r, self.rear.side));
+                let (lateral_m, angle_rad) = lateral_and_angle(f, r, spacing_m);
+                self.estimate = Some(TapeEstimate {
+                    lateral_m,
+                    angle_rad,
+                    ..p
+                });
+                return Some((f, r));
+            }
+        };
+        self.estimate = if fresh {
+            Some(TapeEstimate::measured(0.0, 0.0))
+        } else {
+            predicted
+        };
+        Some((e1, e2))
     }
 
     /// Measures the tape's curvature while both sensors read it away from
@@ -786,7 +941,42 @@ impl MagneticGuide {
 
     /// The correction limit: the configured one within the geometric one.
     fn correction_max_rad(&self, config: &MagneticGuideConfig) -> f64 {
-        config.steer_correction_max_rad.abs().min(config.correction_limit_rad())
+        let configured_rad = config.steer_correction_max_rad.abs();
+        if config.dead_reckon_s > 0.0 {
+            configured_rad
+        } else {
+            configured_rad.min(config.correction_limit_rad())
+        }
+    }
+
+    /// The lateral and angle deviation once the steering has unwound to
+    /// the curve's (the integral) at `steer_rate_rad_s`: the yaw rate beyond
+    /// the curve's, ω − v·k, falls to 0 over t = |δ − δ_I|/rate, turning the
+    /// angle by (ω − v·k)·t/2 more and moving the lateral deviation by
+    /// v·α·t − v·(ω − v·k)·t²/3. Steering on these rather than on the
+    /// present ones stops the correction in time: found in SITL, a PD on
+    /// the present ones keeps turning while the steering unwinds at the
+    /// rate limit, and overshoots into a limit cycle on any larger error.
+    fn after_unwinding(
+        &self,
+        config: &MagneticGuideConfig,
+        lateral_m: f64,
+        angle_rad: f64,
+        input: &MagneticInput,
+    ) -> (f64, f64) {
+        let (speed_mps, yaw_rate) = (input.speed_mps, input.yaw_rate_rad_s);
+        let wheelbase_m = config.wheelbase_m.abs();
+        if config.steer_rate_rad_s <= 0.0 || speed_mps.abs() <= MIN_RATE_SPEED_MPS || wheelbase_m <= f64::EPSILON {
+            return (lateral_m, angle_rad);
+        }
+        let curve_rad = self.steer.integral();
+        let steer_now_rad = (yaw_rate * wheelbase_m / speed_mps).atan();
+        let unwind_s = (steer_now_rad - curve_rad).abs() / config.steer_rate_rad_s;
+        let excess_rate = yaw_rate - speed_mps * curve_rad.tan() / wheelbase_m;
+        let lead_angle_rad = angle_rad - excess_rate * unwind_s / 2.0;
+        let lead_lateral_m =
+            lateral_m + speed_mps * angle_rad.tan() * unwind_s - speed_mps * excess_rate * unwind_s.powi(2) / 3.0;
+        (lead_lateral_m, lead_angle_rad)
     }
 
     /// The demands with both sensors off the tape: the hold, then the

@@ -3,6 +3,7 @@
 //! the modes.
 
 pub mod magnetic;
+pub mod magnetic_estimate;
 pub mod manoeuvre;
 pub mod navigator;
 pub mod path;

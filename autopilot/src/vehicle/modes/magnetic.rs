@@ -43,6 +43,7 @@ impl Core {
                 ..defaults.steer
             },
             steer_max_rad: f(self.p.vehicle.steer_max_deg).to_radians(),
+            steer_rate_rad_s: f(self.p.vehicle.steer_rate_deg_s).to_radians(),
             steer_correction_max_rad: f(m.steer_correction_deg).to_radians(),
             wheelbase_m: f(self.p.vehicle.wheelbase_m),
             speed: IncrementalPidGains {
