@@ -110,10 +110,10 @@ impl Core {
             min_arc_radius_m: tightest_turn_m * 1.05,
             stop_preview_m: f64::from(pv.stop_dist_m.get(t)),
             manoeuvre_speed_mps: f64::from(self.p.manoeuvre.speed_mps.get(t)),
-            stop: StopTolerance {
+            stop: self.fleet_stop_tolerance().unwrap_or(StopTolerance {
                 position_m: f64::from(nav.stop_tol_mm.get(t)) / 1000.0,
                 yaw_rad: f64::from(nav.stop_tol_deg.get(t)).to_radians(),
-            },
+            }),
         }
     }
 
