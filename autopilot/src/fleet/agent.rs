@@ -109,6 +109,8 @@ pub struct Agent {
     pub errors: Vec<Error>,
     /// A cancelOrder waiting for the vehicle to stand still.
     cancelling: Option<String>,
+    /// Since when the vehicle has not been driving (vehicle time).
+    standing_since_s: Option<f64>,
     inbox: Vec<(Topic, Vec<u8>)>,
     events: Vec<OrderEvent>,
     outputs: Vec<ActionOutput>,
@@ -132,6 +134,10 @@ struct Fingerprint {
     operating_mode: OperatingMode,
 }
 
+/// Not driving for this long is standing still (the speed estimate lags
+/// the wheels by a few centimetres per second).
+const STANDING_AFTER_S: f64 = 0.5;
+
 /// Instant actions the agent carries out itself.
 pub const INSTANT_ACTIONS: [&str; 6] = [
     "startPause",
@@ -151,6 +157,7 @@ impl Agent {
             paused: false,
             errors: Vec::new(),
             cancelling: None,
+            standing_since_s: None,
             inbox: Vec::new(),
             events: Vec::new(),
             outputs: Vec::new(),
@@ -210,8 +217,16 @@ impl Agent {
         }
         let outputs = self.actions.step(view.boot_s, self.paused, &self.config.mappings);
         self.outputs.extend(outputs);
+        self.standing_since_s = if view.driving {
+            None
+        } else {
+            self.standing_since_s.or(Some(view.boot_s))
+        };
+        let standing = self
+            .standing_since_s
+            .is_some_and(|t| view.boot_s - t >= STANDING_AFTER_S);
         if let Some(id) = &self.cancelling
-            && !view.driving
+            && standing
             && !self.actions.busy()
         {
             let id = id.clone();

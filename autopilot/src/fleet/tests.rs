@@ -341,6 +341,12 @@ fn cancel_stops_at_once_and_finishes_once_the_vehicle_stands() {
     assert!(a.order.nodes.is_empty() && a.order.edges.is_empty());
     assert_eq!(a.order.order_id, "o1", "ids are kept");
     a.step(&view(2.0));
+    assert_eq!(
+        a.actions.status("c1"),
+        Some(ActionStatus::Running),
+        "not standing for long yet"
+    );
+    a.step(&view(2.5));
     assert_eq!(a.actions.status("c1"), Some(ActionStatus::Finished));
     // Nothing left to cancel: FAILED and a warning.
     send(&mut a, Topic::InstantActions, &instant("c2", "cancelOrder"));
