@@ -6,13 +6,14 @@
 mod common;
 
 use autopilot::fleet::AgentConfig;
+use autopilot::fleet::publish::Publisher;
 use autopilot::sitl::simulation::ModelKind;
 use autopilot::time::FrozenTimer;
 use autopilot::vehicle::FleetMessage;
 use common::Harness;
 use serde_json::{Value, json};
-use vda5050::Topic;
 use vda5050::state::{ActionStatus, OperatingMode, State};
+use vda5050::{Topic, TopicPrefix};
 
 /// A node: id, map x (east) / y (north), released, optional HARD action.
 struct N(&'static str, f64, f64, bool, Option<(&'static str, &'static str)>);
@@ -66,9 +67,59 @@ fn instant(action_id: &str, kind: &str) -> Value {
     })
 }
 
+/// Every message published is stamped as the MQTT edge stamps it and
+/// validated against the official schema of its topic.
+struct Schemas {
+    publisher: Publisher,
+    validators: Vec<(String, jsonschema::Validator)>,
+    /// Messages validated per topic.
+    checked: std::collections::BTreeMap<String, usize>,
+}
+
+impl Schemas {
+    fn new() -> Schemas {
+        let validators = ["state", "visualization", "factsheet", "connection"]
+            .iter()
+            .map(|name| {
+                let path = format!("{}/../tests/data/vda5050/{name}.schema", env!("CARGO_MANIFEST_DIR"));
+                let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
+                let schema: Value = serde_json::from_str(&text).unwrap();
+                let validator = jsonschema::options()
+                    .should_validate_formats(true)
+                    .build(&schema)
+                    .unwrap_or_else(|e| panic!("{name}: {e}"));
+                (name.to_string(), validator)
+            })
+            .collect();
+        Schemas {
+            publisher: Publisher::new(TopicPrefix::uagv_v2("Furrow", "R1").unwrap()),
+            validators,
+            checked: Default::default(),
+        }
+    }
+
+    fn check(&mut self, message: FleetMessage, unix_ms: u64) {
+        let publication = self.publisher.message(message, unix_ms);
+        let name = publication.topic.rsplit('/').next().unwrap().to_string();
+        let value: Value = serde_json::from_slice(&publication.payload).unwrap();
+        let (_, validator) = self
+            .validators
+            .iter()
+            .find(|(n, _)| *n == name)
+            .expect("a schema per topic");
+        let errors: Vec<String> = validator
+            .iter_errors(&value)
+            .map(|e| format!("{e} at {}", e.instance_path()))
+            .collect();
+        assert!(errors.is_empty(), "{name} violates its schema: {errors:#?}\n{value:#}");
+        *self.checked.entry(name).or_default() += 1;
+    }
+}
+
 struct Fleet {
     h: Harness,
     states: Vec<State>,
+    schemas: Schemas,
     /// Where the vehicle estimated itself at the start (map x, y): node
     /// positions in the tests are relative to it.
     origin: (f64, f64),
@@ -98,6 +149,7 @@ impl Fleet {
             truth_origin: (truth.east_m, truth.north_m),
             h,
             states: Vec::new(),
+            schemas: Schemas::new(),
         }
     }
 
@@ -121,10 +173,13 @@ impl Fleet {
         let wall = self.h.sim.time();
         let out = self.h.sim.step(wall, &mut FrozenTimer);
         self.h.received.append(&mut out.mavlink);
-        for message in out.vda5050.drain(..) {
-            if let FleetMessage::State(state) = message {
-                self.states.push(*state);
+        let messages: Vec<FleetMessage> = out.vda5050.drain(..).collect();
+        let unix_ms = 1_795_000_000_000 + wall.as_millis() as u64;
+        for message in messages {
+            if let FleetMessage::State(state) = &message {
+                self.states.push((**state).clone());
             }
+            self.schemas.check(message, unix_ms);
         }
     }
 
@@ -329,4 +384,34 @@ impl Fleet {
     fn run_for_seconds(&mut self, seconds: f64) {
         self.run_until(seconds, |_| false);
     }
+}
+
+#[test]
+fn every_message_published_validates_and_a_factsheet_tells_what_the_vehicle_does() {
+    let mut f = Fleet::new();
+    f.send(Topic::InstantActions, &instant("f1", "factsheetRequest"));
+    let nodes = [
+        N("a", 0.0, 0.0, true, Some(("pick1", "pick"))),
+        N("b", 0.0, 8.0, true, None),
+    ];
+    f.send_order("job7", 0, 0, &nodes, &[]);
+    let done = f.run_until(60.0, |f| f.idle() && f.last().last_node_id == "b");
+    assert!(done, "{:?}", f.nodes_reported());
+    for topic in ["state", "visualization", "factsheet"] {
+        assert!(
+            f.schemas.checked.get(topic).is_some_and(|n| *n > 0),
+            "no {topic}: {:?}",
+            f.schemas.checked
+        );
+    }
+    let position = f.last().agv_position.clone().expect("a position");
+    assert!(position.position_initialized);
+    assert_eq!(position.map_id, "yard");
+    assert!(position.localization_score == Some(1.0), "RTK fixed");
+    assert!(
+        position.deviation_range.is_some_and(|d| d > 0.0 && d < 0.1),
+        "{position:?}"
+    );
+    assert!(f.last().battery_state.battery_charge > 50.0);
+    assert_eq!(f.last().safety_state.field_violation, false);
 }

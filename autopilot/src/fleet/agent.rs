@@ -299,6 +299,12 @@ impl Agent {
                 }
                 Err(e) => self.payload_error("instantActions", e.to_string()),
             },
+            // The edge (re)connected to the broker: the master control may
+            // have missed everything, so the factsheet and a state go out.
+            Topic::Connection => {
+                self.publish.push(Publish::Factsheet);
+                self.publish.push(Publish::State);
+            }
             _ => {}
         }
     }

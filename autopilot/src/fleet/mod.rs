@@ -6,15 +6,19 @@
 //! - [`actions`]: action states, blocking types and the outputs they drive;
 //! - [`agent`]: the whole vehicle side stepped with time: payloads in,
 //!   a drive command and messages out;
-//! - [`state`]: the `state` and `visualization` messages.
+//! - [`state`]: the `state` and `visualization` messages;
+//! - [`factsheet`]: the `factsheet` from the vehicle's parameters;
+//! - [`publish`]: headers stamped and topics, QoS and retain for each.
 //!
 //! All of it is pure; the core steps the agent (`vehicle/fleet.rs`) and the
 //! MQTT edge carries the bytes.
 
 pub mod actions;
 pub mod agent;
+pub mod factsheet;
 pub mod map;
 pub mod order;
+pub mod publish;
 pub mod state;
 
 pub use agent::{Agent, AgentConfig, Command, Leg, OrderEvent, Publish, VehicleView};

@@ -117,7 +117,7 @@ impl Core {
         }
     }
 
-    fn decel_limit_mps2(&self) -> f64 {
+    pub(super) fn decel_limit_mps2(&self) -> f64 {
         let nav = &self.p.nav;
         let decel = f64::from(nav.decel_max_mps2.get(&self.params));
         if decel > 0.0 {

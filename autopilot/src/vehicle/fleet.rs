@@ -10,6 +10,7 @@ use vda5050::state::{ErrorLevel, OperatingMode};
 
 use super::{Core, Inputs, Outputs};
 use crate::fleet::actions::ActionOutput;
+use crate::fleet::factsheet::{VehicleDescription, build_factsheet};
 use crate::fleet::map::{local_from_map, map_from_local};
 use crate::fleet::order::error;
 use crate::fleet::state::{build_state, build_visualization};
@@ -23,8 +24,7 @@ use crate::modes::Mode;
 pub enum FleetMessage {
     State(Box<vda5050::State>),
     Visualization(vda5050::Visualization),
-    /// A factsheet is due: the edge builds it from the vehicle's description.
-    Factsheet,
+    Factsheet(Box<vda5050::Factsheet>),
 }
 
 /// Moving faster than this counts as driving (m/s).
@@ -86,6 +86,7 @@ impl Core {
         }
         let view = self.fleet_view();
         let report = self.vehicle_report(view.driving);
+        let description = self.vehicle_description();
         let Some(fleet) = self.fleet.as_mut() else {
             return;
         };
@@ -99,7 +100,9 @@ impl Core {
             out.vda5050.push(match publish {
                 Publish::State => FleetMessage::State(Box::new(build_state(&fleet.agent, &report))),
                 Publish::Visualization => FleetMessage::Visualization(build_visualization(&fleet.agent, &report)),
-                Publish::Factsheet => FleetMessage::Factsheet,
+                Publish::Factsheet => {
+                    FleetMessage::Factsheet(Box::new(build_factsheet(&description, &fleet.agent.config)))
+                }
             });
         }
         for event in events {
@@ -124,6 +127,21 @@ impl Core {
             arrived_at: leg.filter(|_| arrived),
             driving: self.armed && estimate.speed_mps.abs() > DRIVING_SPEED_MPS,
             operating_mode: self.operating_mode(),
+        }
+    }
+
+    fn vehicle_description(&self) -> VehicleDescription {
+        let t = &self.params;
+        let nav = &self.p.nav;
+        let footprint = self.footprint();
+        VehicleDescription {
+            differential: self.drive_train == crate::control::mixer::DriveTrain::Differential,
+            speed_max_mps: f64::from(nav.wp_speed_mps.get(t)),
+            accel_max_mps2: f64::from(nav.accel_max_mps2.get(t)),
+            decel_max_mps2: self.decel_limit_mps2(),
+            front_m: footprint.front_m,
+            rear_m: footprint.rear_m,
+            width_m: 2.0 * footprint.half_width_m,
         }
     }
 
