@@ -41,6 +41,7 @@ pub mod control;
 pub mod edge;
 pub mod estimation;
 pub mod fence;
+pub mod fleet;
 pub mod ftp;
 pub mod geo;
 pub mod guidance;

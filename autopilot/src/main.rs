@@ -3,10 +3,13 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use autopilot::edge::mqtt::{MqttConfig, parse_broker_url};
+use autopilot::fleet::AgentConfig;
 use autopilot::link::endpoint::Endpoint;
 use autopilot::sitl::runner::{self, SitlOptions, Speedup};
 use autopilot::sitl::simulation::{ModelKind, SimulationConfig};
 use clap::{Parser, Subcommand, ValueEnum};
+use vda5050::TopicPrefix;
 use vehicle_types::GeoPoint;
 
 #[derive(Parser)]
@@ -89,6 +92,18 @@ struct SitlArgs {
     /// UDP destination port instead of 14550+10·I.
     #[arg(long)]
     udp_port: Option<u16>,
+    /// Be a VDA 5050 2.1 AGV on this MQTT broker: mqtt://HOST:PORT.
+    #[arg(long, value_name = "URL")]
+    vda5050: Option<String>,
+    /// VDA 5050 serial number (topic level; default furrow-I for instance I).
+    #[arg(long, requires = "vda5050")]
+    serial_number: Option<String>,
+    /// VDA 5050 manufacturer (topic level).
+    #[arg(long, default_value = "Furrow", requires = "vda5050")]
+    manufacturer: String,
+    /// VDA 5050 map id: orders on another map are refused.
+    #[arg(long, default_value = "local", requires = "vda5050")]
+    map_id: String,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -164,38 +179,42 @@ fn utc_now_us() -> i64 {
         .map_or(0, |d| d.as_micros() as i64)
 }
 
+fn run_sitl(args: SitlArgs) -> Result<(), String> {
+    let vda5050 = vda5050_options(&args)?;
+    let data_dir = args.data_dir.unwrap_or_else(|| match args.instance {
+        0 => PathBuf::from("furrow-data"),
+        i => PathBuf::from(format!("furrow-data-{i}")),
+    });
+    runner::run(SitlOptions {
+        sim: SimulationConfig {
+            home: args.home.point,
+            home_heading_deg: args.home.heading_deg,
+            model: match args.model {
+                Model::Ackermann => ModelKind::Ackermann,
+                Model::Differential => ModelKind::Differential,
+            },
+            seed: args.seed,
+            utc_start_unix_us: utc_now_us(),
+        },
+        speedup: args.speedup,
+        instance: args.instance,
+        data_dir,
+        tcp_port: args.tcp_port,
+        udp_port: args.udp_port,
+        mavlink: args.mavlink,
+        secure_mavlink: args.secure_mavlink,
+        tlog: args.tlog,
+        tape: args.tape.map(|path| (path, args.tape_radius)),
+        world: args.world,
+        vda5050,
+    })
+}
+
 fn main() -> ExitCode {
     autopilot::stderr_log::init();
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Sitl(args) => {
-            let data_dir = args.data_dir.unwrap_or_else(|| match args.instance {
-                0 => PathBuf::from("furrow-data"),
-                i => PathBuf::from(format!("furrow-data-{i}")),
-            });
-            runner::run(SitlOptions {
-                sim: SimulationConfig {
-                    home: args.home.point,
-                    home_heading_deg: args.home.heading_deg,
-                    model: match args.model {
-                        Model::Ackermann => ModelKind::Ackermann,
-                        Model::Differential => ModelKind::Differential,
-                    },
-                    seed: args.seed,
-                    utc_start_unix_us: utc_now_us(),
-                },
-                speedup: args.speedup,
-                instance: args.instance,
-                data_dir,
-                tcp_port: args.tcp_port,
-                udp_port: args.udp_port,
-                mavlink: args.mavlink,
-                secure_mavlink: args.secure_mavlink,
-                tlog: args.tlog,
-                tape: args.tape.map(|path| (path, args.tape_radius)),
-                world: args.world,
-            })
-        }
+        Command::Sitl(args) => run_sitl(args),
         Command::Params(args) => autopilot::offline::params::run(&args),
         Command::Mission(args) => autopilot::offline::mission::run(&args),
         Command::Logs(args) => autopilot::offline::logs::run(&args),
@@ -232,4 +251,32 @@ mod tests {
         assert!(parse_speedup("0").is_err());
         assert!(parse_speedup("-3").is_err());
     }
+}
+
+/// `--vda5050` and its companions, checked.
+fn vda5050_options(args: &SitlArgs) -> Result<Option<(MqttConfig, AgentConfig)>, String> {
+    let Some(url) = &args.vda5050 else {
+        return Ok(None);
+    };
+    let (host, port) = parse_broker_url(url).map_err(|e| format!("--vda5050 {e}"))?;
+    let serial = args
+        .serial_number
+        .clone()
+        .unwrap_or_else(|| format!("furrow-{}", args.instance));
+    let prefix = TopicPrefix::uagv_v2(&args.manufacturer, &serial).map_err(|e| e.to_string())?;
+    if args.map_id.is_empty() {
+        return Err("--map-id: a map id cannot be empty".into());
+    }
+    let mqtt = MqttConfig {
+        host,
+        port,
+        client_id: format!("{}-{}", args.manufacturer, serial),
+        prefix,
+        credentials: None,
+    };
+    let agent = AgentConfig {
+        map_id: args.map_id.clone(),
+        ..AgentConfig::default()
+    };
+    Ok(Some((mqtt, agent)))
 }

@@ -12,6 +12,7 @@ use tokio::runtime::{Handle, Runtime};
 use tokio::sync::oneshot;
 
 use super::clock::InstantTimer;
+use super::mqtt::{MqttConfig, MqttLink};
 use super::persistence::Persistence;
 use crate::ftp::service::FtpService;
 use crate::link::hub::{self, CoreChannels, HubConfig, LinkRuntime, ToCore};
@@ -51,6 +52,7 @@ pub trait Platform {
 pub struct EdgeRunner {
     runtime: Runtime,
     origin: Instant,
+    mqtt: Option<MqttConfig>,
 }
 
 impl EdgeRunner {
@@ -59,7 +61,14 @@ impl EdgeRunner {
         Ok(EdgeRunner {
             runtime,
             origin: Instant::now(),
+            mqtt: None,
         })
+    }
+
+    /// Connects the core's VDA 5050 agent to a broker.
+    pub fn with_vda5050(mut self, config: MqttConfig) -> Self {
+        self.mqtt = Some(config);
+        self
     }
 
     /// For devices whose drivers are tasks.
@@ -96,7 +105,9 @@ impl EdgeRunner {
         });
         let ftp = FtpService::start(persistence.dir(), channels.outbound.clone());
         let logger = Logger::start(persistence.dir(), channels.outbound.clone(), channels.backlog.clone());
+        let mqtt = self.mqtt.map(|config| MqttLink::spawn(self.runtime.handle(), config));
         let mut edge = Edge {
+            mqtt,
             origin: self.origin,
             logger,
             ftp,
@@ -109,6 +120,12 @@ impl EdgeRunner {
         };
         self.runtime.block_on(edge.drive(platform, stop));
         platform.stop(edge.wall(), edge.dropped_to_links);
+        if let Some(mqtt) = edge.mqtt.take() {
+            if mqtt.dropped() > 0 {
+                tracing::warn!("VDA 5050: {} messages dropped (client queue full)", mqtt.dropped());
+            }
+            self.runtime.block_on(mqtt.stop());
+        }
         edge.persistence.finish();
         let Edge { links, logger, .. } = edge;
         crate::logging::edge::report(logger);
@@ -121,6 +138,8 @@ impl EdgeRunner {
 /// The loop's side of the links and the data directory.
 struct Edge {
     origin: Instant,
+    /// The VDA 5050 client, when configured.
+    mqtt: Option<MqttLink>,
     /// Answers FILE_TRANSFER_PROTOCOL on a thread of its own.
     ftp: FtpService,
     /// Writes the core's onboard log records off the core's thread.
@@ -146,6 +165,9 @@ impl Edge {
                 return;
             }
             self.take_link_traffic(platform, None);
+            if let Some(mqtt) = &mut self.mqtt {
+                mqtt.drain_into(platform.inputs_mut());
+            }
             self.persistence.collect(platform.inputs_mut());
             let saves = self.send(platform.tick(self.wall(), &mut timer));
             self.store(platform.core(), saves);
@@ -207,6 +229,10 @@ impl Edge {
             self.send_to_links(out);
         }
         self.logger.send(&mut outputs.log);
+        match &mut self.mqtt {
+            Some(mqtt) => mqtt.publish(&mut outputs.vda5050),
+            None => outputs.vda5050.clear(),
+        }
         std::mem::take(&mut outputs.saves)
     }
 

@@ -6,9 +6,11 @@ use std::time::Duration;
 
 use super::simulation::{Simulation, SimulationConfig, SimulationParams};
 use crate::edge::clock::{InstantTimer, Pacer};
+use crate::edge::mqtt::MqttConfig;
 use crate::edge::persistence::{self, Persistence};
 use crate::edge::runner::{EdgeRunner, Platform};
 use crate::edge::shutdown;
+use crate::fleet::AgentConfig;
 use crate::link::endpoint::Endpoint;
 use crate::link::sockets::{self, LinkEndpoints, LinkSockets};
 use crate::storage::data_dir::{DataDir, Profile};
@@ -43,6 +45,8 @@ pub struct SitlOptions {
     /// A world file (obstacles, moving people, tape), reloaded when it
     /// changes.
     pub world: Option<PathBuf>,
+    /// VDA 5050 over MQTT: the broker, who this vehicle is, its map.
+    pub vda5050: Option<(MqttConfig, AgentConfig)>,
 }
 
 /// Runs until SIGINT/SIGTERM.
@@ -94,14 +98,21 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
     })
     .map_err(|e| format!("MAVLink links: {e}"))?;
 
-    let edge = EdgeRunner::new()?;
+    let mut edge = EdgeRunner::new()?;
+    let mut fleet_suffix = String::new();
+    if let Some((mqtt, agent)) = options.vda5050.clone() {
+        fleet_suffix = format!(", vda5050 {}", mqtt.prefix.topic(vda5050::Topic::State));
+        tracing::info!("VDA 5050: broker {}:{}, map {:?}", mqtt.host, mqtt.port, agent.map_id);
+        sim.core_mut().enable_vda5050(agent);
+        edge = edge.with_vda5050(mqtt);
+    }
     let tcp = sockets.bound.tcp.map_or("none".into(), |a| a.to_string());
     let udp = sockets.bound.udp_local.map_or("none".into(), |a| a.to_string());
     let listeners = sockets.bound.ready_suffix();
     // One line on stdout that scripts and tests parse for the bound ports
     // (new fields go at the end).
     println!(
-        "furrow sitl ready: tcp {tcp}, udp {udp} to 127.0.0.1:{udp_port}, sysid {}{listeners}",
+        "furrow sitl ready: tcp {tcp}, udp {udp} to 127.0.0.1:{udp_port}, sysid {}{listeners}{fleet_suffix}",
         sim.core().sysid()
     );
     tracing::info!(

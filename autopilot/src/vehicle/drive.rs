@@ -110,14 +110,14 @@ impl Core {
             min_arc_radius_m: tightest_turn_m * 1.05,
             stop_preview_m: f64::from(pv.stop_dist_m.get(t)),
             manoeuvre_speed_mps: f64::from(self.p.manoeuvre.speed_mps.get(t)),
-            stop: StopTolerance {
+            stop: self.fleet_stop_tolerance().unwrap_or(StopTolerance {
                 position_m: f64::from(nav.stop_tol_mm.get(t)) / 1000.0,
                 yaw_rad: f64::from(nav.stop_tol_deg.get(t)).to_radians(),
-            },
+            }),
         }
     }
 
-    fn decel_limit_mps2(&self) -> f64 {
+    pub(super) fn decel_limit_mps2(&self) -> f64 {
         let nav = &self.p.nav;
         let decel = f64::from(nav.decel_max_mps2.get(&self.params));
         if decel > 0.0 {

@@ -96,6 +96,8 @@ pub struct Inputs {
     /// The simulator's true pose, in SITL only: reported as SIMSTATE and
     /// beside a stop's estimated error, never used to drive.
     pub sim_truth: Option<SimTruth>,
+    /// VDA 5050 payloads from the master control (order, instantActions).
+    pub vda5050: Vec<(vda5050::Topic, Vec<u8>)>,
 }
 
 /// Where the simulated vehicle really is (its reference point, the rear
@@ -132,6 +134,7 @@ impl Inputs {
         self.scans.clear();
         self.saved.clear();
         self.sim_truth = None;
+        self.vda5050.clear();
     }
 }
 
@@ -147,6 +150,8 @@ pub struct Outputs {
     /// For the onboard log's writer (records, files to open and close,
     /// ground stations' LOG_* requests).
     pub log: Vec<crate::logging::LogCommand>,
+    /// VDA 5050 messages for the master control.
+    pub vda5050: Vec<super::FleetMessage>,
 }
 
 impl Default for Outputs {
@@ -160,6 +165,7 @@ impl Default for Outputs {
             mavlink: Vec::new(),
             saves: Vec::new(),
             log: Vec::new(),
+            vda5050: Vec::new(),
         }
     }
 }

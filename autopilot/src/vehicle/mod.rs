@@ -8,6 +8,7 @@ mod commands;
 mod drive;
 mod estimation;
 mod failsafe;
+mod fleet;
 mod geofence;
 mod io;
 mod messages;
@@ -45,6 +46,7 @@ use crate::time::{Now, TaskTimer};
 
 pub use drive::DriveState;
 pub use failsafe::{Failsafe, FailsafeAction};
+pub use fleet::FleetMessage;
 pub use io::{
     Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, PeerId, ScanInput, SimTruth, UndecodableItem,
 };
@@ -122,6 +124,8 @@ pub struct Core {
     now: Now,
     outbox: Vec<Outbound>,
     counters: CoreCounters,
+    /// VDA 5050, when this vehicle is an AGV of a fleet.
+    fleet: Option<Box<fleet::FleetState>>,
 }
 
 impl Core {
@@ -172,6 +176,7 @@ impl Core {
             now: Now::default(),
             outbox: Vec::new(),
             counters: CoreCounters::default(),
+            fleet: None,
             params,
             p,
         }
@@ -215,6 +220,7 @@ impl Core {
             }
             self.sched.record(i, timer.now_ns().saturating_sub(started));
         }
+        self.fleet_tick(inputs, out);
         self.log_tick(inputs.gnss.len());
         self.request_param_save();
         out.saves.append(&mut self.persist.take_requests());

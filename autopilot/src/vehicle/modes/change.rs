@@ -56,7 +56,7 @@ impl Core {
         if mode == Mode::Rtl && self.home.is_none() {
             return Err(ModeRefusal::NoHome);
         }
-        if mode == Mode::Auto && !self.missions.executor.has_nav_items() {
+        if mode == Mode::Auto && !self.missions.executor.has_nav_items() && !self.fleet_drives() {
             return Err(ModeRefusal::NoMission);
         }
         if mode == Mode::Magnetic && !self.magnetic_sensors_fresh() {
@@ -78,6 +78,7 @@ impl Core {
                     self.navigate_to(target, self.rtl_yaw(&target), None);
                 }
             }
+            Mode::Auto if self.fleet_drives() => self.start_order(),
             Mode::Auto => self.start_mission(),
             Mode::Magnetic => self.start_magnetic(),
             _ => {}

@@ -37,7 +37,9 @@ impl Core {
         }
 
         self.check_fence();
-        if self.mode == Mode::Auto {
+        if self.mode == Mode::Auto && self.fleet_drives() {
+            self.run_order();
+        } else if self.mode == Mode::Auto {
             self.run_mission();
         }
         let obstacle_stop = self.obstacle_tick();

@@ -1,0 +1,385 @@
+//! Actions of orders and instant actions (§6.8, §6.11, §6.12): each one's
+//! state WAITING → INITIALIZING → RUNNING → FINISHED/FAILED, the blocking
+//! rules (NONE drives on, SOFT stops the vehicle, HARD also runs alone), and
+//! the outputs a configured action drives (a servo pulse or a relay, as
+//! DO_SET_SERVO / DO_SET_RELAY do) for its configured duration.
+//!
+//! Pure and stepped with time in seconds.
+
+use vda5050::common::{Action, BlockingType};
+use vda5050::state::{ActionState, ActionStatus};
+
+/// What a configured action sets when it starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ActionOutput {
+    /// Servo channel (1-based) to a pulse width.
+    Servo { channel: u8, pwm_us: u16 },
+    /// Relay (0-based) on or off.
+    Relay { relay: u8, on: bool },
+}
+
+/// An action type this vehicle carries out with an output.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ActionMapping {
+    pub action_type: String,
+    pub output: ActionOutput,
+    /// How long the action runs once its output is set.
+    pub duration_s: f64,
+}
+
+/// The defaults: `pick` raises a lift on servo 9, `drop` lowers it, each
+/// taking 3 s (ArduPilot's first free output after the drive channels).
+pub fn default_mappings() -> Vec<ActionMapping> {
+    vec![
+        ActionMapping {
+            action_type: "pick".into(),
+            output: ActionOutput::Servo {
+                channel: 9,
+                pwm_us: 1900,
+            },
+            duration_s: 3.0,
+        },
+        ActionMapping {
+            action_type: "drop".into(),
+            output: ActionOutput::Servo {
+                channel: 9,
+                pwm_us: 1100,
+            },
+            duration_s: 3.0,
+        },
+    ]
+}
+
+/// Where an action belongs: sent alone, or on a node or edge (sequenceId).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scope {
+    Instant,
+    Node(u32),
+    Edge(u32),
+}
+
+#[derive(Clone, Debug)]
+struct Tracked {
+    action: Action,
+    scope: Scope,
+    status: ActionStatus,
+    /// Its node was reached or its edge entered.
+    triggered: bool,
+    started_s: Option<f64>,
+    result: Option<String>,
+}
+
+impl Tracked {
+    fn done(&self) -> bool {
+        matches!(self.status, ActionStatus::Finished | ActionStatus::Failed)
+    }
+
+    fn active(&self) -> bool {
+        matches!(self.status, ActionStatus::Initializing | ActionStatus::Running)
+    }
+}
+
+/// Every action the vehicle knows of, in the order received.
+#[derive(Clone, Debug, Default)]
+pub struct ActionRunner {
+    actions: Vec<Tracked>,
+    /// Bumped on every status change (the state message is sent on change).
+    pub generation: u64,
+}
+
+impl ActionRunner {
+    /// Actions of an accepted order: WAITING until their node or edge.
+    pub fn add_waiting(&mut self, action: &Action, scope: Scope) {
+        self.actions.push(Tracked {
+            action: action.clone(),
+            scope,
+            status: ActionStatus::Waiting,
+            triggered: false,
+            started_s: None,
+            result: None,
+        });
+        self.generation += 1;
+    }
+
+    /// An instant action carried out at once, with its final status.
+    pub fn add_done(&mut self, action: &Action, status: ActionStatus, result: String) {
+        self.actions.push(Tracked {
+            action: action.clone(),
+            scope: Scope::Instant,
+            status,
+            triggered: true,
+            started_s: None,
+            result: Some(result),
+        });
+        self.generation += 1;
+    }
+
+    /// A configured instant action: runs as soon as the blocking rules allow.
+    pub fn add_instant(&mut self, action: &Action) {
+        self.add_waiting(action, Scope::Instant);
+        if let Some(last) = self.actions.last_mut() {
+            last.triggered = true;
+        }
+    }
+
+    /// A new order replaces the old one's finished and failed actions.
+    pub fn forget_done(&mut self) {
+        self.actions.retain(|a| !a.done());
+        self.generation += 1;
+    }
+
+    /// The node was reached or the edge entered: its actions may start.
+    pub fn trigger(&mut self, scope: Scope) {
+        for tracked in self.actions.iter_mut().filter(|a| a.scope == scope) {
+            tracked.triggered = true;
+        }
+    }
+
+    /// The edge was left: what still runs on it is finished (§6.10.2).
+    pub fn leave_edge(&mut self, sequence_id: u32) {
+        for tracked in &mut self.actions {
+            if tracked.scope == Scope::Edge(sequence_id) && tracked.active() {
+                tracked.status = ActionStatus::Finished;
+                tracked.result = Some("edge left".into());
+                self.generation += 1;
+            }
+        }
+    }
+
+    /// cancelOrder: every action not done fails. Returns how many.
+    pub fn cancel_all(&mut self) -> usize {
+        let mut cancelled = 0;
+        for tracked in self
+            .actions
+            .iter_mut()
+            .filter(|a| !a.done() && a.scope != Scope::Instant)
+        {
+            tracked.status = ActionStatus::Failed;
+            tracked.result = Some("order cancelled".into());
+            cancelled += 1;
+        }
+        self.generation += 1;
+        cancelled
+    }
+
+    /// Whether actions of the order are still to run or running.
+    pub fn busy(&self) -> bool {
+        self.actions.iter().any(|a| !a.done() && a.scope != Scope::Instant)
+    }
+
+    /// Whether a triggered SOFT or HARD action keeps the vehicle still.
+    pub fn blocks_driving(&self) -> bool {
+        self.actions
+            .iter()
+            .any(|a| a.triggered && !a.done() && a.action.blocking_type != BlockingType::None)
+    }
+
+    /// Advances the actions to `now_s`: starts what the blocking rules let
+    /// start (not while `paused`), moves INITIALIZING to RUNNING, finishes
+    /// what has run its duration. Returns the outputs to set.
+    pub fn step(&mut self, now_s: f64, paused: bool, mappings: &[ActionMapping]) -> Vec<ActionOutput> {
+        let mut outputs = Vec::new();
+        for i in 0..self.actions.len() {
+            let duration_s = mapping(mappings, &self.actions[i].action.action_type).map(|m| m.duration_s);
+            let tracked = &mut self.actions[i];
+            match tracked.status {
+                ActionStatus::Initializing => {
+                    tracked.status = ActionStatus::Running;
+                    self.generation += 1;
+                }
+                // Running without a duration (cancelOrder) is finished by
+                // whoever started it.
+                ActionStatus::Running if tracked.started_s.is_some() => {
+                    let started = tracked.started_s.unwrap_or(now_s);
+                    if now_s - started >= duration_s.unwrap_or(0.0) {
+                        tracked.status = ActionStatus::Finished;
+                        tracked.result = Some("done".into());
+                        self.generation += 1;
+                    }
+                }
+                _ => {}
+            }
+        }
+        if !paused {
+            self.start_ready(now_s, mappings, &mut outputs);
+        }
+        outputs
+    }
+
+    /// Starts triggered WAITING actions in sequence: a HARD one only when
+    /// nothing runs, and nothing after a HARD one until it is done.
+    fn start_ready(&mut self, now_s: f64, mappings: &[ActionMapping], outputs: &mut Vec<ActionOutput>) {
+        let mut hard_running = self
+            .actions
+            .iter()
+            .any(|a| a.active() && a.action.blocking_type == BlockingType::Hard);
+        let mut any_running = self.actions.iter().any(Tracked::active);
+        for tracked in &mut self.actions {
+            if hard_running {
+                return;
+            }
+            if !tracked.triggered || tracked.status != ActionStatus::Waiting {
+                continue;
+            }
+            let hard = tracked.action.blocking_type == BlockingType::Hard;
+            if hard && any_running {
+                return;
+            }
+            match mapping(mappings, &tracked.action.action_type) {
+                Some(m) => {
+                    outputs.push(m.output);
+                    tracked.status = ActionStatus::Initializing;
+                    tracked.started_s = Some(now_s);
+                }
+                None => {
+                    tracked.status = ActionStatus::Failed;
+                    tracked.result = Some("no output configured for this action type".into());
+                }
+            }
+            self.generation += 1;
+            any_running = true;
+            hard_running = hard;
+        }
+    }
+
+    /// `actionStates` for the state message.
+    pub fn states(&self) -> Vec<ActionState> {
+        self.actions
+            .iter()
+            .map(|a| ActionState {
+                action_id: a.action.action_id.clone(),
+                action_type: Some(a.action.action_type.clone()),
+                action_description: a.action.action_description.clone(),
+                action_status: a.status,
+                result_description: a.result.clone(),
+            })
+            .collect()
+    }
+
+    /// The status of one action (tests, and cancelOrder's own report).
+    pub fn status(&self, action_id: &str) -> Option<ActionStatus> {
+        self.actions
+            .iter()
+            .rev()
+            .find(|a| a.action.action_id == action_id)
+            .map(|a| a.status)
+    }
+
+    /// Sets an instant action's final status (cancelOrder once all stopped).
+    pub fn finish(&mut self, action_id: &str, status: ActionStatus, result: &str) {
+        if let Some(a) = self.actions.iter_mut().rev().find(|a| a.action.action_id == action_id) {
+            a.status = status;
+            a.result = Some(result.to_owned());
+            self.generation += 1;
+        }
+    }
+}
+
+pub fn mapping<'a>(mappings: &'a [ActionMapping], action_type: &str) -> Option<&'a ActionMapping> {
+    mappings.iter().find(|m| m.action_type == action_type)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn action(id: &str, kind: &str, blocking: BlockingType) -> Action {
+        Action {
+            action_type: kind.into(),
+            action_id: id.into(),
+            action_description: None,
+            blocking_type: blocking,
+            action_parameters: None,
+        }
+    }
+
+    #[test]
+    fn an_action_runs_waiting_initializing_running_finished_with_its_output() {
+        let mut runner = ActionRunner::default();
+        let maps = default_mappings();
+        runner.add_waiting(&action("p1", "pick", BlockingType::Hard), Scope::Node(2));
+        assert!(runner.step(0.0, false, &maps).is_empty(), "not triggered yet");
+        assert_eq!(runner.status("p1"), Some(ActionStatus::Waiting));
+        assert!(!runner.blocks_driving());
+        runner.trigger(Scope::Node(2));
+        assert!(runner.blocks_driving());
+        let out = runner.step(1.0, false, &maps);
+        assert_eq!(
+            out,
+            vec![ActionOutput::Servo {
+                channel: 9,
+                pwm_us: 1900
+            }]
+        );
+        assert_eq!(runner.status("p1"), Some(ActionStatus::Initializing));
+        runner.step(1.1, false, &maps);
+        assert_eq!(runner.status("p1"), Some(ActionStatus::Running));
+        runner.step(3.9, false, &maps);
+        assert_eq!(runner.status("p1"), Some(ActionStatus::Running), "3 s from 1.0");
+        runner.step(4.0, false, &maps);
+        assert_eq!(runner.status("p1"), Some(ActionStatus::Finished));
+        assert!(!runner.blocks_driving());
+        assert!(!runner.busy());
+    }
+
+    #[test]
+    fn a_hard_action_runs_alone_and_soft_ones_run_together() {
+        let mut runner = ActionRunner::default();
+        let maps = default_mappings();
+        runner.add_waiting(&action("s1", "pick", BlockingType::Soft), Scope::Node(4));
+        runner.add_waiting(&action("s2", "drop", BlockingType::Soft), Scope::Node(4));
+        runner.add_waiting(&action("h1", "pick", BlockingType::Hard), Scope::Node(4));
+        runner.add_waiting(&action("n1", "drop", BlockingType::None), Scope::Node(4));
+        runner.trigger(Scope::Node(4));
+        runner.step(0.0, false, &maps);
+        assert_eq!(runner.status("s1"), Some(ActionStatus::Initializing));
+        assert_eq!(runner.status("s2"), Some(ActionStatus::Initializing));
+        assert_eq!(
+            runner.status("h1"),
+            Some(ActionStatus::Waiting),
+            "waits for the soft ones"
+        );
+        assert_eq!(
+            runner.status("n1"),
+            Some(ActionStatus::Waiting),
+            "comes after the hard one"
+        );
+        runner.step(3.0, false, &maps);
+        runner.step(3.0, false, &maps);
+        assert_eq!(runner.status("h1"), Some(ActionStatus::Initializing));
+        assert_eq!(runner.status("n1"), Some(ActionStatus::Waiting));
+        runner.step(6.0, false, &maps);
+        runner.step(6.0, false, &maps);
+        assert_eq!(runner.status("n1"), Some(ActionStatus::Initializing));
+    }
+
+    #[test]
+    fn paused_starts_nothing_and_cancel_fails_what_is_left() {
+        let mut runner = ActionRunner::default();
+        let maps = default_mappings();
+        runner.add_waiting(&action("p1", "pick", BlockingType::Hard), Scope::Node(0));
+        runner.add_waiting(&action("d1", "drop", BlockingType::Hard), Scope::Node(2));
+        runner.trigger(Scope::Node(0));
+        assert!(runner.step(0.0, true, &maps).is_empty());
+        assert_eq!(runner.status("p1"), Some(ActionStatus::Waiting));
+        runner.step(0.5, false, &maps);
+        assert_eq!(runner.cancel_all(), 2);
+        assert_eq!(runner.status("p1"), Some(ActionStatus::Failed));
+        assert_eq!(runner.status("d1"), Some(ActionStatus::Failed));
+        assert!(!runner.busy());
+    }
+
+    #[test]
+    fn an_action_without_output_fails_and_edge_actions_finish_when_the_edge_is_left() {
+        let mut runner = ActionRunner::default();
+        let maps = default_mappings();
+        runner.add_waiting(&action("x", "beep", BlockingType::None), Scope::Edge(1));
+        runner.add_waiting(&action("e", "pick", BlockingType::None), Scope::Edge(3));
+        runner.trigger(Scope::Edge(1));
+        runner.trigger(Scope::Edge(3));
+        runner.step(0.0, false, &maps);
+        assert_eq!(runner.status("x"), Some(ActionStatus::Failed));
+        runner.leave_edge(3);
+        assert_eq!(runner.status("e"), Some(ActionStatus::Finished));
+    }
+}

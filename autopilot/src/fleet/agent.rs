@@ -1,0 +1,511 @@
+//! The vehicle's VDA 5050 agent: the order, its actions and the instant
+//! actions, stepped with time; what the vehicle should drive next; and when
+//! a `state` or `visualization` message is due. The core feeds it what it
+//! knows of the vehicle ([`VehicleView`]) and carries out its [`Command`].
+//!
+//! Pure: payloads in, messages out, times given (docs/architecture.md §The
+//! pure core and its edges).
+
+use vda5050::common::Action;
+use vda5050::order::{Edge, Node, OrientationType};
+use vda5050::state::{ActionStatus, Error, OperatingMode};
+use vda5050::{Order, Topic, parse_instant_actions, parse_order};
+
+use super::actions::{ActionMapping, ActionOutput, ActionRunner, Scope, mapping};
+use super::map::MapPose;
+use super::order::{OrderBook, OrderContext, Verdict, error};
+
+/// How the agent is set up.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AgentConfig {
+    /// The map this vehicle drives on (orders on another map are refused).
+    pub map_id: String,
+    pub mappings: Vec<ActionMapping>,
+    /// `state` at least this often while driving (default 1 s)…
+    pub state_interval_driving_s: f64,
+    /// …and otherwise (the standard's limit is 30 s).
+    pub state_interval_idle_s: f64,
+    /// `visualization` this often; 0 sends none.
+    pub visualization_interval_s: f64,
+}
+
+impl Default for AgentConfig {
+    fn default() -> Self {
+        AgentConfig {
+            map_id: "local".into(),
+            mappings: super::actions::default_mappings(),
+            state_interval_driving_s: 1.0,
+            state_interval_idle_s: 30.0,
+            visualization_interval_s: 0.5,
+        }
+    }
+}
+
+/// What the core tells the agent each tick.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VehicleView {
+    /// Vehicle time (actions' durations).
+    pub boot_s: f64,
+    /// Wall time (message pacing).
+    pub wall_s: f64,
+    pub pose: Option<MapPose>,
+    /// The sequenceId of the node the navigator has arrived at, if any.
+    pub arrived_at: Option<u32>,
+    pub driving: bool,
+    pub operating_mode: OperatingMode,
+}
+
+/// One leg to drive: along an edge to its end node.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Leg {
+    /// The end node's sequenceId (the navigator reports arrival by it).
+    pub node_sequence_id: u32,
+    /// Where the edge starts and ends, map frame (m).
+    pub from: (f64, f64),
+    pub to: (f64, f64),
+    /// The node after `to` when the vehicle drives through.
+    pub next: Option<(f64, f64)>,
+    pub reverse: bool,
+    pub max_speed_mps: Option<f64>,
+    /// Stop at `to` (else drive through).
+    pub stop: bool,
+    /// The node's allowed deviation, the stop tolerance (m, rad).
+    pub allowed_deviation_m: Option<f64>,
+    pub allowed_deviation_rad: Option<f64>,
+}
+
+/// What the vehicle should do this tick.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Command {
+    /// Stand (no order, paused, a blocking action, the base ended).
+    Hold,
+    Drive(Leg),
+}
+
+/// A message the edge should publish (headers are stamped there).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Publish {
+    State,
+    Visualization,
+    Factsheet,
+}
+
+/// What happened to an order this tick (the core arms and enters AUTO on
+/// a new one).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OrderEvent {
+    Accepted { new_order: bool },
+    Cancelled,
+}
+
+#[derive(Debug)]
+pub struct Agent {
+    pub config: AgentConfig,
+    pub order: OrderBook,
+    pub actions: ActionRunner,
+    pub paused: bool,
+    /// Errors of instant actions and of unreadable payloads, reported until
+    /// the next order is accepted.
+    pub errors: Vec<Error>,
+    /// A cancelOrder waiting for the vehicle to stand still.
+    cancelling: Option<String>,
+    /// Since when the vehicle has not been driving (vehicle time).
+    standing_since_s: Option<f64>,
+    inbox: Vec<(Topic, Vec<u8>)>,
+    events: Vec<OrderEvent>,
+    outputs: Vec<ActionOutput>,
+    publish: Vec<Publish>,
+    last_state_wall_s: Option<f64>,
+    last_visualization_wall_s: Option<f64>,
+    /// What the last state said, to send again on a change.
+    last_fingerprint: Option<Fingerprint>,
+    /// Bumped on every change of the order's progress.
+    order_generation: u64,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+struct Fingerprint {
+    order_generation: u64,
+    action_generation: u64,
+    errors: usize,
+    driving: bool,
+    paused: bool,
+    new_base_request: bool,
+    operating_mode: OperatingMode,
+}
+
+/// Not driving for this long is standing still (the speed estimate lags
+/// the wheels by a few centimetres per second).
+const STANDING_AFTER_S: f64 = 0.5;
+
+/// Instant actions the agent carries out itself.
+pub const INSTANT_ACTIONS: [&str; 6] = [
+    "startPause",
+    "stopPause",
+    "cancelOrder",
+    "stateRequest",
+    "factsheetRequest",
+    "initPosition",
+];
+
+impl Agent {
+    pub fn new(config: AgentConfig) -> Self {
+        Agent {
+            config,
+            order: OrderBook::default(),
+            actions: ActionRunner::default(),
+            paused: false,
+            errors: Vec::new(),
+            cancelling: None,
+            standing_since_s: None,
+            inbox: Vec::new(),
+            events: Vec::new(),
+            outputs: Vec::new(),
+            publish: Vec::new(),
+            last_state_wall_s: None,
+            last_visualization_wall_s: None,
+            last_fingerprint: None,
+            order_generation: 0,
+        }
+    }
+
+    /// The action types an order may carry (and factsheets list).
+    pub fn supports_action(&self, action_type: &str) -> bool {
+        mapping(&self.config.mappings, action_type).is_some()
+    }
+
+    /// A payload from the broker, handled at the next step.
+    pub fn receive(&mut self, topic: Topic, payload: Vec<u8>) {
+        self.inbox.push((topic, payload));
+    }
+
+    /// Order accepted or cancelled this step.
+    pub fn take_events(&mut self) -> Vec<OrderEvent> {
+        std::mem::take(&mut self.events)
+    }
+
+    /// Outputs actions set this step.
+    pub fn take_outputs(&mut self) -> Vec<ActionOutput> {
+        std::mem::take(&mut self.outputs)
+    }
+
+    /// Messages due this step.
+    pub fn take_publish(&mut self) -> Vec<Publish> {
+        std::mem::take(&mut self.publish)
+    }
+
+    /// Whether the order still has nodes to drive to.
+    pub fn has_order(&self) -> bool {
+        self.order.has_nodes()
+    }
+
+    /// Whether the vehicle should ask for more base (§6.10.3).
+    pub fn new_base_request(&self) -> bool {
+        self.order.has_horizon() && (self.order.next_is_decision_point() || self.order.next_leg().is_none())
+    }
+
+    /// One step: the payloads received, node arrivals, actions, and the
+    /// command for the vehicle.
+    pub fn step(&mut self, view: &VehicleView) -> Command {
+        for (topic, payload) in std::mem::take(&mut self.inbox) {
+            self.handle(topic, &payload, view);
+        }
+        if let Some(seq) = view.arrived_at
+            && self.order.nodes.first().is_some_and(|n| n.sequence_id == seq)
+        {
+            self.reach_next_node();
+        }
+        let outputs = self.actions.step(view.boot_s, self.paused, &self.config.mappings);
+        self.outputs.extend(outputs);
+        self.standing_since_s = if view.driving {
+            None
+        } else {
+            self.standing_since_s.or(Some(view.boot_s))
+        };
+        let standing = self
+            .standing_since_s
+            .is_some_and(|t| view.boot_s - t >= STANDING_AFTER_S);
+        if let Some(id) = &self.cancelling
+            && standing
+            && !self.actions.busy()
+        {
+            let id = id.clone();
+            self.actions
+                .finish(&id, ActionStatus::Finished, "order cancelled, vehicle stopped");
+            self.cancelling = None;
+        }
+        let command = self.command(view);
+        self.schedule_messages(view);
+        command
+    }
+
+    fn command(&self, view: &VehicleView) -> Command {
+        let in_charge = view.operating_mode == OperatingMode::Automatic;
+        if self.paused || !in_charge || self.actions.blocks_driving() {
+            return Command::Hold;
+        }
+        let Some((edge, node)) = self.order.next_leg() else {
+            return Command::Hold;
+        };
+        let Some(from) = self.order.last_node.as_ref().and_then(map_xy) else {
+            return Command::Hold;
+        };
+        let Some(to) = map_xy(node) else {
+            return Command::Hold;
+        };
+        let reverse = drives_in_reverse(edge);
+        let after = self.order.edges.get(1).zip(self.order.nodes.get(1));
+        let drive_through = after
+            .filter(|(e, n)| e.released && n.released && drives_in_reverse(e) == reverse && !has_blocking_action(node));
+        let position = node.node_position.as_ref();
+        Command::Drive(Leg {
+            node_sequence_id: node.sequence_id,
+            from,
+            to,
+            next: drive_through.and_then(|(_, n)| map_xy(n)),
+            reverse,
+            max_speed_mps: edge.max_speed,
+            stop: drive_through.is_none(),
+            allowed_deviation_m: position.and_then(|p| p.allowed_deviation_x_y).filter(|d| *d > 0.0),
+            allowed_deviation_rad: position.and_then(|p| p.allowed_deviation_theta).filter(|d| *d > 0.0),
+        })
+    }
+
+    fn reach_next_node(&mut self) {
+        let Some((node, edge)) = self.order.reach_next() else {
+            return;
+        };
+        if let Some(edge) = edge {
+            self.actions.leave_edge(edge.sequence_id);
+        }
+        self.actions.trigger(Scope::Node(node.sequence_id));
+        if let Some(next) = self.order.edges.first().filter(|e| e.released) {
+            self.actions.trigger(Scope::Edge(next.sequence_id));
+        }
+        self.order_generation += 1;
+    }
+
+    fn handle(&mut self, topic: Topic, payload: &[u8], view: &VehicleView) {
+        match topic {
+            Topic::Order => match parse_order(payload) {
+                Ok(order) => self.handle_order(order, view),
+                Err(e) => self.payload_error("order", e.to_string()),
+            },
+            Topic::InstantActions => match parse_instant_actions(payload) {
+                Ok(instant) => {
+                    for action in &instant.actions {
+                        self.instant_action(action, view);
+                    }
+                }
+                Err(e) => self.payload_error("instantActions", e.to_string()),
+            },
+            // The edge (re)connected to the broker: the master control may
+            // have missed everything, so the factsheet and a state go out.
+            Topic::Connection => {
+                self.publish.push(Publish::Factsheet);
+                self.publish.push(Publish::State);
+            }
+            _ => {}
+        }
+    }
+
+    fn payload_error(&mut self, topic: &str, description: String) {
+        self.errors
+            .push(error("validationError", description, vec![("topic", topic.to_owned())]));
+    }
+
+    fn handle_order(&mut self, order: Order, view: &VehicleView) {
+        let mappings = self.config.mappings.clone();
+        let supports = move |t: &str| mapping(&mappings, t).is_some();
+        let ctx = OrderContext {
+            map_id: &self.config.map_id,
+            position: view.pose.map(|p| (p.x_m, p.y_m)),
+            actions_busy: self.actions.busy(),
+            supports_action: &supports,
+        };
+        let known_nodes = self.order.nodes.len();
+        let verdict = self.order.receive(order, &ctx);
+        self.order_generation += 1;
+        let Verdict::Accepted { new_order } = verdict else {
+            return;
+        };
+        self.errors.clear();
+        if new_order {
+            self.actions.forget_done();
+            self.paused = false;
+            self.add_order_actions(0);
+            if let Some(first) = self.order.last_node.clone() {
+                self.add_actions_of(&first.actions, Scope::Node(first.sequence_id));
+                self.actions.trigger(Scope::Node(first.sequence_id));
+            }
+            if let Some(edge) = self.order.edges.first().filter(|e| e.released) {
+                self.actions.trigger(Scope::Edge(edge.sequence_id));
+            }
+        } else {
+            // Actions of nodes and edges already held were added when they
+            // came (the stitching node keeps the first order's).
+            let kept = known_nodes.min(self.order.nodes.len());
+            self.add_order_actions(kept);
+        }
+        self.events.push(OrderEvent::Accepted { new_order });
+    }
+
+    /// Adds the actions of the nodes from index `from` on, and of their edges.
+    fn add_order_actions(&mut self, from: usize) {
+        let nodes: Vec<Node> = self.order.nodes[from..].to_vec();
+        let edges: Vec<Edge> = self.order.edges[from.min(self.order.edges.len())..].to_vec();
+        for (i, node) in nodes.iter().enumerate() {
+            if let Some(edge) = edges.get(i) {
+                self.add_actions_of(&edge.actions, Scope::Edge(edge.sequence_id));
+            }
+            self.add_actions_of(&node.actions, Scope::Node(node.sequence_id));
+        }
+    }
+
+    fn add_actions_of(&mut self, actions: &[Action], scope: Scope) {
+        for action in actions {
+            self.actions.add_waiting(action, scope);
+        }
+    }
+
+    fn instant_action(&mut self, action: &Action, view: &VehicleView) {
+        let done = |agent: &mut Agent, status, result: &str| agent.actions.add_done(action, status, result.into());
+        match action.action_type.as_str() {
+            "startPause" => {
+                self.paused = true;
+                done(self, ActionStatus::Finished, "paused");
+            }
+            "stopPause" => {
+                self.paused = false;
+                done(self, ActionStatus::Finished, "resumed");
+            }
+            "cancelOrder" => self.cancel_order(action),
+            "stateRequest" => {
+                self.publish.push(Publish::State);
+                done(self, ActionStatus::Finished, "state sent");
+            }
+            "factsheetRequest" => {
+                self.publish.push(Publish::Factsheet);
+                done(self, ActionStatus::Finished, "factsheet sent");
+            }
+            "initPosition" => self.init_position(action, view),
+            kind if self.supports_action(kind) => self.actions.add_instant(action),
+            kind => {
+                let text = format!("instant action type {kind:?} is not supported");
+                done(self, ActionStatus::Failed, &text);
+                let refs = vec![("actionId", action.action_id.clone()), ("actionType", kind.to_owned())];
+                self.errors.push(error("orderError", text, refs));
+            }
+        }
+        self.order_generation += 1;
+    }
+
+    /// cancelOrder (§6.6.3): stop now, fail what is left, keep the ids.
+    fn cancel_order(&mut self, action: &Action) {
+        if !self.order.has_nodes() && !self.actions.busy() {
+            self.actions
+                .add_done(action, ActionStatus::Failed, "no order to cancel".into());
+            let refs = vec![("actionId", action.action_id.clone())];
+            self.errors
+                .push(error("noOrderToCancel", "there is no order to cancel".into(), refs));
+            return;
+        }
+        self.order.cancel();
+        self.actions.cancel_all();
+        self.actions.add_done(action, ActionStatus::Running, "stopping".into());
+        self.cancelling = Some(action.action_id.clone());
+        self.events.push(OrderEvent::Cancelled);
+    }
+
+    /// initPosition: this vehicle localises by GNSS and cannot be told where
+    /// it is; the pose given is checked against the estimate and, when it
+    /// agrees, `lastNodeId` is set.
+    fn init_position(&mut self, action: &Action, view: &VehicleView) {
+        let number = |key: &str| {
+            let parameters = action.action_parameters.as_deref().unwrap_or_default();
+            parameters.iter().find(|p| p.key == key).and_then(|p| p.value.as_f64())
+        };
+        let text = |key: &str| {
+            let parameters = action.action_parameters.as_deref().unwrap_or_default();
+            parameters
+                .iter()
+                .find(|p| p.key == key)
+                .and_then(|p| p.value.as_str().map(str::to_owned))
+        };
+        let verdict = match (number("x"), number("y"), view.pose) {
+            (Some(x), Some(y), Some(pose)) if text("mapId").is_none_or(|m| m == self.config.map_id) => {
+                let off = (pose.x_m - x).hypot(pose.y_m - y);
+                if off <= super::order::DEFAULT_START_DEVIATION_M {
+                    if let Some(node) = text("lastNodeId") {
+                        self.order.last_node_id = node;
+                    }
+                    Ok(format!("pose agrees with the GNSS estimate ({off:.2} m)"))
+                } else {
+                    Err(format!(
+                        "GNSS-localised: the pose given is {off:.2} m from the estimate"
+                    ))
+                }
+            }
+            (_, _, None) => Err("no position estimate to check the pose against".to_owned()),
+            _ => Err("x, y (numbers) and this vehicle's mapId are needed".to_owned()),
+        };
+        match verdict {
+            Ok(result) => self.actions.add_done(action, ActionStatus::Finished, result),
+            Err(result) => self.actions.add_done(action, ActionStatus::Failed, result),
+        }
+    }
+
+    fn fingerprint(&self, view: &VehicleView) -> Fingerprint {
+        Fingerprint {
+            order_generation: self.order_generation,
+            action_generation: self.actions.generation,
+            errors: self.errors.len() + self.order.errors.len(),
+            driving: view.driving,
+            paused: self.paused,
+            new_base_request: self.new_base_request(),
+            operating_mode: view.operating_mode,
+        }
+    }
+
+    /// `state` on every change and at its interval; `visualization` at its.
+    fn schedule_messages(&mut self, view: &VehicleView) {
+        let fingerprint = self.fingerprint(view);
+        let interval = if view.driving {
+            self.config.state_interval_driving_s
+        } else {
+            self.config.state_interval_idle_s
+        };
+        let due = self.last_state_wall_s.is_none_or(|t| view.wall_s - t >= interval);
+        let changed = self.last_fingerprint.as_ref() != Some(&fingerprint);
+        let requested = self.publish.contains(&Publish::State);
+        if (due || changed) && !requested {
+            self.publish.push(Publish::State);
+        }
+        if due || changed || requested {
+            self.last_state_wall_s = Some(view.wall_s);
+            self.last_fingerprint = Some(fingerprint);
+        }
+        let every = self.config.visualization_interval_s;
+        if every > 0.0 && self.last_visualization_wall_s.is_none_or(|t| view.wall_s - t >= every) {
+            self.last_visualization_wall_s = Some(view.wall_s);
+            self.publish.push(Publish::Visualization);
+        }
+    }
+}
+
+fn map_xy(node: &Node) -> Option<(f64, f64)> {
+    node.node_position.as_ref().map(|p| (p.x, p.y))
+}
+
+/// TANGENTIAL (or no type) with an orientation near π: the edge is driven
+/// backwards (§6.6.6).
+pub fn drives_in_reverse(edge: &Edge) -> bool {
+    let tangential = edge.orientation_type.is_none_or(|t| t == OrientationType::Tangential);
+    tangential && edge.orientation.is_some_and(|o| o.abs() > std::f64::consts::FRAC_PI_2)
+}
+
+fn has_blocking_action(node: &Node) -> bool {
+    node.actions
+        .iter()
+        .any(|a| a.blocking_type != vda5050::common::BlockingType::None)
+}

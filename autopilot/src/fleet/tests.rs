@@ -1,0 +1,396 @@
+//! The agent's rules, stepped with time: acceptance and rejection, updates,
+//! progress, actions, cancel and pause.
+
+use serde_json::{Value, json};
+use vda5050::Topic;
+use vda5050::state::{ActionStatus, OperatingMode};
+
+use super::agent::{Agent, AgentConfig, Command, Publish, VehicleView};
+use super::map::MapPose;
+
+/// A node: id, map x/y, released, and an optional (actionId, type) HARD action.
+pub struct N(
+    pub &'static str,
+    pub f64,
+    pub f64,
+    pub bool,
+    pub Option<(&'static str, &'static str)>,
+);
+
+/// An order whose edge i joins nodes i and i+1; `reverse` lists edges
+/// driven backwards.
+pub fn order(order_id: &str, update_id: u32, first_seq: u32, nodes: &[N], reverse: &[usize]) -> Value {
+    let node_json: Vec<Value> = nodes
+        .iter()
+        .enumerate()
+        .map(|(i, N(id, x, y, released, action))| {
+            let actions: Vec<Value> = action
+                .iter()
+                .map(|(aid, kind)| json!({"actionId": aid, "actionType": kind, "blockingType": "HARD"}))
+                .collect();
+            json!({
+                "nodeId": id, "sequenceId": first_seq + 2 * i as u32, "released": released,
+                "nodePosition": {"x": x, "y": y, "mapId": "yard", "allowedDeviationXY": 0.3},
+                "actions": actions,
+            })
+        })
+        .collect();
+    let edge_json: Vec<Value> = nodes
+        .windows(2)
+        .enumerate()
+        .map(|(i, pair)| {
+            let mut edge = json!({
+                "edgeId": format!("e{}", first_seq + 2 * i as u32 + 1),
+                "sequenceId": first_seq + 2 * i as u32 + 1,
+                "released": pair[0].3 && pair[1].3,
+                "startNodeId": pair[0].0, "endNodeId": pair[1].0,
+                "maxSpeed": 1.5,
+                "actions": [],
+            });
+            if reverse.contains(&i) {
+                edge["orientation"] = json!(std::f64::consts::PI);
+                edge["orientationType"] = json!("TANGENTIAL");
+            }
+            edge
+        })
+        .collect();
+    json!({
+        "headerId": 1, "timestamp": "2026-11-27T04:00:00.00Z", "version": "2.1.0",
+        "manufacturer": "Furrow", "serialNumber": "R1",
+        "orderId": order_id, "orderUpdateId": update_id, "nodes": node_json, "edges": edge_json,
+    })
+}
+
+pub fn instant(action_id: &str, kind: &str) -> Value {
+    json!({
+        "headerId": 2, "timestamp": "2026-11-27T04:00:00.00Z", "version": "2.1.0",
+        "manufacturer": "Furrow", "serialNumber": "R1",
+        "actions": [{"actionId": action_id, "actionType": kind, "blockingType": "NONE"}],
+    })
+}
+
+fn agent() -> Agent {
+    Agent::new(AgentConfig {
+        map_id: "yard".into(),
+        ..AgentConfig::default()
+    })
+}
+
+fn view(t: f64) -> VehicleView {
+    VehicleView {
+        boot_s: t,
+        wall_s: t,
+        pose: Some(MapPose {
+            x_m: 0.0,
+            y_m: 0.0,
+            theta_rad: 0.0,
+        }),
+        arrived_at: None,
+        driving: false,
+        operating_mode: OperatingMode::Automatic,
+    }
+}
+
+fn send(agent: &mut Agent, topic: Topic, value: &Value) {
+    agent.receive(topic, serde_json::to_vec(value).unwrap());
+}
+
+fn three_nodes() -> Value {
+    order(
+        "o1",
+        0,
+        0,
+        &[
+            N("a", 0.0, 0.0, true, None),
+            N("b", 10.0, 0.0, true, None),
+            N("c", 20.0, 0.0, true, None),
+        ],
+        &[],
+    )
+}
+
+fn error_types(agent: &Agent) -> Vec<String> {
+    let mut all: Vec<String> = agent.order.errors.iter().map(|e| e.error_type.clone()).collect();
+    all.extend(agent.errors.iter().map(|e| e.error_type.clone()));
+    all
+}
+
+fn leg(command: &Command) -> &super::Leg {
+    match command {
+        Command::Drive(leg) => leg,
+        Command::Hold => panic!("expected a leg, got Hold"),
+    }
+}
+
+#[test]
+fn a_new_order_is_taken_from_its_first_node_and_driven_leg_by_leg() {
+    let mut a = agent();
+    send(&mut a, Topic::Order, &three_nodes());
+    let command = a.step(&view(0.0));
+    assert_eq!(a.order.last_node_id, "a");
+    assert_eq!(a.order.nodes.len(), 2);
+    let first = leg(&command);
+    assert_eq!(
+        (first.from, first.to, first.node_sequence_id),
+        ((0.0, 0.0), (10.0, 0.0), 2)
+    );
+    assert!(!first.stop, "b is driven through towards c");
+    assert_eq!(first.next, Some((20.0, 0.0)));
+    assert!(a.take_publish().contains(&Publish::State), "state on a new order");
+
+    let mut at_b = view(5.0);
+    at_b.arrived_at = Some(2);
+    let command = a.step(&at_b);
+    assert_eq!((a.order.last_node_id.as_str(), a.order.last_node_sequence_id), ("b", 2));
+    let second = leg(&command);
+    assert!(second.stop, "c is the last node");
+    assert_eq!(second.allowed_deviation_m, Some(0.3));
+    let mut at_c = view(10.0);
+    at_c.arrived_at = Some(4);
+    assert_eq!(a.step(&at_c), Command::Hold);
+    assert!(!a.has_order());
+}
+
+#[test]
+fn malformed_and_invalid_orders_are_rejected_and_the_old_order_is_kept() {
+    let mut a = agent();
+    send(&mut a, Topic::Order, &three_nodes());
+    a.step(&view(0.0));
+    a.receive(Topic::Order, b"{not json".to_vec());
+    let mut no_edges = three_nodes();
+    no_edges["orderId"] = json!("o2");
+    no_edges["edges"] = json!([]);
+    send(&mut a, Topic::Order, &no_edges);
+    let command = a.step(&view(1.0));
+    assert_eq!(error_types(&a), vec!["validationError", "validationError"]);
+    assert_eq!(a.order.order_id, "o1");
+    assert_eq!(leg(&command).node_sequence_id, 2, "the running order goes on");
+}
+
+#[test]
+fn unsupported_actions_other_maps_and_far_starts_are_refused_with_their_error_types() {
+    let cases: [(fn(&mut Value), &str); 4] = [
+        (
+            |o| o["nodes"][1]["actions"] = json!([{"actionId": "x", "actionType": "fly", "blockingType": "HARD"}]),
+            "orderError",
+        ),
+        (
+            |o| o["nodes"][2]["nodePosition"]["mapId"] = json!("other"),
+            "noRouteError",
+        ),
+        (|o| o["nodes"][0]["nodePosition"]["x"] = json!(5.0), "noRouteError"),
+        (
+            |o| o["edges"][0]["trajectory"] = json!({"degree": 1, "knotVector": [0, 0, 1, 1], "controlPoints": [{"x": 0, "y": 0}, {"x": 10, "y": 0}]}),
+            "orderError",
+        ),
+    ];
+    for (change, expected) in cases {
+        let mut a = agent();
+        let mut o = three_nodes();
+        change(&mut o);
+        send(&mut a, Topic::Order, &o);
+        assert_eq!(a.step(&view(0.0)), Command::Hold);
+        assert_eq!(error_types(&a), vec![expected]);
+        assert!(a.order.order_id.is_empty());
+    }
+}
+
+fn with_horizon() -> Value {
+    order(
+        "o1",
+        0,
+        0,
+        &[
+            N("a", 0.0, 0.0, true, None),
+            N("b", 10.0, 0.0, true, None),
+            N("c", 20.0, 0.0, false, None),
+        ],
+        &[],
+    )
+}
+
+#[test]
+fn an_update_is_stitched_at_the_decision_point_and_ids_are_checked() {
+    let mut a = agent();
+    send(&mut a, Topic::Order, &with_horizon());
+    let command = a.step(&view(0.0));
+    assert!(leg(&command).stop, "b is the decision point");
+    assert!(a.new_base_request(), "the base runs out at b");
+
+    // An update from the wrong node, then an older one: refused.
+    let wrong = order(
+        "o1",
+        1,
+        0,
+        &[N("a", 0.0, 0.0, true, None), N("b", 10.0, 0.0, true, None)],
+        &[],
+    );
+    send(&mut a, Topic::Order, &wrong);
+    a.step(&view(1.0));
+    assert_eq!(error_types(&a), vec!["orderUpdateError"]);
+
+    let update = order(
+        "o1",
+        2,
+        2,
+        &[
+            N("b", 10.0, 0.0, true, None),
+            N("c", 20.0, 0.0, true, None),
+            N("d", 30.0, 0.0, true, None),
+        ],
+        &[],
+    );
+    send(&mut a, Topic::Order, &update);
+    let command = a.step(&view(2.0));
+    assert!(error_types(&a).is_empty(), "errors clear on acceptance");
+    assert_eq!(a.order.order_update_id, 2);
+    let ids: Vec<&str> = a.order.nodes.iter().map(|n| n.node_id.as_str()).collect();
+    assert_eq!(ids, ["b", "c", "d"]);
+    assert!(!leg(&command).stop, "b is now driven through");
+    assert!(!a.new_base_request());
+
+    let mut older = update.clone();
+    older["orderUpdateId"] = json!(1);
+    send(&mut a, Topic::Order, &older);
+    a.step(&view(3.0));
+    assert_eq!(error_types(&a), vec!["orderUpdateError"]);
+    send(&mut a, Topic::Order, &update);
+    a.step(&view(4.0));
+    assert_eq!(error_types(&a).len(), 1, "a duplicate is ignored, not an error");
+}
+
+#[test]
+fn an_update_after_completion_continues_from_the_last_node() {
+    let mut a = agent();
+    send(
+        &mut a,
+        Topic::Order,
+        &order(
+            "o1",
+            0,
+            0,
+            &[N("a", 0.0, 0.0, true, None), N("b", 10.0, 0.0, true, None)],
+            &[],
+        ),
+    );
+    a.step(&view(0.0));
+    let mut at_b = view(1.0);
+    at_b.arrived_at = Some(2);
+    a.step(&at_b);
+    assert!(!a.has_order());
+    send(
+        &mut a,
+        Topic::Order,
+        &order(
+            "o1",
+            1,
+            2,
+            &[N("b", 10.0, 0.0, true, None), N("c", 20.0, 0.0, true, None)],
+            &[],
+        ),
+    );
+    let command = a.step(&view(2.0));
+    assert_eq!(leg(&command).to, (20.0, 0.0));
+    // A different order while one runs is refused.
+    send(&mut a, Topic::Order, &three_nodes());
+    a.step(&view(3.0));
+    assert_eq!(error_types(&a), vec!["orderUpdateError"]);
+}
+
+#[test]
+fn a_hard_node_action_holds_the_vehicle_until_it_finishes_and_reverse_edges_say_so() {
+    let mut a = agent();
+    let o = order(
+        "o1",
+        0,
+        0,
+        &[
+            N("a", 0.0, 0.0, true, None),
+            N("b", 10.0, 0.0, true, Some(("pick1", "pick"))),
+            N("c", 0.0, 0.0, true, None),
+        ],
+        &[1],
+    );
+    send(&mut a, Topic::Order, &o);
+    let command = a.step(&view(0.0));
+    assert!(leg(&command).stop, "a blocking action stops at b");
+    assert!(!leg(&command).reverse);
+    assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Waiting));
+    let mut at_b = view(10.0);
+    at_b.arrived_at = Some(2);
+    assert_eq!(a.step(&at_b), Command::Hold);
+    assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Initializing));
+    assert_eq!(a.take_outputs().len(), 1, "the pick's servo output");
+    assert_eq!(a.step(&view(11.0)), Command::Hold);
+    assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Running));
+    let command = a.step(&view(13.0));
+    assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Finished));
+    assert!(leg(&command).reverse, "orientation π, tangential: backwards");
+}
+
+#[test]
+fn cancel_stops_at_once_and_finishes_once_the_vehicle_stands() {
+    let mut a = agent();
+    send(&mut a, Topic::Order, &three_nodes());
+    a.step(&view(0.0));
+    send(&mut a, Topic::InstantActions, &instant("c1", "cancelOrder"));
+    let mut moving = view(1.0);
+    moving.driving = true;
+    assert_eq!(a.step(&moving), Command::Hold);
+    assert_eq!(a.actions.status("c1"), Some(ActionStatus::Running));
+    assert!(a.order.nodes.is_empty() && a.order.edges.is_empty());
+    assert_eq!(a.order.order_id, "o1", "ids are kept");
+    a.step(&view(2.0));
+    assert_eq!(
+        a.actions.status("c1"),
+        Some(ActionStatus::Running),
+        "not standing for long yet"
+    );
+    a.step(&view(2.5));
+    assert_eq!(a.actions.status("c1"), Some(ActionStatus::Finished));
+    // Nothing left to cancel: FAILED and a warning.
+    send(&mut a, Topic::InstantActions, &instant("c2", "cancelOrder"));
+    a.step(&view(3.0));
+    assert_eq!(a.actions.status("c2"), Some(ActionStatus::Failed));
+    assert_eq!(error_types(&a), vec!["noOrderToCancel"]);
+}
+
+#[test]
+fn pause_holds_and_resume_drives_on_and_a_ground_station_takes_over() {
+    let mut a = agent();
+    send(&mut a, Topic::Order, &three_nodes());
+    a.step(&view(0.0));
+    send(&mut a, Topic::InstantActions, &instant("p", "startPause"));
+    assert_eq!(a.step(&view(1.0)), Command::Hold);
+    assert!(a.paused);
+    send(&mut a, Topic::InstantActions, &instant("r", "stopPause"));
+    assert!(matches!(a.step(&view(2.0)), Command::Drive(_)));
+    let mut manual = view(3.0);
+    manual.operating_mode = OperatingMode::Manual;
+    assert_eq!(a.step(&manual), Command::Hold);
+}
+
+#[test]
+fn requests_publish_and_state_is_paced_by_driving() {
+    let mut a = agent();
+    a.step(&view(0.0));
+    assert_eq!(a.take_publish(), vec![Publish::State, Publish::Visualization]);
+    a.step(&view(10.0));
+    assert_eq!(a.take_publish(), vec![Publish::Visualization], "idle: state every 30 s");
+    send(&mut a, Topic::InstantActions, &instant("s", "stateRequest"));
+    a.step(&view(10.1));
+    assert!(a.take_publish().contains(&Publish::State));
+    send(&mut a, Topic::InstantActions, &instant("f", "factsheetRequest"));
+    a.step(&view(10.2));
+    assert!(a.take_publish().contains(&Publish::Factsheet));
+    let mut driving = view(11.0);
+    driving.driving = true;
+    a.step(&driving);
+    assert!(a.take_publish().contains(&Publish::State), "driving changed");
+    driving.wall_s = 12.05;
+    a.step(&driving);
+    assert!(a.take_publish().contains(&Publish::State), "1 s while driving");
+    a.receive(Topic::InstantActions, b"[]".to_vec());
+    a.step(&driving);
+    assert_eq!(error_types(&a), vec!["validationError"]);
+}

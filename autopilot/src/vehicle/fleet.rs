@@ -1,0 +1,316 @@
+//! The core's side of VDA 5050: steps the fleet agent with what the core
+//! knows, drives its legs in AUTO through the same navigator, obstacle
+//! protection and failsafes as a mission, sets the outputs its actions
+//! drive, and builds the messages it wants sent (docs/architecture.md
+//! §Fleets).
+
+use drivers::gnss::FixQuality;
+use mavlink::dialects::ardupilotmega::MavSeverity;
+use vda5050::state::{ErrorLevel, OperatingMode};
+
+use super::{Core, Inputs, Outputs};
+use crate::fleet::actions::ActionOutput;
+use crate::fleet::factsheet::{VehicleDescription, build_factsheet};
+use crate::fleet::map::{local_from_map, map_from_local};
+use crate::fleet::order::error;
+use crate::fleet::state::{build_state, build_visualization};
+use crate::fleet::{Agent, AgentConfig, Command, Leg, OrderEvent, Publish, VehicleReport, VehicleView};
+use crate::guidance::navigator::{NavTarget, StopTolerance};
+use crate::guidance::tracker::Direction;
+use crate::modes::Mode;
+
+/// A message for the master control; the edge stamps its header.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FleetMessage {
+    State(Box<vda5050::State>),
+    Visualization(vda5050::Visualization),
+    Factsheet(Box<vda5050::Factsheet>),
+}
+
+/// Moving faster than this counts as driving (m/s).
+const DRIVING_SPEED_MPS: f64 = 0.03;
+
+/// The core's fleet state: the agent, and the leg being driven.
+pub(super) struct FleetState {
+    agent: Agent,
+    command: Command,
+    /// The node sequenceId the navigator is driving to.
+    leg: Option<u32>,
+    /// The stop tolerance of the leg being driven, when the node gives one.
+    tolerance: Option<StopTolerance>,
+}
+
+impl Core {
+    /// Makes this vehicle a VDA 5050 AGV: orders and instant actions come in
+    /// `Inputs::vda5050`, messages go out in `Outputs::vda5050`.
+    pub fn enable_vda5050(&mut self, config: AgentConfig) {
+        self.fleet = Some(Box::new(FleetState {
+            agent: Agent::new(config),
+            command: Command::Hold,
+            leg: None,
+            tolerance: None,
+        }));
+    }
+
+    /// The fleet agent, when VDA 5050 is on.
+    pub fn fleet_agent(&self) -> Option<&Agent> {
+        self.fleet.as_ref().map(|f| &f.agent)
+    }
+
+    /// AUTO drives the fleet's order rather than the mission.
+    pub(super) fn fleet_drives(&self) -> bool {
+        self.fleet.as_ref().is_some_and(|f| f.agent.has_order())
+    }
+
+    /// The node's allowed deviation replaces `WP_STOP_TOL_*` on its leg.
+    pub(super) fn fleet_stop_tolerance(&self) -> Option<StopTolerance> {
+        self.fleet.as_ref().and_then(|f| f.tolerance)
+    }
+
+    /// Who is in charge (§6.10.6): the master control in AUTO, and in HOLD
+    /// with no order left; a ground station that took the vehicle (MANUAL,
+    /// or any other mode mid-order) pauses the order.
+    fn operating_mode(&self) -> OperatingMode {
+        match self.mode {
+            Mode::Auto => OperatingMode::Automatic,
+            Mode::Manual => OperatingMode::Manual,
+            Mode::Hold if !self.fleet_drives() => OperatingMode::Automatic,
+            _ => OperatingMode::Service,
+        }
+    }
+
+    /// Once a tick, after the tasks: the agent's step and what follows.
+    pub(super) fn fleet_tick(&mut self, inputs: &Inputs, out: &mut Outputs) {
+        if self.fleet.is_none() {
+            return;
+        }
+        let view = self.fleet_view();
+        let report = self.vehicle_report(view.driving);
+        let description = self.vehicle_description();
+        let Some(fleet) = self.fleet.as_mut() else {
+            return;
+        };
+        for (topic, payload) in &inputs.vda5050 {
+            fleet.agent.receive(*topic, payload.clone());
+        }
+        fleet.command = fleet.agent.step(&view);
+        let events = fleet.agent.take_events();
+        let outputs = fleet.agent.take_outputs();
+        for publish in fleet.agent.take_publish() {
+            out.vda5050.push(match publish {
+                Publish::State => FleetMessage::State(Box::new(build_state(&fleet.agent, &report))),
+                Publish::Visualization => FleetMessage::Visualization(build_visualization(&fleet.agent, &report)),
+                Publish::Factsheet => {
+                    FleetMessage::Factsheet(Box::new(build_factsheet(&description, &fleet.agent.config)))
+                }
+            });
+        }
+        for event in events {
+            self.fleet_event(event);
+        }
+        for output in outputs {
+            self.apply_action_output(output);
+        }
+    }
+
+    fn fleet_view(&self) -> VehicleView {
+        let estimate = self.estimator.estimate();
+        let fleet = self.fleet.as_ref();
+        let leg = fleet.and_then(|f| f.leg);
+        let arrived = self.mode == Mode::Auto && self.navigator.arrived() && !self.obstacles.detouring();
+        VehicleView {
+            boot_s: self.now.boot.as_secs_f64(),
+            wall_s: self.now.wall.as_secs_f64(),
+            pose: estimate
+                .position_valid
+                .then(|| map_from_local(&estimate.position, estimate.yaw_rad)),
+            arrived_at: leg.filter(|_| arrived),
+            driving: self.armed && estimate.speed_mps.abs() > DRIVING_SPEED_MPS,
+            operating_mode: self.operating_mode(),
+        }
+    }
+
+    fn vehicle_description(&self) -> VehicleDescription {
+        let t = &self.params;
+        let nav = &self.p.nav;
+        let footprint = self.footprint();
+        VehicleDescription {
+            differential: self.drive_train == crate::control::mixer::DriveTrain::Differential,
+            speed_max_mps: f64::from(nav.wp_speed_mps.get(t)),
+            accel_max_mps2: f64::from(nav.accel_max_mps2.get(t)),
+            decel_max_mps2: self.decel_limit_mps2(),
+            front_m: footprint.front_m,
+            rear_m: footprint.rear_m,
+            width_m: 2.0 * footprint.half_width_m,
+        }
+    }
+
+    fn vehicle_report(&self, driving: bool) -> VehicleReport {
+        let estimate = self.estimator.estimate();
+        let quality = self.estimator.gnss().quality;
+        let localization_score = match quality {
+            Some(FixQuality::RtkFixed) => 1.0,
+            Some(FixQuality::RtkFloat) => 0.7,
+            Some(FixQuality::Dgps) => 0.5,
+            Some(FixQuality::Single) => 0.3,
+            Some(FixQuality::DeadReckoning) => 0.1,
+            _ => 0.0,
+        };
+        let mut errors = Vec::new();
+        for failsafe in self.active_failsafes() {
+            let mut e = error(
+                "failsafe",
+                failsafe.name().to_owned(),
+                vec![("failsafe", failsafe.name().to_owned())],
+            );
+            e.error_level = ErrorLevel::Fatal;
+            errors.push(e);
+        }
+        let obstacle_stop = self.obstacles.status().stopped;
+        if obstacle_stop {
+            errors.push(error(
+                "obstacleStop",
+                "an obstacle stops the vehicle".into(),
+                Vec::new(),
+            ));
+        }
+        VehicleReport {
+            pose: estimate
+                .position_valid
+                .then(|| map_from_local(&estimate.position, estimate.yaw_rad)),
+            position_initialized: estimate.position_valid && estimate.heading_valid,
+            localization_score,
+            // 2σ: the standard's range holds the position with ~95 %.
+            deviation_range_m: 2.0 * estimate.horiz_sigma_m,
+            speed_mps: estimate.speed_mps,
+            // Clockwise in the core, counter-clockwise in the map frame.
+            yaw_rate_rad_s: -estimate.yaw_rate_rad_s,
+            driving,
+            battery_percent: self.battery.map_or(0.0, |b| b.remaining_pct),
+            battery_voltage_v: self.battery.map(|b| b.voltage_v),
+            operating_mode: self.operating_mode(),
+            errors,
+            field_violation: obstacle_stop,
+        }
+    }
+
+    /// A new order in HOLD (the master control in charge) arms the vehicle
+    /// and enters AUTO; a cancel stops at once.
+    fn fleet_event(&mut self, event: OrderEvent) {
+        match event {
+            OrderEvent::Accepted { new_order: true } if self.mode == Mode::Hold => self.start_fleet_order(),
+            OrderEvent::Accepted { .. } => {}
+            OrderEvent::Cancelled => {
+                if let Some(fleet) = self.fleet.as_mut() {
+                    fleet.leg = None;
+                    fleet.tolerance = None;
+                }
+                self.navigator.clear();
+                self.send_text(MavSeverity::MAV_SEVERITY_INFO, "VDA 5050: order cancelled");
+            }
+        }
+    }
+
+    fn start_fleet_order(&mut self) {
+        if !self.armed && !self.arm(false) {
+            let reasons = self.arming_failures().join(", ");
+            self.fleet_error("vehicleNotReady", format!("cannot arm: {reasons}"));
+            return;
+        }
+        if let Err(why) = self.request_mode(Mode::Auto) {
+            self.fleet_error("vehicleNotReady", format!("cannot enter AUTO: {why:?}"));
+        }
+    }
+
+    fn fleet_error(&mut self, kind: &str, text: String) {
+        self.send_text(MavSeverity::MAV_SEVERITY_WARNING, &format!("VDA 5050: {text}"));
+        if let Some(fleet) = self.fleet.as_mut() {
+            fleet.agent.errors.push(error(kind, text, Vec::new()));
+        }
+    }
+
+    /// An action's output, as DO_SET_SERVO / DO_SET_RELAY set it.
+    fn apply_action_output(&mut self, output: ActionOutput) {
+        match output {
+            ActionOutput::Servo { channel, pwm_us } => {
+                if let Some(slot) = self.missions.servo_us.get_mut(usize::from(channel).wrapping_sub(1)) {
+                    *slot = pwm_us;
+                }
+            }
+            ActionOutput::Relay { relay, on } => {
+                let bit = 1u16 << relay.min(15);
+                self.missions.relays_used |= bit;
+                if on {
+                    self.missions.relays_on |= bit;
+                } else {
+                    self.missions.relays_on &= !bit;
+                }
+            }
+        }
+    }
+
+    /// AUTO entered with an order: the next leg is set on the next tick.
+    pub(super) fn start_order(&mut self) {
+        if let Some(fleet) = self.fleet.as_mut() {
+            fleet.leg = None;
+        }
+    }
+
+    /// One AUTO step of the order: the agent's command to the navigator.
+    pub(super) fn run_order(&mut self) {
+        let Some((command, current)) = self.fleet.as_ref().map(|f| (f.command.clone(), f.leg)) else {
+            return;
+        };
+        match command {
+            Command::Hold if current.is_some() => {
+                if let Some(fleet) = self.fleet.as_mut() {
+                    fleet.leg = None;
+                    fleet.tolerance = None;
+                }
+                self.navigator.clear();
+            }
+            Command::Drive(leg) if current != Some(leg.node_sequence_id) => {
+                let tolerance = self.leg_tolerance(&leg);
+                if let Some(fleet) = self.fleet.as_mut() {
+                    fleet.leg = Some(leg.node_sequence_id);
+                    fleet.tolerance = tolerance;
+                }
+                self.drive_leg(&leg);
+            }
+            _ => {}
+        }
+    }
+
+    fn leg_tolerance(&self, leg: &Leg) -> Option<StopTolerance> {
+        if leg.allowed_deviation_m.is_none() && leg.allowed_deviation_rad.is_none() {
+            return None;
+        }
+        let nav = &self.p.nav;
+        Some(StopTolerance {
+            position_m: leg
+                .allowed_deviation_m
+                .unwrap_or(f64::from(nav.stop_tol_mm.get(&self.params)) / 1000.0),
+            yaw_rad: leg
+                .allowed_deviation_rad
+                .unwrap_or(f64::from(nav.stop_tol_deg.get(&self.params)).to_radians()),
+        })
+    }
+
+    fn drive_leg(&mut self, leg: &Leg) {
+        let cruise_mps = f64::from(self.p.nav.wp_speed_mps.get(&self.params));
+        let target = NavTarget {
+            point: local_from_map(leg.to.0, leg.to.1),
+            speed_mps: leg.max_speed_mps.map(|max| max.min(cruise_mps)),
+            direction: if leg.reverse {
+                Direction::Reverse
+            } else {
+                Direction::Forward
+            },
+            stop: leg.stop,
+            next: leg.next.map(|(x, y)| local_from_map(x, y)),
+            seq: None,
+        };
+        self.navigator
+            .set_target(local_from_map(leg.from.0, leg.from.1), target);
+    }
+}

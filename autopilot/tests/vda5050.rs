@@ -1,0 +1,417 @@
+//! VDA 5050 orders driven through the core and the simulated world in
+//! stepped time: nodes reported in order, a reverse edge and pick/drop, an
+//! update extending the base, cancel mid-edge, a rejected order beside a
+//! running one, and a ground station taking over.
+
+mod common;
+
+use autopilot::fleet::AgentConfig;
+use autopilot::fleet::publish::Publisher;
+use autopilot::sitl::simulation::ModelKind;
+use autopilot::time::FrozenTimer;
+use autopilot::vehicle::FleetMessage;
+use common::Harness;
+use serde_json::{Value, json};
+use vda5050::state::{ActionStatus, OperatingMode, State};
+use vda5050::{Topic, TopicPrefix};
+
+/// A node: id, map x (east) / y (north), released, optional HARD action.
+struct N(&'static str, f64, f64, bool, Option<(&'static str, &'static str)>);
+
+fn order(order_id: &str, update_id: u32, first_seq: u32, nodes: &[N], reverse: &[usize]) -> Value {
+    let node_json: Vec<Value> = nodes
+        .iter()
+        .enumerate()
+        .map(|(i, N(id, x, y, released, action))| {
+            let actions: Vec<Value> = action
+                .iter()
+                .map(|(aid, kind)| json!({"actionId": aid, "actionType": kind, "blockingType": "HARD"}))
+                .collect();
+            json!({
+                "nodeId": id, "sequenceId": first_seq + 2 * i as u32, "released": released,
+                "nodePosition": {"x": x, "y": y, "mapId": "yard", "allowedDeviationXY": 0.25},
+                "actions": actions,
+            })
+        })
+        .collect();
+    let edge_json: Vec<Value> = nodes
+        .windows(2)
+        .enumerate()
+        .map(|(i, pair)| {
+            let mut edge = json!({
+                "edgeId": format!("e{}", first_seq + 2 * i as u32 + 1),
+                "sequenceId": first_seq + 2 * i as u32 + 1,
+                "released": pair[0].3 && pair[1].3,
+                "startNodeId": pair[0].0, "endNodeId": pair[1].0,
+                "maxSpeed": 1.5, "actions": [],
+            });
+            if reverse.contains(&i) {
+                edge["orientation"] = json!(std::f64::consts::PI);
+                edge["orientationType"] = json!("TANGENTIAL");
+            }
+            edge
+        })
+        .collect();
+    json!({
+        "headerId": 1, "timestamp": "2026-11-27T04:00:00.00Z", "version": "2.1.0",
+        "manufacturer": "Furrow", "serialNumber": "R1",
+        "orderId": order_id, "orderUpdateId": update_id, "nodes": node_json, "edges": edge_json,
+    })
+}
+
+fn instant(action_id: &str, kind: &str) -> Value {
+    json!({
+        "headerId": 2, "timestamp": "2026-11-27T04:00:00.00Z", "version": "2.1.0",
+        "manufacturer": "Furrow", "serialNumber": "R1",
+        "actions": [{"actionId": action_id, "actionType": kind, "blockingType": "NONE"}],
+    })
+}
+
+/// Every message published is stamped as the MQTT edge stamps it and
+/// validated against the official schema of its topic.
+struct Schemas {
+    publisher: Publisher,
+    validators: Vec<(String, jsonschema::Validator)>,
+    /// Messages validated per topic.
+    checked: std::collections::BTreeMap<String, usize>,
+}
+
+impl Schemas {
+    fn new() -> Schemas {
+        let validators = ["state", "visualization", "factsheet", "connection"]
+            .iter()
+            .map(|name| {
+                let path = format!("{}/../tests/data/vda5050/{name}.schema", env!("CARGO_MANIFEST_DIR"));
+                let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
+                let schema: Value = serde_json::from_str(&text).unwrap();
+                let validator = jsonschema::options()
+                    .should_validate_formats(true)
+                    .build(&schema)
+                    .unwrap_or_else(|e| panic!("{name}: {e}"));
+                (name.to_string(), validator)
+            })
+            .collect();
+        Schemas {
+            publisher: Publisher::new(TopicPrefix::uagv_v2("Furrow", "R1").unwrap()),
+            validators,
+            checked: Default::default(),
+        }
+    }
+
+    fn check(&mut self, message: FleetMessage, unix_ms: u64) {
+        let publication = self.publisher.message(message, unix_ms);
+        let name = publication.topic.rsplit('/').next().unwrap().to_string();
+        let value: Value = serde_json::from_slice(&publication.payload).unwrap();
+        let (_, validator) = self
+            .validators
+            .iter()
+            .find(|(n, _)| *n == name)
+            .expect("a schema per topic");
+        let errors: Vec<String> = validator
+            .iter_errors(&value)
+            .map(|e| format!("{e} at {}", e.instance_path()))
+            .collect();
+        assert!(errors.is_empty(), "{name} violates its schema: {errors:#?}\n{value:#}");
+        *self.checked.entry(name).or_default() += 1;
+    }
+}
+
+struct Fleet {
+    h: Harness,
+    states: Vec<State>,
+    schemas: Schemas,
+    /// Where the vehicle estimated itself at the start (map x, y): node
+    /// positions in the tests are relative to it.
+    origin: (f64, f64),
+    /// The true position at the start (east, north).
+    truth_origin: (f64, f64),
+}
+
+impl Fleet {
+    /// A vehicle with a fix and heading, standing at the map origin facing
+    /// north (+y), its agent on map "yard".
+    fn new() -> Fleet {
+        let mut h = Harness::new(7, ModelKind::Ackermann);
+        h.sim.core_mut().enable_vda5050(AgentConfig {
+            map_id: "yard".into(),
+            ..AgentConfig::default()
+        });
+        let ready = h.run_until(30.0, |s| {
+            let e = s.core().estimator().estimate();
+            e.position_valid && e.heading_valid
+        });
+        assert!(ready, "no fix");
+        h.run_for(3.0);
+        let estimate = h.sim.core().estimator().estimate().position;
+        let truth = h.sim.world().truth();
+        Fleet {
+            origin: (estimate.east_m, estimate.north_m),
+            truth_origin: (truth.east_m, truth.north_m),
+            h,
+            states: Vec::new(),
+            schemas: Schemas::new(),
+        }
+    }
+
+    /// An order with node positions relative to where the vehicle started.
+    fn send_order(&mut self, order_id: &str, update_id: u32, first_seq: u32, nodes: &[N], reverse: &[usize]) {
+        let mut value = order(order_id, update_id, first_seq, nodes, reverse);
+        for node in value["nodes"].as_array_mut().unwrap() {
+            let position = &mut node["nodePosition"];
+            position["x"] = json!(position["x"].as_f64().unwrap() + self.origin.0);
+            position["y"] = json!(position["y"].as_f64().unwrap() + self.origin.1);
+        }
+        self.send(Topic::Order, &value);
+    }
+
+    fn send(&mut self, topic: Topic, value: &Value) {
+        let bytes = serde_json::to_vec(value).unwrap();
+        self.h.sim.inputs_mut().vda5050.push((topic, bytes));
+    }
+
+    fn step(&mut self) {
+        let wall = self.h.sim.time();
+        let out = self.h.sim.step(wall, &mut FrozenTimer);
+        self.h.received.append(&mut out.mavlink);
+        let messages: Vec<FleetMessage> = out.vda5050.drain(..).collect();
+        let unix_ms = 1_795_000_000_000 + wall.as_millis() as u64;
+        for message in messages {
+            if let FleetMessage::State(state) = &message {
+                self.states.push((**state).clone());
+            }
+            self.schemas.check(message, unix_ms);
+        }
+    }
+
+    fn run_until(&mut self, seconds: f64, mut done: impl FnMut(&Fleet) -> bool) -> bool {
+        let end = self.h.sim.time() + std::time::Duration::from_secs_f64(seconds);
+        while self.h.sim.time() < end {
+            self.step();
+            if done(self) {
+                return true;
+            }
+        }
+        false
+    }
+
+    fn last(&self) -> &State {
+        self.states.last().expect("a state was published")
+    }
+
+    /// The lastNodeIds the states reported, each once, in order.
+    fn nodes_reported(&self) -> Vec<String> {
+        let mut ids: Vec<String> = Vec::new();
+        for s in &self.states {
+            if !s.last_node_id.is_empty() && ids.last() != Some(&s.last_node_id) {
+                ids.push(s.last_node_id.clone());
+            }
+        }
+        ids
+    }
+
+    /// True position in the map frame (x east, y north).
+    fn truth_xy(&self) -> (f64, f64) {
+        let t = self.h.sim.world().truth();
+        (t.east_m - self.truth_origin.0, t.north_m - self.truth_origin.1)
+    }
+
+    fn speed(&self) -> f64 {
+        self.h.sim.world().truth().speed_mps.abs()
+    }
+
+    fn idle(&self) -> bool {
+        self.states
+            .last()
+            .is_some_and(|s| s.node_states.is_empty() && !s.driving)
+            && self.h.sim.core().fleet_agent().is_some_and(|a| !a.actions.busy())
+    }
+}
+
+fn error_types(state: &State) -> Vec<&str> {
+    state.errors.iter().map(|e| e.error_type.as_str()).collect()
+}
+
+#[test]
+fn a_six_node_order_with_a_reverse_edge_and_pick_and_drop_is_driven_node_by_node() {
+    let mut f = Fleet::new();
+    let nodes = [
+        N("n0", 0.0, 0.0, true, None),
+        N("n1", 0.0, 10.0, true, None),
+        N("n2", 0.0, 20.0, true, Some(("pick1", "pick"))),
+        N("n3", 0.0, 12.0, true, None),
+        N("n4", 0.0, 25.0, true, None),
+        N("n5", 0.0, 35.0, true, Some(("drop1", "drop"))),
+    ];
+    f.send_order("job1", 0, 0, &nodes, &[2]);
+    let mut reversed = false;
+    let done = f.run_until(240.0, |f| f.idle() && f.last().last_node_id == "n5");
+    // Reverse seen on the way from n2 to n3 (checked after: run_until
+    // borrows f).
+    assert!(done, "order not completed: {:?} {:?}", f.nodes_reported(), f.truth_xy());
+    assert_eq!(f.nodes_reported(), ["n0", "n1", "n2", "n3", "n4", "n5"]);
+    let (x, y) = f.truth_xy();
+    assert!(
+        (x.hypot(y - 35.0)) < 0.25,
+        "ended at ({x:.3}, {y:.3}), not within 0.25 m of n5"
+    );
+    let last = f.last();
+    for id in ["pick1", "drop1"] {
+        let status = last
+            .action_states
+            .iter()
+            .find(|a| a.action_id == id)
+            .map(|a| a.action_status);
+        assert_eq!(status, Some(ActionStatus::Finished), "{id}");
+    }
+    assert_eq!(last.operating_mode, OperatingMode::Automatic);
+    assert!(last.errors.is_empty(), "{:?}", last.errors);
+    // The drop's pulse is on servo 9.
+    assert_eq!(
+        f.h.sim.core().fleet_agent().map(|a| a.order.last_node_sequence_id),
+        Some(10)
+    );
+    for s in &f.states {
+        if s.last_node_id == "n2" && s.velocity.as_ref().and_then(|v| v.vx).is_some_and(|vx| vx < -0.2) {
+            reversed = true;
+        }
+    }
+    assert!(reversed, "the edge n2 → n3 was not driven in reverse");
+}
+
+#[test]
+fn an_update_extends_the_base_mid_drive() {
+    let mut f = Fleet::new();
+    let first = [
+        N("a", 0.0, 0.0, true, None),
+        N("b", 0.0, 10.0, true, None),
+        N("c", 0.0, 20.0, true, None),
+        N("d", 0.0, 30.0, false, None),
+    ];
+    f.send_order("job2", 0, 0, &first, &[]);
+    f.get_moving(0.5);
+    assert_eq!(f.last().new_base_request, Some(false));
+    assert!(
+        f.run_until(60.0, |f| f.last().new_base_request == Some(true)),
+        "no base request before c"
+    );
+    let update = [
+        N("c", 0.0, 20.0, true, None),
+        N("d", 0.0, 30.0, true, None),
+        N("e", 0.0, 40.0, true, None),
+    ];
+    f.send_order("job2", 1, 4, &update, &[]);
+    let done = f.run_until(120.0, |f| f.idle() && f.last().last_node_id == "e");
+    assert!(done, "{:?}", f.nodes_reported());
+    assert_eq!(f.nodes_reported(), ["a", "b", "c", "d", "e"]);
+    assert_eq!(f.last().order_update_id, 1);
+}
+
+#[test]
+fn cancel_mid_edge_stops_at_once_and_says_so() {
+    let mut f = Fleet::new();
+    let nodes = [N("a", 0.0, 0.0, true, None), N("b", 0.0, 40.0, true, None)];
+    f.send_order("job3", 0, 0, &nodes, &[]);
+    f.get_moving(1.0);
+    let (_, y_cancel) = f.truth_xy();
+    f.send(Topic::InstantActions, &instant("cancel1", "cancelOrder"));
+    let stopped = f.run_until(10.0, |f| {
+        f.last()
+            .action_states
+            .iter()
+            .any(|a| a.action_id == "cancel1" && a.action_status == ActionStatus::Finished)
+    });
+    assert!(stopped, "cancelOrder did not finish");
+    let (_, y_stop) = f.truth_xy();
+    assert!(f.speed() < 0.05, "still moving at {:.3} m/s", f.speed());
+    assert!(
+        y_stop - y_cancel < 3.0,
+        "ran on {:.2} m after the cancel",
+        y_stop - y_cancel
+    );
+    let last = f.last();
+    assert!(last.node_states.is_empty() && last.edge_states.is_empty());
+    assert_eq!(last.order_id, "job3");
+    assert!(!last.driving);
+    f.run_for_seconds(5.0);
+    assert!(f.speed() < 0.05, "moved again after the cancel");
+}
+
+#[test]
+fn a_malformed_order_is_rejected_and_the_running_one_continues() {
+    let mut f = Fleet::new();
+    let nodes = [N("a", 0.0, 0.0, true, None), N("b", 0.0, 15.0, true, None)];
+    f.send_order("job4", 0, 0, &nodes, &[]);
+    f.get_moving(0.5);
+    f.h.sim
+        .inputs_mut()
+        .vda5050
+        .push((Topic::Order, b"{\"orderId\": 12".to_vec()));
+    let mut bad = order("job5", 0, 0, &nodes, &[]);
+    bad["edges"] = json!([]);
+    f.send(Topic::Order, &bad);
+    assert!(f.run_until(5.0, |f| error_types(f.last()) == ["validationError", "validationError"]));
+    assert_eq!(f.last().order_id, "job4");
+    let done = f.run_until(60.0, |f| f.idle() && f.last().last_node_id == "b");
+    assert!(done, "the running order did not complete");
+}
+
+#[test]
+fn a_ground_station_switching_to_hold_pauses_the_order_until_auto() {
+    let mut f = Fleet::new();
+    let nodes = [N("a", 0.0, 0.0, true, None), N("b", 0.0, 30.0, true, None)];
+    f.send_order("job6", 0, 0, &nodes, &[]);
+    f.get_moving(1.0);
+    f.h.set_mode(4);
+    assert!(f.run_until(10.0, |f| f.last().operating_mode == OperatingMode::Service
+        && !f.last().driving));
+    assert_eq!(f.last().paused, Some(true));
+    f.run_for_seconds(5.0);
+    assert!(f.speed() < 0.05, "HOLD did not hold");
+    assert_eq!(f.last().node_states.len(), 1, "the order is kept");
+    f.h.set_mode(10);
+    let done = f.run_until(60.0, |f| f.idle() && f.last().last_node_id == "b");
+    assert!(done, "the order did not resume");
+    assert_eq!(f.last().operating_mode, OperatingMode::Automatic);
+}
+
+impl Fleet {
+    /// Runs until the vehicle drives faster than `speed_mps`.
+    fn get_moving(&mut self, speed_mps: f64) {
+        let moving = self.run_until(60.0, |f| f.speed() > speed_mps);
+        assert!(moving, "not moving: {:?}\n{:?}", self.states.last(), self.h.texts());
+    }
+
+    fn run_for_seconds(&mut self, seconds: f64) {
+        self.run_until(seconds, |_| false);
+    }
+}
+
+#[test]
+fn every_message_published_validates_and_a_factsheet_tells_what_the_vehicle_does() {
+    let mut f = Fleet::new();
+    f.send(Topic::InstantActions, &instant("f1", "factsheetRequest"));
+    let nodes = [
+        N("a", 0.0, 0.0, true, Some(("pick1", "pick"))),
+        N("b", 0.0, 8.0, true, None),
+    ];
+    f.send_order("job7", 0, 0, &nodes, &[]);
+    let done = f.run_until(60.0, |f| f.idle() && f.last().last_node_id == "b");
+    assert!(done, "{:?}", f.nodes_reported());
+    for topic in ["state", "visualization", "factsheet"] {
+        assert!(
+            f.schemas.checked.get(topic).is_some_and(|n| *n > 0),
+            "no {topic}: {:?}",
+            f.schemas.checked
+        );
+    }
+    let position = f.last().agv_position.clone().expect("a position");
+    assert!(position.position_initialized);
+    assert_eq!(position.map_id, "yard");
+    assert!(position.localization_score == Some(1.0), "RTK fixed");
+    assert!(
+        position.deviation_range.is_some_and(|d| d > 0.0 && d < 0.1),
+        "{position:?}"
+    );
+    assert!(f.last().battery_state.battery_charge > 50.0);
+    assert_eq!(f.last().safety_state.field_violation, false);
+}
