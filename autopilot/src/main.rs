@@ -23,6 +23,8 @@ struct Cli {
     command: Command,
 }
 
+// Parsed once at start: the size of `SitlArgs` costs nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// Run a simulated rover that ground stations connect to (TCP 5760, UDP to 14550).
@@ -231,28 +233,6 @@ fn main() -> ExitCode {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn home_and_speedup_parsing() {
-        let h = parse_home("29.133,119.64,40,-90").unwrap();
-        assert_eq!(h.heading_deg, 270.0);
-        assert!(parse_home("29.133,119.64,40").is_err());
-        assert!(parse_home("91,0,0,0").is_err());
-        assert!(parse_home("a,0,0,0").is_err());
-        let huge = parse_home("29.133,119.64,40,1e30").unwrap_err();
-        assert!(huge.contains("heading") && huge.contains("±360"), "{huge}");
-        assert!(parse_home("29.133,119.64,40,-361").is_err());
-        assert_eq!(parse_home("29.133,119.64,40,360").unwrap().heading_deg, 0.0);
-        assert_eq!(parse_speedup("MAX"), Ok(Speedup::Max));
-        assert_eq!(parse_speedup("50"), Ok(Speedup::Factor(50.0)));
-        assert!(parse_speedup("0").is_err());
-        assert!(parse_speedup("-3").is_err());
-    }
-}
-
 /// `--vda5050` and its companions, checked.
 fn vda5050_options(args: &SitlArgs) -> Result<Option<(MqttConfig, AgentConfig)>, String> {
     let Some(url) = &args.vda5050 else {
@@ -279,4 +259,26 @@ fn vda5050_options(args: &SitlArgs) -> Result<Option<(MqttConfig, AgentConfig)>,
         ..AgentConfig::default()
     };
     Ok(Some((mqtt, agent)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn home_and_speedup_parsing() {
+        let h = parse_home("29.133,119.64,40,-90").unwrap();
+        assert_eq!(h.heading_deg, 270.0);
+        assert!(parse_home("29.133,119.64,40").is_err());
+        assert!(parse_home("91,0,0,0").is_err());
+        assert!(parse_home("a,0,0,0").is_err());
+        let huge = parse_home("29.133,119.64,40,1e30").unwrap_err();
+        assert!(huge.contains("heading") && huge.contains("±360"), "{huge}");
+        assert!(parse_home("29.133,119.64,40,-361").is_err());
+        assert_eq!(parse_home("29.133,119.64,40,360").unwrap().heading_deg, 0.0);
+        assert_eq!(parse_speedup("MAX"), Ok(Speedup::Max));
+        assert_eq!(parse_speedup("50"), Ok(Speedup::Factor(50.0)));
+        assert!(parse_speedup("0").is_err());
+        assert!(parse_speedup("-3").is_err());
+    }
 }

@@ -192,7 +192,7 @@ fn a_mission_stop_with_a_heading_is_reached_facing_it() {
         assert!(done, "{texts:?}");
         // LOCAL_NED items are about the estimator's origin (the first fix).
         let origin = h.sim.core().estimator().frame().expect("a local frame").origin();
-        let (north, east) = h.sim.world().geodetic_to_local(&drivers::sim::GeoPoint {
+        let (north, east) = h.sim.world().geodetic_to_local(&vehicle_types::GeoPoint {
             lat_deg: origin.lat_deg,
             lon_deg: origin.lon_deg,
             alt_m: 0.0,

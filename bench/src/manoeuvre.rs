@@ -16,7 +16,7 @@
 use std::time::Duration;
 
 use mavlink::dialects::ardupilotmega::MavMessage;
-use sim::GeoPoint as SimGeoPoint;
+use vehicle_types::GeoPoint as SimGeoPoint;
 
 use autopilot::edge::clock::InstantTimer;
 use autopilot::geo::GeoPoint;

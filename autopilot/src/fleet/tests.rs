@@ -167,9 +167,12 @@ fn malformed_and_invalid_orders_are_rejected_and_the_old_order_is_kept() {
     assert_eq!(leg(&command).node_sequence_id, 2, "the running order goes on");
 }
 
+/// An edit that spoils an order, and the error type it must be refused with.
+type SpoiledOrder = (fn(&mut Value), &'static str);
+
 #[test]
 fn unsupported_actions_other_maps_and_far_starts_are_refused_with_their_error_types() {
-    let cases: [(fn(&mut Value), &str); 4] = [
+    let cases: [SpoiledOrder; 4] = [
         (
             |o| o["nodes"][1]["actions"] = json!([{"actionId": "x", "actionType": "fly", "blockingType": "HARD"}]),
             "orderError",

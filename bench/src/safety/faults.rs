@@ -378,13 +378,16 @@ fn run_scenario(s: &Scenario, course: &crate::tracking::Course, seed: u64) -> Re
     })
 }
 
+/// Parameter names and values as they stood before a scenario's setup.
+type ParamsBefore = Vec<(String, f64)>;
+
 /// The course loaded, the scenario's setup applied, armed in AUTO and
 /// driven until the fault is due; the plan and the parameters before it.
 fn drive_auto_until_fault(
     s: &Scenario,
     course: &crate::tracking::Course,
     seed: u64,
-) -> Result<(Drive, Plan, Vec<(String, f64)>), String> {
+) -> Result<(Drive, Plan, ParamsBefore), String> {
     let config = SimulationConfig {
         home: course.home,
         model: ModelKind::Ackermann,
