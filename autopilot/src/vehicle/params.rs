@@ -188,7 +188,7 @@ declare_params! {
             desc: "Preview distance added per m/s of speed",
         },
         lat_p: f32 = "PVW_LAT_P" => {
-            default: 3.0, range: 0.0, 10.0, unit: "",
+            default: 2.0, range: 0.0, 10.0, unit: "",
             desc: "Lateral PID P gain (m of correction per m of offset)",
         },
         lat_i: f32 = "PVW_LAT_I" => {
