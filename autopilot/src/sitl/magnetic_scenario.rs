@@ -40,9 +40,10 @@
 //! `furrow-bench magnetic` runs the whole grid of starts and prints what it
 //! measures; from 5° *away* from the tape on the bench AGV both sensors leave
 //! their ±92 mm range before 30°/s steering can turn the vehicle: the guide
-//! dead-reckons through it. Even knowing its state exactly, the bench AGV
-//! needs about 2.6 s from 0.1 m / 5° away at 1.5 m/s (30° steering at
-//! 30°/s, turning back through 0° first), so 3 s leaves little margin.
+//! dead-reckons through it. Even knowing its state exactly, the best
+//! open-loop two-phase steering found for the bench AGV from 0.1 m / 5°
+//! away at 1.5 m/s (30° steering at 30°/s, turning back through 0° first)
+//! takes 2.6 s, so 3 s leaves little margin.
 
 use std::f64::consts::{PI, TAU};
 
