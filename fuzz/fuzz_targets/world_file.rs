@@ -1,4 +1,4 @@
-//! SITL world files (`sim::world_file::parse_world_file`): TOML
+//! SITL world files (`sim::parse_world_file`): TOML
 //! with static shapes, moving obstacles and a magnetic tape, reloaded while
 //! SITL runs.
 //!

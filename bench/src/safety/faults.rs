@@ -378,8 +378,8 @@ fn run_scenario(s: &Scenario, course: &crate::tracking::Course, seed: u64) -> Re
     })
 }
 
-/// Parameter names and values as they stood before a scenario's setup.
-type ParamsBefore = Vec<(String, f64)>;
+/// Every parameter by name, as `snapshot` takes them.
+type ParamValues = Vec<(String, f64)>;
 
 /// The course loaded, the scenario's setup applied, armed in AUTO and
 /// driven until the fault is due; the plan and the parameters before it.
@@ -387,7 +387,7 @@ fn drive_auto_until_fault(
     s: &Scenario,
     course: &crate::tracking::Course,
     seed: u64,
-) -> Result<(Drive, Plan, ParamsBefore), String> {
+) -> Result<(Drive, Plan, ParamValues), String> {
     let config = SimulationConfig {
         home: course.home,
         model: ModelKind::Ackermann,
@@ -407,7 +407,7 @@ fn drive_auto_until_fault(
     for (name, value) in s.setup {
         d.set(name, *value)?;
     }
-    let params_before: Vec<(String, f64)> = snapshot(&d.sim);
+    let params_before: ParamValues = snapshot(&d.sim);
     while d.t() < 5.0 {
         d.step();
     }
