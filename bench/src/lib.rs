@@ -10,7 +10,16 @@ pub mod safety;
 pub mod sitl;
 pub mod tracking;
 
+use std::alloc::System;
 use std::path::PathBuf;
+
+use stats_alloc::{INSTRUMENTED_SYSTEM, StatsAlloc};
+
+/// Counts the benchmarks' allocations (`furrow-bench sitl` reports them per
+/// tick): an atomic add beside the system allocator. Only the benchmark
+/// binary links this crate.
+#[global_allocator]
+pub static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
 
 /// A fresh directory under the system's temp dir for one benchmark's
 /// `furrow sitl` runs (data directory, stderr logs), named `prefix…`; it is

@@ -2,12 +2,16 @@
 //! core tick takes, and how much memory `furrow sitl` holds.
 //!
 //! Two measurements:
-//! 1. in-process: world + core stepped as fast as possible (no sockets), for
-//!    the simulated-per-wall ratio and the core tick distribution, then the
-//!    cost of each EKF operation on the filter that drove;
+//! 1. in-process: world + core stepped as fast as possible (no sockets, the
+//!    telemetry encoded to MAVLink bytes as a link would), for the
+//!    simulated-per-wall ratio, the core tick distribution, each stage's
+//!    share of the wall time, the heap allocations per tick (counted by the
+//!    benchmark binary's allocator), then the cost of each EKF operation on
+//!    the filter that drove;
 //! 2. the real process: `furrow sitl --speedup max` started as a child with a
 //!    ground station connected over TCP, for its simulated-per-wall ratio
-//!    (from SYSTEM_TIME), tick figures (from its exit report) and RSS.
+//!    (from SYSTEM_TIME), tick figures (from its exit report) and RSS, with
+//!    where the RSS is (its binary's pages, libraries, heap, anonymous).
 //!
 //! Each runs with the onboard log off and at full rate (every tick;
 //! in-process the core encodes the records, the process also writes them),
@@ -23,7 +27,10 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 
 use autopilot::edge::clock::InstantTimer;
 use autopilot::sitl::gcs;
-use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
+use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams, StageTimes};
+use autopilot::time::TaskTimer;
+use drivers::sim::WorldStageTimes;
+use stats_alloc::Region;
 
 #[derive(clap::Args, Debug)]
 pub struct SitlBenchArgs {
@@ -108,29 +115,37 @@ fn in_process(seconds: f64, logging: bool) {
     let corners = [(40.0, 0.0), (40.0, 40.0), (0.0, 40.0), (0.0, 0.0)];
     let mut corner = 0;
     let start = Instant::now();
+    let stages_before = sim.stage_times();
     let mut driving = false;
     let mut odometer_m = 0.0;
+    let mut link = LinkBytes::default();
+    let mut allocations = AllocationCount::default();
     while sim.time().as_secs_f64() < seconds {
-        if !driving || sim.core().navigator().arrived() {
+        let new_leg = !driving || sim.core().navigator().arrived();
+        if new_leg {
             let (n, e) = corners[corner % corners.len()];
             let target = gcs::local_target(&sim, n, e);
             gcs::send(&mut sim, target);
             corner += 1;
             driving = true;
         }
+        let region = Region::new(crate::GLOBAL);
         let wall = start.elapsed();
         let before = *sim.world().truth();
         let out = sim.step(wall, &mut timer);
-        out.mavlink.clear();
+        link.send(&mut out.mavlink);
         log_bytes += log_records_bytes(&out.log);
         let after = sim.world().truth();
         odometer_m += (after.north_m - before.north_m).hypot(after.east_m - before.east_m);
+        let change = region.change();
+        allocations.add(change.allocations + change.reallocations, new_leg);
     }
     let wall = start.elapsed().as_secs_f64();
+    let stages = stage_delta(sim.stage_times(), stages_before);
     let ticks = sim.core().scheduler().tick_stats();
     let us = |ns: u64| ns as f64 / 1000.0;
     println!(
-        "in-process simulation (world + NMEA + core, no links), {seconds:.0} s simulated driving a 40 m GUIDED square, {}:",
+        "in-process simulation (world, NMEA and CoLa-A wires, core, telemetry encoded; no sockets), {seconds:.0} s simulated driving a 40 m GUIDED square, {}:",
         log_label(logging)
     );
     if logging {
@@ -154,10 +169,109 @@ fn in_process(seconds: f64, logging: bool) {
         us(ticks.histogram.quantile_ns(0.99)),
         us(ticks.histogram.max_ns())
     );
+    print_breakdown(&stages, link.ns, wall);
+    allocations.print();
     match sim.core().estimator().ekf() {
         Some(ekf) => crate::ekf_cost::print(ekf),
         None => println!("EKF cost: the filter never started"),
     }
+}
+
+/// The ground station's link as the process would drive it: each message
+/// encoded to MAVLink 2 bytes, timed.
+#[derive(Default)]
+struct LinkBytes {
+    buffer: Vec<u8>,
+    ns: u64,
+    timer: InstantTimer,
+}
+
+impl LinkBytes {
+    fn send(&mut self, outbound: &mut Vec<autopilot::vehicle::Outbound>) {
+        let started_ns = self.timer.now_ns();
+        self.buffer.clear();
+        for message in outbound.iter() {
+            // Writing to a Vec cannot fail.
+            let _ = mavlink::write_v2_msg(&mut self.buffer, gcs::GCS_HEADER, &message.message);
+        }
+        outbound.clear();
+        self.ns += self.timer.now_ns().saturating_sub(started_ns);
+    }
+}
+
+/// Heap allocations per tick, apart for the ticks that start a new leg
+/// (a new path is planned then: not steady state).
+#[derive(Default)]
+struct AllocationCount {
+    ticks: u64,
+    allocations: u64,
+    allocating_ticks: u64,
+    leg_ticks: u64,
+    leg_allocations: u64,
+}
+
+impl AllocationCount {
+    fn add(&mut self, allocations: usize, new_leg: bool) {
+        if new_leg {
+            self.leg_ticks += 1;
+            self.leg_allocations += allocations as u64;
+            return;
+        }
+        self.ticks += 1;
+        self.allocations += allocations as u64;
+        self.allocating_ticks += u64::from(allocations > 0);
+    }
+
+    fn print(&self) {
+        println!(
+            "  heap allocations: {:.3} per driving tick ({} of {} ticks allocated); {:.1} per tick that starts a leg ({} ticks)",
+            self.allocations as f64 / self.ticks.max(1) as f64,
+            self.allocating_ticks,
+            self.ticks,
+            self.leg_allocations as f64 / self.leg_ticks.max(1) as f64,
+            self.leg_ticks
+        );
+    }
+}
+
+fn stage_delta(after: StageTimes, before: StageTimes) -> StageTimes {
+    StageTimes {
+        world: WorldStageTimes {
+            physics_ns: after.world.physics_ns - before.world.physics_ns,
+            gnss_out_ns: after.world.gnss_out_ns - before.world.gnss_out_ns,
+            scan_render_ns: after.world.scan_render_ns - before.world.scan_render_ns,
+        },
+        gnss_in_ns: after.gnss_in_ns - before.gnss_in_ns,
+        scan_encode_ns: after.scan_encode_ns - before.scan_encode_ns,
+        scan_parse_ns: after.scan_parse_ns - before.scan_parse_ns,
+        core_ns: after.core_ns - before.core_ns,
+    }
+}
+
+/// Each stage's share of the loop's wall time; the rest is the loop itself
+/// (timer reads, the simulation's bookkeeping, the bench's odometer).
+fn print_breakdown(stages: &StageTimes, link_ns: u64, wall_s: f64) {
+    let total_ns = wall_s * 1e9;
+    let rows = [
+        ("world physics", stages.world.physics_ns),
+        ("GNSS NMEA out", stages.world.gnss_out_ns),
+        ("GNSS NMEA in", stages.gnss_in_ns),
+        ("scanners: render (ray casting)", stages.world.scan_render_ns),
+        ("scanners: CoLa-A encode", stages.scan_encode_ns),
+        ("scanners: frame + parse", stages.scan_parse_ns),
+        ("core step", stages.core_ns),
+        ("links (MAVLink 2 encode)", link_ns),
+    ];
+    let staged_ns: u64 = rows.iter().map(|(_, ns)| ns).sum();
+    println!("  wall time by stage:");
+    for (name, ns) in rows {
+        println!("    {name:<32} {:5.1} %", 100.0 * ns as f64 / total_ns);
+    }
+    println!(
+        "    {:<32} {:5.1} %",
+        "other (loop, timers)",
+        100.0 * (total_ns - staged_ns as f64).max(0.0) / total_ns
+    );
 }
 
 /// Bytes of records in a step's log commands.
@@ -197,7 +311,7 @@ fn real_process(seconds: f64, logging: bool) -> Result<(), String> {
     let output = child.wait_with_output().map_err(|e| format!("furrow sitl: {e}"))?;
     let logs = autopilot::logging::store::LogStore::new(data).list();
     let log_bytes: u64 = logs.iter().map(|l| l.size_bytes).sum();
-    let (sim_ratio, rss_kb, peak_kb) = result?;
+    let (sim_ratio, rss_kb, peak_kb, rss_breakdown) = result?;
     println!(
         "furrow sitl --speedup max, a ground station on TCP, {seconds:.0} s wall, {}:",
         log_label(logging)
@@ -215,6 +329,7 @@ fn real_process(seconds: f64, logging: bool) -> Result<(), String> {
         rss_kb as f64 / 1024.0,
         peak_kb as f64 / 1024.0
     );
+    println!("  {rss_breakdown}");
     let stderr = String::from_utf8_lossy(&output.stderr);
     if let Some(line) = stderr.lines().find(|l| l.contains("SITL stopped after")) {
         let report = line.split("SITL stopped after").nth(1).unwrap_or("");
@@ -242,7 +357,7 @@ fn param_set(stream: &mut TcpStream, name: &str, value: f32) -> Result<(), Strin
 
 /// Connects, sets the log on or off, measures simulated time over `seconds`
 /// of wall time, reads RSS.
-fn watch(child: &mut std::process::Child, seconds: f64, logging: bool) -> Result<(f64, u64, u64), String> {
+fn watch(child: &mut std::process::Child, seconds: f64, logging: bool) -> Result<(f64, u64, u64, String), String> {
     let stdout = child.stdout.take().ok_or("no stdout")?;
     let mut line = String::new();
     BufReader::new(stdout)
@@ -289,5 +404,47 @@ fn watch(child: &mut std::process::Child, seconds: f64, logging: bool) -> Result
             .and_then(|v| v.parse::<u64>().ok())
             .unwrap_or(0)
     };
-    Ok((ratio, field("VmRSS:"), field("VmHWM:")))
+    let breakdown = rss_breakdown(child.id());
+    Ok((ratio, field("VmRSS:"), field("VmHWM:"), breakdown))
+}
+
+/// Where the process's resident memory is, from /proc/PID/smaps: its own
+/// binary's pages (code, read-only data, data), the shared libraries', the
+/// heap, and anonymous mappings (thread stacks, the allocator's arenas).
+fn rss_breakdown(pid: u32) -> String {
+    let Ok(smaps) = std::fs::read_to_string(format!("/proc/{pid}/smaps")) else {
+        return "RSS by mapping: /proc/PID/smaps unreadable".to_owned();
+    };
+    let exe = std::fs::read_link(format!("/proc/{pid}/exe")).ok();
+    let exe = exe.as_ref().and_then(|p| p.to_str()).unwrap_or("");
+    let mut kinds = [
+        ("furrow binary", 0u64),
+        ("shared libraries", 0),
+        ("heap", 0),
+        ("anonymous (thread stacks, arenas)", 0),
+        ("main stack and the rest", 0),
+    ];
+    let mut kind = 4;
+    for line in smaps.lines() {
+        let mut words = line.split_whitespace();
+        let first = words.next().unwrap_or("");
+        if first.contains('-') && first.chars().all(|c| c.is_ascii_hexdigit() || c == '-') {
+            let name = words.nth(4).unwrap_or("");
+            kind = match name {
+                n if !exe.is_empty() && n == exe => 0,
+                n if n.starts_with('/') => 1,
+                "[heap]" => 2,
+                "" => 3,
+                _ => 4,
+            };
+        } else if first == "Rss:" {
+            kinds[kind].1 += words.next().and_then(|v| v.parse::<u64>().ok()).unwrap_or(0);
+        }
+    }
+    let threads = std::fs::read_dir(format!("/proc/{pid}/task")).map_or(0, Iterator::count);
+    let parts: Vec<String> = kinds
+        .iter()
+        .map(|(name, kb)| format!("{name} {:.2} MB", *kb as f64 / 1024.0))
+        .collect();
+    format!("RSS by mapping: {}; {threads} threads", parts.join(", "))
 }
