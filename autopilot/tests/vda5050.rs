@@ -413,5 +413,5 @@ fn every_message_published_validates_and_a_factsheet_tells_what_the_vehicle_does
         "{position:?}"
     );
     assert!(f.last().battery_state.battery_charge > 50.0);
-    assert_eq!(f.last().safety_state.field_violation, false);
+    assert!(!f.last().safety_state.field_violation);
 }

@@ -23,7 +23,7 @@ use crate::modes::Mode;
 #[derive(Clone, Debug, PartialEq)]
 pub enum FleetMessage {
     State(Box<vda5050::State>),
-    Visualization(vda5050::Visualization),
+    Visualization(Box<vda5050::Visualization>),
     Factsheet(Box<vda5050::Factsheet>),
 }
 
@@ -99,7 +99,9 @@ impl Core {
         for publish in fleet.agent.take_publish() {
             out.vda5050.push(match publish {
                 Publish::State => FleetMessage::State(Box::new(build_state(&fleet.agent, &report))),
-                Publish::Visualization => FleetMessage::Visualization(build_visualization(&fleet.agent, &report)),
+                Publish::Visualization => {
+                    FleetMessage::Visualization(Box::new(build_visualization(&fleet.agent, &report)))
+                }
                 Publish::Factsheet => {
                     FleetMessage::Factsheet(Box::new(build_factsheet(&description, &fleet.agent.config)))
                 }
