@@ -23,12 +23,10 @@ struct Cli {
     command: Command,
 }
 
-// Parsed once at start: the size of `SitlArgs` costs nothing.
-#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// Run a simulated rover that ground stations connect to (TCP 5760, UDP to 14550).
-    Sitl(SitlArgs),
+    Sitl(Box<SitlArgs>),
     /// Read and change the stored parameters offline; import and export .param/.params files.
     Params(autopilot::offline::params::ParamsArgs),
     /// The onboard logs (DataFlash .BIN): list a data directory's, summarise one, export CSV, plot the cross-track.
@@ -181,6 +179,34 @@ fn utc_now_us() -> i64 {
         .map_or(0, |d| d.as_micros() as i64)
 }
 
+/// `--vda5050` and its companions, checked.
+fn vda5050_options(args: &SitlArgs) -> Result<Option<(MqttConfig, AgentConfig)>, String> {
+    let Some(url) = &args.vda5050 else {
+        return Ok(None);
+    };
+    let (host, port) = parse_broker_url(url).map_err(|e| format!("--vda5050 {e}"))?;
+    let serial = args
+        .serial_number
+        .clone()
+        .unwrap_or_else(|| format!("furrow-{}", args.instance));
+    let prefix = TopicPrefix::uagv_v2(&args.manufacturer, &serial).map_err(|e| e.to_string())?;
+    if args.map_id.is_empty() {
+        return Err("--map-id: a map id cannot be empty".into());
+    }
+    let mqtt = MqttConfig {
+        host,
+        port,
+        client_id: format!("{}-{}", args.manufacturer, serial),
+        prefix,
+        credentials: None,
+    };
+    let agent = AgentConfig {
+        map_id: args.map_id.clone(),
+        ..AgentConfig::default()
+    };
+    Ok(Some((mqtt, agent)))
+}
+
 fn run_sitl(args: SitlArgs) -> Result<(), String> {
     let vda5050 = vda5050_options(&args)?;
     let data_dir = args.data_dir.unwrap_or_else(|| match args.instance {
@@ -216,7 +242,7 @@ fn main() -> ExitCode {
     autopilot::stderr_log::init();
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Sitl(args) => run_sitl(args),
+        Command::Sitl(args) => run_sitl(*args),
         Command::Params(args) => autopilot::offline::params::run(&args),
         Command::Mission(args) => autopilot::offline::mission::run(&args),
         Command::Logs(args) => autopilot::offline::logs::run(&args),
@@ -231,34 +257,6 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-/// `--vda5050` and its companions, checked.
-fn vda5050_options(args: &SitlArgs) -> Result<Option<(MqttConfig, AgentConfig)>, String> {
-    let Some(url) = &args.vda5050 else {
-        return Ok(None);
-    };
-    let (host, port) = parse_broker_url(url).map_err(|e| format!("--vda5050 {e}"))?;
-    let serial = args
-        .serial_number
-        .clone()
-        .unwrap_or_else(|| format!("furrow-{}", args.instance));
-    let prefix = TopicPrefix::uagv_v2(&args.manufacturer, &serial).map_err(|e| e.to_string())?;
-    if args.map_id.is_empty() {
-        return Err("--map-id: a map id cannot be empty".into());
-    }
-    let mqtt = MqttConfig {
-        host,
-        port,
-        client_id: format!("{}-{}", args.manufacturer, serial),
-        prefix,
-        credentials: None,
-    };
-    let agent = AgentConfig {
-        map_id: args.map_id.clone(),
-        ..AgentConfig::default()
-    };
-    Ok(Some((mqtt, agent)))
 }
 
 #[cfg(test)]

@@ -27,30 +27,48 @@ def free_port():
         return s.getsockname()[1]
 
 
-@pytest.fixture
-def broker(tmp_path):
-    """Mosquitto on a free loopback port, anonymous, no persistence."""
-    if not pathlib.Path(MOSQUITTO).exists():
-        pytest.fail("mosquitto is not installed (tests/run installs it)")
-    port = free_port()
-    conf = tmp_path / "mosquitto.conf"
-    conf.write_text(f"listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n")
-    log = open(tmp_path / "mosquitto.log", "w")
-    proc = subprocess.Popen([MOSQUITTO, "-c", str(conf)], stdout=log, stderr=subprocess.STDOUT)
-    deadline = time.monotonic() + 10
-    while time.monotonic() < deadline:
-        try:
-            socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
-            break
-        except OSError:
-            time.sleep(0.05)
-    else:
-        proc.kill()
+class Broker:
+    """Mosquitto on a loopback port, anonymous, no persistence; it can be
+    killed and started again on the same port."""
+
+    def __init__(self, tmp_path):
+        if not pathlib.Path(MOSQUITTO).exists():
+            pytest.fail("mosquitto is not installed (tests/run installs it)")
+        self.port = free_port()
+        self.conf = tmp_path / "mosquitto.conf"
+        self.conf.write_text(f"listener {self.port} 127.0.0.1\nallow_anonymous true\npersistence false\n")
+        self.log = open(tmp_path / "mosquitto.log", "a")
+        self.proc = None
+        self.start()
+
+    def start(self):
+        self.proc = subprocess.Popen([MOSQUITTO, "-c", str(self.conf)], stdout=self.log, stderr=subprocess.STDOUT)
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline:
+            try:
+                socket.create_connection(("127.0.0.1", self.port), timeout=0.2).close()
+                return
+            except OSError:
+                time.sleep(0.05)
+        self.proc.kill()
         pytest.fail("mosquitto did not start")
-    yield port
-    proc.send_signal(signal.SIGTERM)
-    proc.wait(timeout=10)
-    log.close()
+
+    def stop(self):
+        self.proc.send_signal(signal.SIGTERM)
+        self.proc.wait(timeout=10)
+
+
+@pytest.fixture
+def mosquitto(tmp_path):
+    b = Broker(tmp_path)
+    yield b
+    b.stop()
+    b.log.close()
+
+
+@pytest.fixture
+def broker(mosquitto):
+    return mosquitto.port
 
 
 class Master:
@@ -65,8 +83,10 @@ class Master:
         self.header_id = 0
         self.client = paho.Client(paho.CallbackAPIVersion.VERSION2, client_id="master")
         self.client.on_message = lambda _c, _u, m: self.messages.put((m.topic, m.payload))
+        # Subscribed on every connect: a restarted broker has forgotten us.
+        self.client.on_connect = lambda c, _u, _f, _r, _p: c.subscribe(f"{PREFIX}/#", qos=1)
+        self.client.reconnect_delay_set(0.2, 1)
         self.client.connect("127.0.0.1", port)
-        self.client.subscribe(f"{PREFIX}/#", qos=1)
         self.client.loop_start()
 
     def close(self):
@@ -217,3 +237,17 @@ def test_connection_goes_offline_on_a_clean_stop_and_broken_when_killed(broker, 
     sitl.proc.wait()
     master.wait("CONNECTIONBROKEN", lambda m: m.connections[-1]["connectionState"] == "CONNECTIONBROKEN", 20)
     master.close()
+
+
+def test_an_order_carries_on_through_a_broker_restart(fleet, mosquitto):
+    master, sitl, origin = fleet
+    master.publish("order", order(master, origin, "job4", [("a", 0, 0, None), ("b", 0, 30, None)]))
+    master.wait("driving", lambda m: m.last()["driving"], 30)
+    onlines = sum(c["connectionState"] == "ONLINE" for c in master.connections)
+    mosquitto.stop()
+    time.sleep(2.0)
+    mosquitto.start()
+    master.wait("ONLINE again", lambda m: sum(c["connectionState"] == "ONLINE" for c in m.connections) > onlines, 20)
+    master.wait("the order to complete", lambda m: m.last()["lastNodeId"] == "b" and not m.last()["nodeStates"], 60)
+    assert master.last()["orderId"] == "job4"
+    assert sitl.alive()

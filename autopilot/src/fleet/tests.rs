@@ -167,12 +167,10 @@ fn malformed_and_invalid_orders_are_rejected_and_the_old_order_is_kept() {
     assert_eq!(leg(&command).node_sequence_id, 2, "the running order goes on");
 }
 
-/// An edit that spoils an order, and the error type it must be refused with.
-type SpoiledOrder = (fn(&mut Value), &'static str);
-
 #[test]
 fn unsupported_actions_other_maps_and_far_starts_are_refused_with_their_error_types() {
-    let cases: [SpoiledOrder; 4] = [
+    type Change = fn(&mut Value);
+    let cases: [(Change, &str); 4] = [
         (
             |o| o["nodes"][1]["actions"] = json!([{"actionId": "x", "actionType": "fly", "blockingType": "HARD"}]),
             "orderError",
@@ -396,4 +394,54 @@ fn requests_publish_and_state_is_paced_by_driving() {
     a.receive(Topic::InstantActions, b"[]".to_vec());
     a.step(&driving);
     assert_eq!(error_types(&a), vec!["validationError"]);
+}
+
+mod fuzzed {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    proptest! {
+        /// Whatever bytes arrive, the agent survives and the running order
+        /// goes on.
+        #[test]
+        fn any_payload_is_survived(bytes in proptest::collection::vec(any::<u8>(), 0..400), instant in any::<bool>()) {
+            let mut a = agent();
+            send(&mut a, Topic::Order, &three_nodes());
+            a.step(&view(0.0));
+            let topic = if instant { Topic::InstantActions } else { Topic::Order };
+            a.receive(topic, bytes);
+            let command = a.step(&view(1.0));
+            prop_assert!(matches!(command, Command::Drive(_)));
+            prop_assert_eq!(a.order.order_id.as_str(), "o1");
+        }
+
+        /// Orders with shuffled sequence ids, released flags and edge counts
+        /// are taken only when they keep §6.6.1's rules.
+        #[test]
+        fn only_well_formed_graphs_are_taken(
+            count in 1usize..6,
+            first_seq in 0u32..5,
+            released in proptest::collection::vec(any::<bool>(), 6),
+            drop_edge in any::<bool>(),
+        ) {
+            let nodes: Vec<N> = (0..count)
+                .map(|i| N(["a", "b", "c", "d", "e", "f"][i], 5.0 * i as f64, 0.0, released[i], None))
+                .collect();
+            let mut o = order("o1", 0, first_seq, &nodes, &[]);
+            if drop_edge && count > 1 {
+                o["edges"].as_array_mut().unwrap().pop();
+            }
+            let mut a = agent();
+            send(&mut a, Topic::Order, &o);
+            a.step(&view(0.0));
+            let base_first = released[0] && released[..count].windows(2).all(|w| w[0] || !w[1]);
+            let well_formed = first_seq % 2 == 0 && base_first && !(drop_edge && count > 1);
+            prop_assert_eq!(a.order.order_id == "o1", well_formed, "{:?}", a.order.errors);
+            if well_formed {
+                prop_assert_eq!(a.order.nodes.len(), count - 1);
+                prop_assert_eq!(a.order.edges.len(), count - 1);
+            }
+        }
+    }
 }
