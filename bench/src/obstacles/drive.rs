@@ -188,7 +188,7 @@ fn course_length_m(course: &Course) -> f64 {
 }
 
 /// Warms up, switches to AUTO and arms; returns the simulation time then.
-fn arm(sim: &mut Simulation) -> f64 {
+pub(super) fn arm(sim: &mut Simulation) -> f64 {
     gcs::connect(sim);
     let mut timer = InstantTimer::default();
     while sim.time().as_secs_f64() < WARM_UP_S {

@@ -27,6 +27,7 @@ mod drive;
 pub mod families;
 pub mod random;
 mod report;
+mod tick;
 mod truth;
 
 use std::collections::HashMap;
@@ -68,6 +69,9 @@ pub struct ObstacleBenchArgs {
     /// Print every run, not only the per-scenario summary.
     #[arg(long)]
     pub verbose: bool,
+    /// Only measure the core tick with 30 people tracked and two 361-beam scanners.
+    #[arg(long)]
+    pub tick: bool,
 }
 
 /// A scenario of the tables.
@@ -229,6 +233,9 @@ pub fn jobs(scenarios: &[Scenario], speeds: &[f64], seeds: u64) -> Vec<Job> {
 }
 
 pub fn run(args: &ObstacleBenchArgs) -> Result<(), String> {
+    if args.tick {
+        return tick::run(&args.params);
+    }
     if args.seeds == 0 && args.random == 0 && args.replay.is_none() {
         return Err("nothing to run: --seeds and --random are both 0".into());
     }
