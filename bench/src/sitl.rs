@@ -29,7 +29,7 @@ use autopilot::edge::clock::InstantTimer;
 use autopilot::sitl::gcs;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams, StageTimes};
 use autopilot::time::TaskTimer;
-use drivers::sim::WorldStageTimes;
+use sim::WorldStageTimes;
 use stats_alloc::Region;
 
 #[derive(clap::Args, Debug)]

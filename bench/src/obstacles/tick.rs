@@ -8,8 +8,8 @@
 
 use std::time::{Duration, Instant};
 
-use drivers::sim::ObstacleWorld;
 use mission::ExecState;
+use sim::ObstacleWorld;
 
 use super::classic::person;
 use super::drive::{self, Course, Waypoint};
@@ -43,7 +43,7 @@ pub fn run(params: &[(String, f64)]) -> Result<(), String> {
     let scanners: Vec<_> = sim
         .world()
         .scanner_configs()
-        .map(|c| drivers::sim::SimScannerConfig {
+        .map(|c| sim::SimScannerConfig {
             step_rad: STEP_DEG.to_radians(),
             ..c.clone()
         })
