@@ -89,15 +89,17 @@ fn check_reached(h: &Harness, verdict: &str, north: f64, east: f64, yaw_deg: Opt
             m * 1000.0
         );
     }
-    let changes: usize = direction_changes(&texts)
+    let changes: Vec<usize> = direction_changes(&texts)
         .iter()
         .filter_map(|t| t.split(", ").nth(1)?.split(' ').next()?.parse::<usize>().ok())
-        .sum();
-    // A retry starts with one more change of direction.
+        .collect();
+    // Each manoeuvre keeps to MNV_DIR_MAX; a miss is retried once (a stop
+    // just out of tolerance, e.g. 0.052° against 0.05°, costs a retry and
+    // its changes of direction: the bench counts those).
     let retries = texts.iter().filter(|t| t.contains("trying again")).count();
     assert!(
-        changes + retries <= 3,
-        "{changes} direction changes, {retries} retries: {texts:?}"
+        changes.iter().all(|&c| c <= 3) && retries <= 1,
+        "{changes:?} direction changes, {retries} retries: {texts:?}"
     );
 }
 
