@@ -455,28 +455,13 @@ impl Navigator {
         // mission_flight fuzz target). Drive to the stop again from here.
         let cusp = self.manoeuvre.as_ref().is_some_and(|m| !m.rest.is_empty());
         if target.stop && remaining < -OVERSHOOT_REPLAN_M && self.settling.is_none() && self.manoeuvre.is_none() {
-            leg.from = est.position;
-            leg.entry = None;
-            leg.path = None;
-            leg.piece = 0;
-            self.approach_s = 0.0;
-            self.tracker.reset();
-            self.speed.reset();
+            self.restart_leg(est.position);
             return NavDemand::default();
         }
         let wp_dist = est.position.distance_to(&target.point);
         let has_corner = path.exit_arc_rest().is_some();
 
-        // Approaching a stop, the preview stretches to PVW_STOP_DIST over the
-        // last 2·PVW_STOP_DIST: slow there, a short preview would turn
-        // millimetres of estimate noise into heading wiggle, and the stop's
-        // heading tolerance is the tighter one.
-        let min_preview_m = if target.stop && config.stop_preview_m > 0.0 && !cusp {
-            let d = config.stop_preview_m;
-            d * (2.0 - remaining / d).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let min_preview_m = stop_preview_m(&target, config, cusp, remaining);
         let tracker = track(
             &config.tracker,
             &mut self.tracker,
@@ -530,20 +515,7 @@ impl Navigator {
 
         self.arcs_ahead.clear();
         self.arcs_ahead.extend(path.arcs_from(projection.along_m));
-        let manoeuvre_cap = if self.manoeuvre.is_some() {
-            config.manoeuvre_speed_mps
-        } else {
-            f64::INFINITY
-        };
-        let speed_config = SpeedConfig {
-            cruise_mps: target
-                .speed_mps
-                .unwrap_or(config.speed.cruise_mps)
-                .max(config.speed_boost_mps.unwrap_or(0.0))
-                .min(config.speed_limit_mps.unwrap_or(f64::INFINITY))
-                .min(manoeuvre_cap),
-            ..config.speed
-        };
+        let speed_config = cruise_speed_config(&target, config, self.manoeuvre.is_some());
         let speed = scheduled_speed(
             &speed_config,
             &mut self.speed,
@@ -600,31 +572,14 @@ impl Navigator {
                 self.settling = None;
                 self.arrived = true;
                 self.status.reached = true;
-                let end_yaw = wrap_pi(
-                    path.heading_at(path.end_m())
-                        + if target.direction == Direction::Reverse {
-                            std::f64::consts::PI
-                        } else {
-                            0.0
-                        },
-                );
-                let yaw_error = wrap_pi(est.yaw_rad - end_yaw);
-                let report = StopReport {
-                    seq: target.seq,
-                    along_m: remaining,
-                    crosstrack_m: projection.crosstrack_m,
-                    yaw_error_rad: yaw_error,
-                    within_tolerance: false,
-                    goal: Pose {
-                        position: path.end(),
-                        yaw_rad: end_yaw,
-                    },
-                };
-                self.stop_report = Some(StopReport {
-                    within_tolerance: report.position_error_m() <= config.stop.position_m
-                        && yaw_error.abs() <= config.stop.yaw_rad,
-                    ..report
-                });
+                self.stop_report = Some(stop_report(
+                    path,
+                    &target,
+                    est,
+                    remaining,
+                    projection.crosstrack_m,
+                    config,
+                ));
             }
         }
 
@@ -646,6 +601,90 @@ impl Navigator {
             steer_rad: tracker.steer_rad,
             speed_mps: speed.speed_mps * target.direction.sign(),
         }
+    }
+
+    /// Drives the leg again from `position` (a fresh path, approach and
+    /// controllers).
+    fn restart_leg(&mut self, position: Ned) {
+        if let Some(leg) = &mut self.leg {
+            leg.from = position;
+            leg.entry = None;
+            leg.path = None;
+            leg.piece = 0;
+        }
+        self.approach_s = 0.0;
+        self.tracker.reset();
+        self.speed.reset();
+    }
+}
+
+/// Approaching a stop, the preview stretches to PVW_STOP_DIST over the
+/// last 2·PVW_STOP_DIST: slow there, a short preview would turn
+/// millimetres of estimate noise into heading wiggle, and the stop's
+/// heading tolerance is the tighter one.
+fn stop_preview_m(target: &NavTarget, config: &NavConfig, cusp: bool, remaining: f64) -> f64 {
+    if target.stop && config.stop_preview_m > 0.0 && !cusp {
+        let d = config.stop_preview_m;
+        d * (2.0 - remaining / d).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// The speed schedule's configuration for this leg: its cruise speed from
+/// the target (or the default), boosted, limited, and capped on a
+/// manoeuvre.
+fn cruise_speed_config(target: &NavTarget, config: &NavConfig, on_manoeuvre: bool) -> SpeedConfig {
+    let manoeuvre_cap = if on_manoeuvre {
+        config.manoeuvre_speed_mps
+    } else {
+        f64::INFINITY
+    };
+    SpeedConfig {
+        cruise_mps: target
+            .speed_mps
+            .unwrap_or(config.speed.cruise_mps)
+            .max(config.speed_boost_mps.unwrap_or(0.0))
+            .min(config.speed_limit_mps.unwrap_or(f64::INFINITY))
+            .min(manoeuvre_cap),
+        ..config.speed
+    }
+}
+
+/// Where a stop ended against the path's end: along, across, yaw error
+/// (to the way the path ends, reversed on a reverse leg), and whether that
+/// is within the stop tolerance.
+fn stop_report(
+    path: &LegPath,
+    target: &NavTarget,
+    est: &Estimate,
+    remaining: f64,
+    crosstrack_m: f64,
+    config: &NavConfig,
+) -> StopReport {
+    let end_yaw = wrap_pi(
+        path.heading_at(path.end_m())
+            + if target.direction == Direction::Reverse {
+                std::f64::consts::PI
+            } else {
+                0.0
+            },
+    );
+    let yaw_error = wrap_pi(est.yaw_rad - end_yaw);
+    let report = StopReport {
+        seq: target.seq,
+        along_m: remaining,
+        crosstrack_m,
+        yaw_error_rad: yaw_error,
+        within_tolerance: false,
+        goal: Pose {
+            position: path.end(),
+            yaw_rad: end_yaw,
+        },
+    };
+    StopReport {
+        within_tolerance: report.position_error_m() <= config.stop.position_m && yaw_error.abs() <= config.stop.yaw_rad,
+        ..report
     }
 }
 
