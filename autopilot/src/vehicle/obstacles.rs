@@ -17,8 +17,10 @@ use crate::guidance::tracker::Direction;
 use crate::modes::Mode;
 use crate::obstacles::cluster::{Cluster, ClusterConfig, ScanPoint, cluster_points, scan_points};
 use crate::obstacles::detour::{DetourConfig, DetourRefusal, plan_detour};
-use crate::obstacles::field::{FieldConfig, check_swept_fields, fields, warning_speed_limit};
-use crate::obstacles::policy::{ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, StopCause, Verdict};
+use crate::obstacles::field::{FieldConfig, FieldStatus, Fields, check_swept_fields, fields, warning_speed_limit};
+use crate::obstacles::policy::{
+    ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, PolicyStatus, StopCause, Verdict,
+};
 use crate::obstacles::prediction::CollisionPrediction;
 use crate::obstacles::swept::{Contact, PathAhead, Shape, SweptPath};
 use crate::obstacles::tracking::{ObstacleTracker, TrackingConfig};
@@ -318,13 +320,9 @@ impl Core {
         let now_s = self.now.boot.as_secs_f64();
         let footprint = self.footprint();
         let estimate = *self.estimator.estimate();
-        let fresh_after = VIEW_TIMEOUT;
         let (enabled, scan_age_s) = self.refresh_obstacle_status(&footprint);
         if !enabled || !active {
-            self.obstacles.policy.reset();
-            self.obstacles.static_stop_since = None;
-            self.obstacles.hidden.clear();
-            self.obstacles.last_tracks.clear();
+            self.reset_obstacle_policy();
             return Verdict::Go;
         }
 
@@ -354,18 +352,7 @@ impl Core {
             .max(resume_fields.warning_length_m)
             .max(speed.abs().max(planned_mps.abs()) * horizon);
         self.sweep_path_ahead(&pose, &footprint, sign < 0.0, sweep_m);
-        let fresh_points = self
-            .obstacles
-            .views
-            .iter()
-            .filter(|v| v.t.is_some_and(|t| self.now.boot.saturating_sub(t) <= fresh_after))
-            .flat_map(|v| v.local_points.iter().copied());
-        let [field, field_at_resume] = check_swept_fields(
-            [&here_fields, &resume_fields],
-            &self.obstacles.swept,
-            field_config.lateral_margin_m,
-            fresh_points,
-        );
+        let [field, field_at_resume] = self.check_fields(&here_fields, &resume_fields, &field_config);
 
         let velocity_gate_mps = f64::from(self.p.obstacles.avoidance.velocity_gate_mps.get(&self.params));
         let (predictions, mut predictions_at_resume) =
@@ -396,6 +383,45 @@ impl Core {
             warning_limit_mps,
         };
         let status = self.obstacles.policy.update(&inputs, &config);
+        let verdict = self.apply_policy_status(&status);
+        self.note_static_block(&verdict, wants_to_move, now_s);
+        verdict
+    }
+
+    /// Avoidance off or not driving: forget any held stop, static block and
+    /// remembered tracks.
+    fn reset_obstacle_policy(&mut self) {
+        self.obstacles.policy.reset();
+        self.obstacles.static_stop_since = None;
+        self.obstacles.hidden.clear();
+        self.obstacles.last_tracks.clear();
+    }
+
+    /// The protective and warning fields (at the speed now and at the
+    /// resume speed) checked against the fresh scans' points.
+    fn check_fields(
+        &self,
+        here_fields: &Fields,
+        resume_fields: &Fields,
+        field_config: &FieldConfig,
+    ) -> [FieldStatus; 2] {
+        let fresh_after = VIEW_TIMEOUT;
+        let fresh_points = self
+            .obstacles
+            .views
+            .iter()
+            .filter(|v| v.t.is_some_and(|t| self.now.boot.saturating_sub(t) <= fresh_after))
+            .flat_map(|v| v.local_points.iter().copied());
+        check_swept_fields(
+            [here_fields, resume_fields],
+            &self.obstacles.swept,
+            field_config.lateral_margin_m,
+            fresh_points,
+        )
+    }
+
+    /// Announces the policy's events and reports its state; its verdict.
+    fn apply_policy_status(&mut self, status: &PolicyStatus) -> Verdict {
         for event in &status.events {
             self.report_obstacle_event(event);
         }
@@ -409,7 +435,6 @@ impl Core {
             Verdict::SpeedUp { target_mps } => Some(target_mps),
             _ => None,
         };
-        self.note_static_block(&verdict, wants_to_move, now_s);
         verdict
     }
 
