@@ -166,6 +166,14 @@ struct Leg {
     piece: usize,
 }
 
+/// How a tick of settling onto a stop ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Settled {
+    No,
+    NextStroke,
+    Arrived,
+}
+
 /// The rest of a corner's arc the previous leg ended in the middle of.
 #[derive(Clone, Copy, Debug)]
 struct Carry {
@@ -550,38 +558,20 @@ impl Navigator {
             speed,
         };
 
-        let mut next_stroke = false;
-        if let Some(settling) = &mut self.settling {
-            settling.elapsed_s += dt_s;
-            settling.still_s = if est.speed_mps.abs() < REST_SPEED_MPS {
-                settling.still_s + dt_s
-            } else {
-                0.0
-            };
-            let rested = settling.still_s >= REST_S || settling.elapsed_s >= REST_TIMEOUT_S;
-            let short = remaining.abs() > half_tol
-                && self.reapproaches < MAX_REAPPROACHES
-                && self.approach_s <= APPROACH_TIMEOUT_S;
-            if rested && short {
-                self.settling = None;
-                self.reapproaches += 1;
-            } else if rested && cusp {
-                self.settling = None;
-                next_stroke = true;
-            } else if rested {
-                self.settling = None;
-                self.arrived = true;
-                self.status.reached = true;
-                self.stop_report = Some(stop_report(
-                    path,
-                    &target,
-                    est,
-                    remaining,
-                    projection.crosstrack_m,
-                    config,
-                ));
-            }
+        let settled = self.settle(est.speed_mps, remaining, half_tol, cusp, dt_s);
+        if settled == Settled::Arrived
+            && let Some(path) = self.leg.as_ref().and_then(|leg| leg.path.as_ref())
+        {
+            self.stop_report = Some(stop_report(
+                path,
+                &target,
+                est,
+                remaining,
+                projection.crosstrack_m,
+                config,
+            ));
         }
+        let next_stroke = settled == Settled::NextStroke;
 
         if next_stroke {
             self.next_stroke();
@@ -601,6 +591,36 @@ impl Navigator {
             steer_rad: tracker.steer_rad,
             speed_mps: speed.speed_mps * target.direction.sign(),
         }
+    }
+
+    /// Settling onto a stop: once at rest (or out of time), try again if
+    /// short, go on to the next stroke at a cusp, or arrive.
+    fn settle(&mut self, speed_mps: f64, remaining: f64, half_tol: f64, cusp: bool, dt_s: f64) -> Settled {
+        if let Some(settling) = &mut self.settling {
+            settling.elapsed_s += dt_s;
+            settling.still_s = if speed_mps.abs() < REST_SPEED_MPS {
+                settling.still_s + dt_s
+            } else {
+                0.0
+            };
+            let rested = settling.still_s >= REST_S || settling.elapsed_s >= REST_TIMEOUT_S;
+            let short = remaining.abs() > half_tol
+                && self.reapproaches < MAX_REAPPROACHES
+                && self.approach_s <= APPROACH_TIMEOUT_S;
+            if rested && short {
+                self.settling = None;
+                self.reapproaches += 1;
+            } else if rested && cusp {
+                self.settling = None;
+                return Settled::NextStroke;
+            } else if rested {
+                self.settling = None;
+                self.arrived = true;
+                self.status.reached = true;
+                return Settled::Arrived;
+            }
+        }
+        Settled::No
     }
 
     /// Drives the leg again from `position` (a fresh path, approach and
