@@ -439,15 +439,7 @@ impl Navigator {
             return NavDemand::default();
         };
         let target = leg.target;
-        if leg.path.is_none() {
-            // A leg that ends where it starts (a waypoint repeated) has no
-            // direction to drive along: drive it from where the vehicle is
-            // (found by the mission_flight fuzz target, which reversed away).
-            if leg.entry.is_none() && leg.from.distance_to(&target.point) < MIN_LEG_M {
-                leg.from = est.position;
-            }
-            leg.path = Some(Self::build_path(leg, config));
-        }
+        Self::ensure_path(leg, est.position, config);
         let Some(path) = &leg.path else {
             return NavDemand::default();
         };
@@ -621,6 +613,19 @@ impl Navigator {
             }
         }
         Settled::No
+    }
+
+    /// Builds the leg's path on its first update. A leg that ends where it
+    /// starts (a waypoint repeated) has no direction to drive along: drive
+    /// it from where the vehicle is (found by the mission_flight fuzz
+    /// target, which reversed away).
+    fn ensure_path(leg: &mut Leg, position: Ned, config: &NavConfig) {
+        if leg.path.is_none() {
+            if leg.entry.is_none() && leg.from.distance_to(&leg.target.point) < MIN_LEG_M {
+                leg.from = position;
+            }
+            leg.path = Some(Self::build_path(leg, config));
+        }
     }
 
     /// Drives the leg again from `position` (a fresh path, approach and
