@@ -706,7 +706,6 @@ impl MagneticGuide {
         self.rear.update(rear_m, cutoff_hz, dt_s);
         let spacing_m = config.sensor_spacing_m();
         let speed_mps = input.speed_mps;
-        let yaw_rate = input.yaw_rate_rad_s;
         let Some((e1, e2)) = self.used_deviations(config, front_m, rear_m, input, dt_s) else {
             (status.steer_rad, status.speed_mps) = self.lost_demand(config, input, dt_s);
             return status;
@@ -720,7 +719,6 @@ impl MagneticGuide {
                 ..*estimate
             };
         }
-        let steer_max_rad = config.steer_max_rad.abs();
         self.pull_towards_curve(config, status.acquired.then_some((e1, e2, angle_rad)), input, dt_s);
         // The integral is for the steering a curve needs, learnt while
         // tracking; integrating the large errors of a recovery winds it up
@@ -731,35 +729,7 @@ impl MagneticGuide {
             ki: if tracking { config.steer.ki } else { 0.0 },
             ..config.steer
         };
-        let (steer, lateral_rate_mps) = match config.lateral_rate {
-            LateralRate::Difference => {
-                let terms = self
-                    .steer
-                    .update(&steer_gains, lateral_m, dt_s, -steer_max_rad, steer_max_rad);
-                (
-                    terms,
-                    if config.steer.kd != 0.0 {
-                        terms.d / config.steer.kd
-                    } else {
-                        0.0
-                    },
-                )
-            }
-            LateralRate::Kinematic => {
-                let mid_x_m = (config.front_x_m + config.rear_x_m) / 2.0;
-                let (lead_lateral_m, lead_angle_rad) = self.after_unwinding(config, lateral_m, angle_rad, input);
-                let rate_mps = speed_mps * lead_angle_rad.tan() - yaw_rate * mid_x_m;
-                let terms = self.steer.update_with_rate(
-                    &steer_gains,
-                    lead_lateral_m,
-                    rate_mps,
-                    dt_s,
-                    -steer_max_rad,
-                    steer_max_rad,
-                );
-                (terms, rate_mps)
-            }
-        };
+        let (steer, lateral_rate_mps) = self.steer_terms(config, &steer_gains, lateral_m, angle_rad, input, dt_s);
         let max_cut_mps = (config.cruise_speed_mps - config.min_speed_mps).max(0.0);
         let speed = self.speed.update(
             &config.speed,
@@ -768,18 +738,7 @@ impl MagneticGuide {
             0.0,
             max_cut_mps,
         );
-        // The seed's "correction angle": the PD part, about the integral
-        // (which holds what the path's curvature needs), with the P part
-        // limited to the approach angle the sensors can keep.
-        let p_max = config.steer.kd.abs() * speed_mps.abs() * config.approach_max_rad(lateral_m).sin();
-        let p = if config.steer.kd > 0.0 {
-            steer.p.clamp(-p_max, p_max)
-        } else {
-            steer.p
-        };
-        let correction_max_rad = self.correction_max_rad(config);
-        let steer_rad = (steer.i + (p + steer.d).clamp(-correction_max_rad, correction_max_rad))
-            .clamp(-steer_max_rad, steer_max_rad);
+        let steer_rad = self.limited_steer_rad(config, &steer, lateral_m, speed_mps);
         self.last_angle_rad = angle_rad;
         self.last_steer_rad = steer_rad;
         self.last_speed_mps = config.cruise_speed_mps - speed.output;
@@ -795,6 +754,73 @@ impl MagneticGuide {
             speed_mps: config.cruise_speed_mps - speed.output,
             ..status
         }
+    }
+
+    /// The steering PID's terms on the lateral offset, with the lateral rate
+    /// it used (m/s): differenced from the readings, or the kinematic rate
+    /// from the speed, the tape angle and the yaw rate.
+    fn steer_terms(
+        &mut self,
+        config: &MagneticGuideConfig,
+        steer_gains: &IncrementalPidGains,
+        lateral_m: f64,
+        angle_rad: f64,
+        input: &MagneticInput,
+        dt_s: f64,
+    ) -> (IncrementalTerms, f64) {
+        let steer_max_rad = config.steer_max_rad.abs();
+        match config.lateral_rate {
+            LateralRate::Difference => {
+                let terms = self
+                    .steer
+                    .update(steer_gains, lateral_m, dt_s, -steer_max_rad, steer_max_rad);
+                (
+                    terms,
+                    if config.steer.kd != 0.0 {
+                        terms.d / config.steer.kd
+                    } else {
+                        0.0
+                    },
+                )
+            }
+            LateralRate::Kinematic => {
+                let mid_x_m = (config.front_x_m + config.rear_x_m) / 2.0;
+                let (lead_lateral_m, lead_angle_rad) = self.after_unwinding(config, lateral_m, angle_rad, input);
+                let rate_mps = input.speed_mps * lead_angle_rad.tan() - input.yaw_rate_rad_s * mid_x_m;
+                let terms = self.steer.update_with_rate(
+                    steer_gains,
+                    lead_lateral_m,
+                    rate_mps,
+                    dt_s,
+                    -steer_max_rad,
+                    steer_max_rad,
+                );
+                (terms, rate_mps)
+            }
+        }
+    }
+
+    /// The steering angle from the PID's terms: the integral plus the
+    /// limited PD correction, within the lock.
+    fn limited_steer_rad(
+        &self,
+        config: &MagneticGuideConfig,
+        steer: &IncrementalTerms,
+        lateral_m: f64,
+        speed_mps: f64,
+    ) -> f64 {
+        let steer_max_rad = config.steer_max_rad.abs();
+        // The seed's "correction angle": the PD part, about the integral
+        // (which holds what the path's curvature needs), with the P part
+        // limited to the approach angle the sensors can keep.
+        let p_max = config.steer.kd.abs() * speed_mps.abs() * config.approach_max_rad(lateral_m).sin();
+        let p = if config.steer.kd > 0.0 {
+            steer.p.clamp(-p_max, p_max)
+        } else {
+            steer.p
+        };
+        let correction_max_rad = self.correction_max_rad(config);
+        (steer.i + (p + steer.d).clamp(-correction_max_rad, correction_max_rad)).clamp(-steer_max_rad, steer_max_rad)
     }
 
     /// The front and rear deviations the control law uses (see the module

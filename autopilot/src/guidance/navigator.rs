@@ -166,6 +166,14 @@ struct Leg {
     piece: usize,
 }
 
+/// How a tick of settling onto a stop ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Settled {
+    No,
+    NextStroke,
+    Arrived,
+}
+
 /// The rest of a corner's arc the previous leg ended in the middle of.
 #[derive(Clone, Copy, Debug)]
 struct Carry {
@@ -431,15 +439,7 @@ impl Navigator {
             return NavDemand::default();
         };
         let target = leg.target;
-        if leg.path.is_none() {
-            // A leg that ends where it starts (a waypoint repeated) has no
-            // direction to drive along: drive it from where the vehicle is
-            // (found by the mission_flight fuzz target, which reversed away).
-            if leg.entry.is_none() && leg.from.distance_to(&target.point) < MIN_LEG_M {
-                leg.from = est.position;
-            }
-            leg.path = Some(Self::build_path(leg, config));
-        }
+        Self::ensure_path(leg, est.position, config);
         let Some(path) = &leg.path else {
             return NavDemand::default();
         };
@@ -455,28 +455,13 @@ impl Navigator {
         // mission_flight fuzz target). Drive to the stop again from here.
         let cusp = self.manoeuvre.as_ref().is_some_and(|m| !m.rest.is_empty());
         if target.stop && remaining < -OVERSHOOT_REPLAN_M && self.settling.is_none() && self.manoeuvre.is_none() {
-            leg.from = est.position;
-            leg.entry = None;
-            leg.path = None;
-            leg.piece = 0;
-            self.approach_s = 0.0;
-            self.tracker.reset();
-            self.speed.reset();
+            self.restart_leg(est.position);
             return NavDemand::default();
         }
         let wp_dist = est.position.distance_to(&target.point);
         let has_corner = path.exit_arc_rest().is_some();
 
-        // Approaching a stop, the preview stretches to PVW_STOP_DIST over the
-        // last 2·PVW_STOP_DIST: slow there, a short preview would turn
-        // millimetres of estimate noise into heading wiggle, and the stop's
-        // heading tolerance is the tighter one.
-        let min_preview_m = if target.stop && config.stop_preview_m > 0.0 && !cusp {
-            let d = config.stop_preview_m;
-            d * (2.0 - remaining / d).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let min_preview_m = stop_preview_m(&target, config, cusp, remaining);
         let tracker = track(
             &config.tracker,
             &mut self.tracker,
@@ -530,20 +515,7 @@ impl Navigator {
 
         self.arcs_ahead.clear();
         self.arcs_ahead.extend(path.arcs_from(projection.along_m));
-        let manoeuvre_cap = if self.manoeuvre.is_some() {
-            config.manoeuvre_speed_mps
-        } else {
-            f64::INFINITY
-        };
-        let speed_config = SpeedConfig {
-            cruise_mps: target
-                .speed_mps
-                .unwrap_or(config.speed.cruise_mps)
-                .max(config.speed_boost_mps.unwrap_or(0.0))
-                .min(config.speed_limit_mps.unwrap_or(f64::INFINITY))
-                .min(manoeuvre_cap),
-            ..config.speed
-        };
+        let speed_config = cruise_speed_config(&target, config, self.manoeuvre.is_some());
         let speed = scheduled_speed(
             &speed_config,
             &mut self.speed,
@@ -578,55 +550,20 @@ impl Navigator {
             speed,
         };
 
-        let mut next_stroke = false;
-        if let Some(settling) = &mut self.settling {
-            settling.elapsed_s += dt_s;
-            settling.still_s = if est.speed_mps.abs() < REST_SPEED_MPS {
-                settling.still_s + dt_s
-            } else {
-                0.0
-            };
-            let rested = settling.still_s >= REST_S || settling.elapsed_s >= REST_TIMEOUT_S;
-            let short = remaining.abs() > half_tol
-                && self.reapproaches < MAX_REAPPROACHES
-                && self.approach_s <= APPROACH_TIMEOUT_S;
-            if rested && short {
-                self.settling = None;
-                self.reapproaches += 1;
-            } else if rested && cusp {
-                self.settling = None;
-                next_stroke = true;
-            } else if rested {
-                self.settling = None;
-                self.arrived = true;
-                self.status.reached = true;
-                let end_yaw = wrap_pi(
-                    path.heading_at(path.end_m())
-                        + if target.direction == Direction::Reverse {
-                            std::f64::consts::PI
-                        } else {
-                            0.0
-                        },
-                );
-                let yaw_error = wrap_pi(est.yaw_rad - end_yaw);
-                let report = StopReport {
-                    seq: target.seq,
-                    along_m: remaining,
-                    crosstrack_m: projection.crosstrack_m,
-                    yaw_error_rad: yaw_error,
-                    within_tolerance: false,
-                    goal: Pose {
-                        position: path.end(),
-                        yaw_rad: end_yaw,
-                    },
-                };
-                self.stop_report = Some(StopReport {
-                    within_tolerance: report.position_error_m() <= config.stop.position_m
-                        && yaw_error.abs() <= config.stop.yaw_rad,
-                    ..report
-                });
-            }
+        let settled = self.settle(est.speed_mps, remaining, half_tol, cusp, dt_s);
+        if settled == Settled::Arrived
+            && let Some(path) = self.leg.as_ref().and_then(|leg| leg.path.as_ref())
+        {
+            self.stop_report = Some(stop_report(
+                path,
+                &target,
+                est,
+                remaining,
+                projection.crosstrack_m,
+                config,
+            ));
         }
+        let next_stroke = settled == Settled::NextStroke;
 
         if next_stroke {
             self.next_stroke();
@@ -646,6 +583,133 @@ impl Navigator {
             steer_rad: tracker.steer_rad,
             speed_mps: speed.speed_mps * target.direction.sign(),
         }
+    }
+
+    /// Settling onto a stop: once at rest (or out of time), try again if
+    /// short, go on to the next stroke at a cusp, or arrive.
+    fn settle(&mut self, speed_mps: f64, remaining: f64, half_tol: f64, cusp: bool, dt_s: f64) -> Settled {
+        if let Some(settling) = &mut self.settling {
+            settling.elapsed_s += dt_s;
+            settling.still_s = if speed_mps.abs() < REST_SPEED_MPS {
+                settling.still_s + dt_s
+            } else {
+                0.0
+            };
+            let rested = settling.still_s >= REST_S || settling.elapsed_s >= REST_TIMEOUT_S;
+            let short = remaining.abs() > half_tol
+                && self.reapproaches < MAX_REAPPROACHES
+                && self.approach_s <= APPROACH_TIMEOUT_S;
+            if rested && short {
+                self.settling = None;
+                self.reapproaches += 1;
+            } else if rested && cusp {
+                self.settling = None;
+                return Settled::NextStroke;
+            } else if rested {
+                self.settling = None;
+                self.arrived = true;
+                self.status.reached = true;
+                return Settled::Arrived;
+            }
+        }
+        Settled::No
+    }
+
+    /// Builds the leg's path on its first update. A leg that ends where it
+    /// starts (a waypoint repeated) has no direction to drive along: drive
+    /// it from where the vehicle is (found by the mission_flight fuzz
+    /// target, which reversed away).
+    fn ensure_path(leg: &mut Leg, position: Ned, config: &NavConfig) {
+        if leg.path.is_none() {
+            if leg.entry.is_none() && leg.from.distance_to(&leg.target.point) < MIN_LEG_M {
+                leg.from = position;
+            }
+            leg.path = Some(Self::build_path(leg, config));
+        }
+    }
+
+    /// Drives the leg again from `position` (a fresh path, approach and
+    /// controllers).
+    fn restart_leg(&mut self, position: Ned) {
+        if let Some(leg) = &mut self.leg {
+            leg.from = position;
+            leg.entry = None;
+            leg.path = None;
+            leg.piece = 0;
+        }
+        self.approach_s = 0.0;
+        self.tracker.reset();
+        self.speed.reset();
+    }
+}
+
+/// Approaching a stop, the preview stretches to PVW_STOP_DIST over the
+/// last 2·PVW_STOP_DIST: slow there, a short preview would turn
+/// millimetres of estimate noise into heading wiggle, and the stop's
+/// heading tolerance is the tighter one.
+fn stop_preview_m(target: &NavTarget, config: &NavConfig, cusp: bool, remaining: f64) -> f64 {
+    if target.stop && config.stop_preview_m > 0.0 && !cusp {
+        let d = config.stop_preview_m;
+        d * (2.0 - remaining / d).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// The speed schedule's configuration for this leg: its cruise speed from
+/// the target (or the default), boosted, limited, and capped on a
+/// manoeuvre.
+fn cruise_speed_config(target: &NavTarget, config: &NavConfig, on_manoeuvre: bool) -> SpeedConfig {
+    let manoeuvre_cap = if on_manoeuvre {
+        config.manoeuvre_speed_mps
+    } else {
+        f64::INFINITY
+    };
+    SpeedConfig {
+        cruise_mps: target
+            .speed_mps
+            .unwrap_or(config.speed.cruise_mps)
+            .max(config.speed_boost_mps.unwrap_or(0.0))
+            .min(config.speed_limit_mps.unwrap_or(f64::INFINITY))
+            .min(manoeuvre_cap),
+        ..config.speed
+    }
+}
+
+/// Where a stop ended against the path's end: along, across, yaw error
+/// (to the way the path ends, reversed on a reverse leg), and whether that
+/// is within the stop tolerance.
+fn stop_report(
+    path: &LegPath,
+    target: &NavTarget,
+    est: &Estimate,
+    remaining: f64,
+    crosstrack_m: f64,
+    config: &NavConfig,
+) -> StopReport {
+    let end_yaw = wrap_pi(
+        path.heading_at(path.end_m())
+            + if target.direction == Direction::Reverse {
+                std::f64::consts::PI
+            } else {
+                0.0
+            },
+    );
+    let yaw_error = wrap_pi(est.yaw_rad - end_yaw);
+    let report = StopReport {
+        seq: target.seq,
+        along_m: remaining,
+        crosstrack_m,
+        yaw_error_rad: yaw_error,
+        within_tolerance: false,
+        goal: Pose {
+            position: path.end(),
+            yaw_rad: end_yaw,
+        },
+    };
+    StopReport {
+        within_tolerance: report.position_error_m() <= config.stop.position_m && yaw_error.abs() <= config.stop.yaw_rad,
+        ..report
     }
 }
 

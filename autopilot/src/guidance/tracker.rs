@@ -205,30 +205,9 @@ pub fn track(
     let lateral_error = qy - qy_nominal;
     let yaw_error = wrap_pi(dyaw - dyaw_nominal);
 
-    let offset = projection.crosstrack_m.abs();
-    if state.capturing {
-        state.capturing = !(yaw_error.abs() < CAPTURE_EXIT_RAD && offset < 0.5 * preview_m);
-    } else {
-        state.capturing = yaw_error.abs() > CAPTURE_ENTER_RAD || offset > 2.0 * preview_m;
-    }
+    update_capture(state, yaw_error, projection.crosstrack_m.abs(), preview_m);
 
-    // The path's curvature as a ramp the steering gear can follow: averaged
-    // over the distance the wheels need to turn to the path's sharpest arc
-    // at the rate limit, and centred `feedforward_s` ahead for the lags, so
-    // the vehicle enters and leaves an arc half early, half late, and the
-    // error either side cancels rather than all landing on the outside.
-    let speed = speed_mps.abs();
-    let ramp_s = if config.steer_rate_rad_s > 0.0 {
-        (config.wheelbase_m * path.max_curvature()).atan() / config.steer_rate_rad_s
-    } else {
-        0.0
-    };
-    let centre = s_ref + config.feedforward_s * speed;
-    let half = 0.5 * ramp_s * speed;
-    let curvature = path.mean_curvature(centre - half, centre + half);
-    // Reversing, the yaw rate is v·tan δ / L with v < 0: the opposite lock
-    // turns the direction of travel the same way.
-    let feedforward = direction.sign() * (config.wheelbase_m * curvature).atan();
+    let feedforward = curvature_feedforward_rad(config, path, s_ref, speed_mps, direction);
 
     let (lateral, yaw, feedforward, demand) = if state.capturing {
         state.lateral.reset();
@@ -250,17 +229,7 @@ pub fn track(
         (lateral, yaw, feedforward, feedforward + correction)
     };
 
-    let mut steer = demand.clamp(-config.steer_max_rad, config.steer_max_rad);
-    if let Some(last) = state.last_steer_rad
-        && config.steer_rate_rad_s > 0.0
-        && dt_s > 0.0
-    {
-        let step = config.steer_rate_rad_s * dt_s;
-        steer = steer.clamp(last - step, last + step);
-    }
-    if steer.is_finite() {
-        state.last_steer_rad = Some(steer);
-    }
+    let steer = rate_limited_steer(config, state, demand, dt_s);
 
     TrackerStatus {
         preview_m,
@@ -278,6 +247,59 @@ pub fn track(
         desired_yaw_rad: desired_yaw,
         capturing: state.capturing,
     }
+}
+
+/// Pure pursuit takes over far off the path (capture) until the vehicle is
+/// back near it and pointing along it; the thresholds differ (hysteresis).
+fn update_capture(state: &mut TrackerState, yaw_error: f64, offset: f64, preview_m: f64) {
+    if state.capturing {
+        state.capturing = !(yaw_error.abs() < CAPTURE_EXIT_RAD && offset < 0.5 * preview_m);
+    } else {
+        state.capturing = yaw_error.abs() > CAPTURE_ENTER_RAD || offset > 2.0 * preview_m;
+    }
+}
+
+/// The path's curvature as a ramp the steering gear can follow: averaged
+/// over the distance the wheels need to turn to the path's sharpest arc
+/// at the rate limit, and centred `feedforward_s` ahead for the lags, so
+/// the vehicle enters and leaves an arc half early, half late, and the
+/// error either side cancels rather than all landing on the outside.
+fn curvature_feedforward_rad(
+    config: &TrackerConfig,
+    path: &LegPath,
+    s_ref: f64,
+    speed_mps: f64,
+    direction: Direction,
+) -> f64 {
+    let speed = speed_mps.abs();
+    let ramp_s = if config.steer_rate_rad_s > 0.0 {
+        (config.wheelbase_m * path.max_curvature()).atan() / config.steer_rate_rad_s
+    } else {
+        0.0
+    };
+    let centre = s_ref + config.feedforward_s * speed;
+    let half = 0.5 * ramp_s * speed;
+    let curvature = path.mean_curvature(centre - half, centre + half);
+    // Reversing, the yaw rate is v·tan δ / L with v < 0: the opposite lock
+    // turns the direction of travel the same way.
+    direction.sign() * (config.wheelbase_m * curvature).atan()
+}
+
+/// The steering demand within the lock and the steering rate limit (from
+/// the last finite angle commanded).
+fn rate_limited_steer(config: &TrackerConfig, state: &mut TrackerState, demand: f64, dt_s: f64) -> f64 {
+    let mut steer = demand.clamp(-config.steer_max_rad, config.steer_max_rad);
+    if let Some(last) = state.last_steer_rad
+        && config.steer_rate_rad_s > 0.0
+        && dt_s > 0.0
+    {
+        let step = config.steer_rate_rad_s * dt_s;
+        steer = steer.clamp(last - step, last + step);
+    }
+    if steer.is_finite() {
+        state.last_steer_rad = Some(steer);
+    }
+    steer
 }
 
 /// Pure pursuit of a point at (x, y) in the vehicle frame, in the direction

@@ -281,35 +281,13 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig) -> Option<Cluster>
     // person or a post (a body seen by a scanner shows a curved near side):
     // tracking it would turn the pieces a moving scanner sees of one wall
     // into objects that seem to move with the vehicle.
-    let straight = extent_m >= config.straight_min_extent_m && {
-        let (dn, de) = (
-            last.position.north_m - first.position.north_m,
-            last.position.east_m - first.position.east_m,
-        );
-        let chord = dn.hypot(de);
-        chord > 0.0
-            && points.iter().all(|p| {
-                let (pn, pe) = (
-                    p.position.north_m - first.position.north_m,
-                    p.position.east_m - first.position.east_m,
-                );
-                ((pn * de - pe * dn) / chord).abs() <= config.straight_tolerance_m
-            })
-    };
+    let straight = is_straight(points, extent_m, config);
     // A surface seen edge-on (a car's rear face or a wall end as the
     // scanner passes its plane) returns points strung out along the beam;
     // a body's near side faces the scanner, its returns spread across the
     // beam. Such slivers change with every metre the vehicle drives and
     // would look like objects sliding sideways.
-    let edge_on = points.len() >= 2 && extent_m > EDGE_ON_MIN_EXTENT_M && {
-        let (dn, de) = (
-            last.position.north_m - first.position.north_m,
-            last.position.east_m - first.position.east_m,
-        );
-        let chord = dn.hypot(de);
-        let (sin_b, cos_b) = sensor.bearing_to(&mean).sin_cos();
-        chord > 0.0 && ((dn * cos_b + de * sin_b) / chord).abs() > EDGE_ON_COS
-    };
+    let edge_on = is_edge_on(points, extent_m, sensor, mean);
     let is_structure = extent_m > config.max_track_extent_m || straight || edge_on;
     let centroid = if is_structure {
         mean
@@ -338,6 +316,46 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig) -> Option<Cluster>
         },
         occluded: false,
     })
+}
+
+/// Whether the returns lie on a straight line (within the tolerance) over
+/// at least the straight run's minimum extent.
+fn is_straight(points: &[ScanPoint], extent_m: f64, config: &ClusterConfig) -> bool {
+    let (Some(first), Some(last)) = (points.first(), points.last()) else {
+        return false;
+    };
+    extent_m >= config.straight_min_extent_m && {
+        let (dn, de) = (
+            last.position.north_m - first.position.north_m,
+            last.position.east_m - first.position.east_m,
+        );
+        let chord = dn.hypot(de);
+        chord > 0.0
+            && points.iter().all(|p| {
+                let (pn, pe) = (
+                    p.position.north_m - first.position.north_m,
+                    p.position.east_m - first.position.east_m,
+                );
+                ((pn * de - pe * dn) / chord).abs() <= config.straight_tolerance_m
+            })
+    }
+}
+
+/// Whether the returns are strung out along the beam from `sensor` to their
+/// `mean` rather than across it.
+fn is_edge_on(points: &[ScanPoint], extent_m: f64, sensor: Ned, mean: Ned) -> bool {
+    let (Some(first), Some(last)) = (points.first(), points.last()) else {
+        return false;
+    };
+    points.len() >= 2 && extent_m > EDGE_ON_MIN_EXTENT_M && {
+        let (dn, de) = (
+            last.position.north_m - first.position.north_m,
+            last.position.east_m - first.position.east_m,
+        );
+        let chord = dn.hypot(de);
+        let (sin_b, cos_b) = sensor.bearing_to(&mean).sin_cos();
+        chord > 0.0 && ((dn * cos_b + de * sin_b) / chord).abs() > EDGE_ON_COS
+    }
 }
 
 #[cfg(test)]

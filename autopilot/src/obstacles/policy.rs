@@ -347,43 +347,8 @@ impl ObstaclePolicy {
 
     pub fn update(&mut self, inputs: &PolicyInputs, config: &PolicyConfig) -> PolicyStatus {
         let mut events = std::mem::take(&mut self.pending);
-        if let Some(held) = self.held.as_mut() {
-            let blocker = if held.patient {
-                patient_blocker(inputs, config, stop_object(&held.cause))
-            } else {
-                resume_blocker(inputs, config)
-            };
-            match blocker {
-                Some(cause) => {
-                    held.clear_since_s = None;
-                    held.ready_for_operator = false;
-                    return stopped(Verdict::Stop(cause), events);
-                }
-                None => {
-                    let clear_since_s = *held.clear_since_s.get_or_insert(inputs.t_s);
-                    // Not waited long enough, or cannot tell (NaN): stay stopped.
-                    let waited_s = inputs.t_s - clear_since_s;
-                    if waited_s.partial_cmp(&config.resume_s).is_none_or(Ordering::is_lt) {
-                        return stopped(Verdict::Stop(held.cause), events);
-                    }
-                    if !config.auto_resume {
-                        held.ready_for_operator = true;
-                        if !held.announced_waiting {
-                            held.announced_waiting = true;
-                            events.push(PolicyEvent::WaitingForOperator(held.cause));
-                        }
-                        return stopped(Verdict::Stop(held.cause), events);
-                    }
-                    events.push(PolicyEvent::Resumed {
-                        stopped_s: inputs.t_s - held.since_s,
-                    });
-                    if held.patient {
-                        self.cycles = 0;
-                    }
-                    self.last_resume = stop_object(&held.cause).map(|o| (o, inputs.t_s));
-                    self.held = None;
-                }
-            }
+        if let Some(verdict) = self.check_held(inputs, config, &mut events) {
+            return stopped(verdict, events);
         }
 
         let at_rest = inputs.speed_mps.abs() < AT_REST_MPS;
@@ -400,29 +365,7 @@ impl ObstaclePolicy {
         let verdict = self.assess(inputs, config, at_rest, &mut events);
         match verdict {
             Verdict::Stop(cause) => {
-                let object = stop_object(&cause);
-                let again = self
-                    .last_resume
-                    .is_some_and(|(o, t)| Some(o) == object && inputs.t_s - t <= CYCLE_WINDOW_S);
-                self.cycles = if again { self.cycles + 1 } else { 0 };
-                let patient = config.stop_cycles > 0 && self.cycles >= config.stop_cycles;
-                self.held = Some(HeldStop {
-                    since_s: inputs.t_s,
-                    cause,
-                    clear_since_s: None,
-                    ready_for_operator: false,
-                    announced_waiting: false,
-                    patient,
-                });
-                events.push(PolicyEvent::Stopped(cause));
-                if patient {
-                    events.push(PolicyEvent::StopGo {
-                        cycles: self.cycles,
-                        cause,
-                    });
-                }
-                self.slowing = false;
-                self.passing_track = None;
+                self.hold_stop(cause, inputs, config, &mut events);
                 return stopped(verdict, events);
             }
             Verdict::Slow { .. } => {
@@ -438,6 +381,89 @@ impl ObstaclePolicy {
             events,
             stopped: false,
         }
+    }
+
+    /// A held stop: still blocked, not clear long enough, or waiting for the
+    /// operator (Some, the verdict to hold), or resumed (None, announced).
+    fn check_held(
+        &mut self,
+        inputs: &PolicyInputs,
+        config: &PolicyConfig,
+        events: &mut Vec<PolicyEvent>,
+    ) -> Option<Verdict> {
+        if let Some(held) = self.held.as_mut() {
+            let blocker = if held.patient {
+                patient_blocker(inputs, config, stop_object(&held.cause))
+            } else {
+                resume_blocker(inputs, config)
+            };
+            match blocker {
+                Some(cause) => {
+                    held.clear_since_s = None;
+                    held.ready_for_operator = false;
+                    return Some(Verdict::Stop(cause));
+                }
+                None => {
+                    let clear_since_s = *held.clear_since_s.get_or_insert(inputs.t_s);
+                    // Not waited long enough, or cannot tell (NaN): stay stopped.
+                    let waited_s = inputs.t_s - clear_since_s;
+                    if waited_s.partial_cmp(&config.resume_s).is_none_or(Ordering::is_lt) {
+                        return Some(Verdict::Stop(held.cause));
+                    }
+                    if !config.auto_resume {
+                        held.ready_for_operator = true;
+                        if !held.announced_waiting {
+                            held.announced_waiting = true;
+                            events.push(PolicyEvent::WaitingForOperator(held.cause));
+                        }
+                        return Some(Verdict::Stop(held.cause));
+                    }
+                    events.push(PolicyEvent::Resumed {
+                        stopped_s: inputs.t_s - held.since_s,
+                    });
+                    if held.patient {
+                        self.cycles = 0;
+                    }
+                    self.last_resume = stop_object(&held.cause).map(|o| (o, inputs.t_s));
+                    self.held = None;
+                }
+            }
+        }
+        None
+    }
+
+    /// Holds a new stop and announces it (and a stop-and-go cycle that has
+    /// made the stop patient).
+    fn hold_stop(
+        &mut self,
+        cause: StopCause,
+        inputs: &PolicyInputs,
+        config: &PolicyConfig,
+        events: &mut Vec<PolicyEvent>,
+    ) {
+        let object = stop_object(&cause);
+        let again = self
+            .last_resume
+            .is_some_and(|(o, t)| Some(o) == object && inputs.t_s - t <= CYCLE_WINDOW_S);
+        self.cycles = if again { self.cycles + 1 } else { 0 };
+        let patient = config.stop_cycles > 0 && self.cycles >= config.stop_cycles;
+        self.held = Some(HeldStop {
+            since_s: inputs.t_s,
+            cause,
+            clear_since_s: None,
+            ready_for_operator: false,
+            announced_waiting: false,
+            patient,
+        });
+        events.push(PolicyEvent::Stopped(cause));
+        if patient {
+            events.push(PolicyEvent::StopGo {
+                cycles: self.cycles,
+                cause,
+            });
+        }
+        self.slowing = false;
+        self.passing_track = None;
     }
 
     /// The operator's resume from the GCS: releases a stop held for the
@@ -496,48 +522,7 @@ impl ObstaclePolicy {
             return Verdict::Stop(collision_cause(prediction));
         }
 
-        let mut stop: Option<&CollisionPrediction> = None;
-        let mut passes: Vec<&CollisionPrediction> = Vec::new();
-        let mut slow_mps = inputs.warning_limit_mps.map(|l| l.max(0.0));
-        let allow_pass = config.pass_first && !at_rest;
-        // Pass-first (seed 004) decides on the first prediction.
-        let defer = !at_rest && !config.pass_first;
-        for prediction in predictions {
-            let response = match respond(prediction, inputs, config, allow_pass) {
-                Response::Stop
-                    if defer && prediction.time_s > stopping_time_s(inputs.speed_mps, config) + DECIDE_LEAD_S =>
-                {
-                    Response::Hold
-                }
-                response => response,
-            };
-            match response {
-                Response::Ignore => {}
-                Response::Stop => stop = earliest(stop, prediction),
-                Response::Follow { limit_mps } => slow_mps = Some(slow_mps.map_or(limit_mps, |s| s.min(limit_mps))),
-                Response::Hold => {
-                    let limit_mps = inputs.speed_mps.abs();
-                    slow_mps = Some(slow_mps.map_or(limit_mps, |s| s.min(limit_mps)));
-                }
-                Response::PassFirst => passes.push(prediction),
-            }
-        }
-        // Following is judged at the planned velocity too: once slowed to
-        // the walker's speed the current-velocity prediction clears, and
-        // judging on it alone would speed up and slow down in turn.
-        if !at_rest {
-            for prediction in inputs.predictions_at_resume {
-                if let Response::Follow { limit_mps } = respond(prediction, inputs, config, false) {
-                    slow_mps = Some(slow_mps.map_or(limit_mps, |s| s.min(limit_mps)));
-                }
-            }
-        }
-        // Passing first needs the speed a slow-down forbids.
-        if slow_mps.is_some() {
-            for prediction in passes.drain(..) {
-                stop = earliest(stop, prediction);
-            }
-        }
+        let (stop, passes, slow_mps) = weigh_predictions(predictions, inputs, config, at_rest);
         if let Some(prediction) = stop {
             self.passing_track = None;
             return Verdict::Stop(collision_cause(prediction));
@@ -548,6 +533,20 @@ impl ObstaclePolicy {
                 limit_mps: limit_mps.min(config.max_speed_mps),
             };
         }
+        self.pass_or_go(&passes, inputs, config, at_rest, events)
+    }
+
+    /// No stop and no slow-down: speed up to pass the first track a
+    /// pass-first response chose (announced once per track), keep that
+    /// speed while the track passed is still ahead, or go on.
+    fn pass_or_go(
+        &mut self,
+        passes: &[&CollisionPrediction],
+        inputs: &PolicyInputs,
+        config: &PolicyConfig,
+        at_rest: bool,
+        events: &mut Vec<PolicyEvent>,
+    ) -> Verdict {
         let speed_up = Verdict::SpeedUp {
             target_mps: config.max_speed_mps,
         };
@@ -608,6 +607,64 @@ fn field_stop(fields: &[&FieldStatus]) -> Option<StopCause> {
     let hit = fields.iter().filter(|f| f.protective_hits > 0);
     let nearest = hit.map(|f| f.nearest_protective_m.unwrap_or(0.0)).reduce(f64::min)?;
     Some(StopCause::ProtectiveField { distance_m: nearest })
+}
+
+/// Each prediction's response: the earliest stop, the pass-first
+/// candidates and the tightest speed limit (the warning field's, a follow's
+/// or a hold's).
+fn weigh_predictions<'p>(
+    predictions: &'p [CollisionPrediction],
+    inputs: &PolicyInputs,
+    config: &PolicyConfig,
+    at_rest: bool,
+) -> (
+    Option<&'p CollisionPrediction>,
+    Vec<&'p CollisionPrediction>,
+    Option<f64>,
+) {
+    let mut stop: Option<&CollisionPrediction> = None;
+    let mut passes: Vec<&CollisionPrediction> = Vec::new();
+    let mut slow_mps = inputs.warning_limit_mps.map(|l| l.max(0.0));
+    let allow_pass = config.pass_first && !at_rest;
+    // Pass-first (seed 004) decides on the first prediction.
+    let defer = !at_rest && !config.pass_first;
+    for prediction in predictions {
+        let response = match respond(prediction, inputs, config, allow_pass) {
+            Response::Stop
+                if defer && prediction.time_s > stopping_time_s(inputs.speed_mps, config) + DECIDE_LEAD_S =>
+            {
+                Response::Hold
+            }
+            response => response,
+        };
+        match response {
+            Response::Ignore => {}
+            Response::Stop => stop = earliest(stop, prediction),
+            Response::Follow { limit_mps } => slow_mps = Some(slow_mps.map_or(limit_mps, |s| s.min(limit_mps))),
+            Response::Hold => {
+                let limit_mps = inputs.speed_mps.abs();
+                slow_mps = Some(slow_mps.map_or(limit_mps, |s| s.min(limit_mps)));
+            }
+            Response::PassFirst => passes.push(prediction),
+        }
+    }
+    // Following is judged at the planned velocity too: once slowed to
+    // the walker's speed the current-velocity prediction clears, and
+    // judging on it alone would speed up and slow down in turn.
+    if !at_rest {
+        for prediction in inputs.predictions_at_resume {
+            if let Response::Follow { limit_mps } = respond(prediction, inputs, config, false) {
+                slow_mps = Some(slow_mps.map_or(limit_mps, |s| s.min(limit_mps)));
+            }
+        }
+    }
+    // Passing first needs the speed a slow-down forbids.
+    if slow_mps.is_some() {
+        for prediction in passes.drain(..) {
+            stop = earliest(stop, prediction);
+        }
+    }
+    (stop, passes, slow_mps)
 }
 
 fn earliest<'p>(a: Option<&'p CollisionPrediction>, b: &'p CollisionPrediction) -> Option<&'p CollisionPrediction> {

@@ -186,6 +186,39 @@ fn refill<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
     v.resize(n, value);
 }
 
+/// The clusters that can update a track (not structure, a finite centroid),
+/// each with its measurement covariance seen from `sensor`.
+fn gather_measurements(
+    measurements: &mut Vec<Measurement>,
+    clusters: &[Cluster],
+    sensor: Ned,
+    config: &TrackingConfig,
+) {
+    measurements.clear();
+    measurements.extend(
+        clusters
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| !c.is_structure && c.centroid.north_m.is_finite() && c.centroid.east_m.is_finite())
+            .map(|(cluster, c)| Measurement {
+                cluster,
+                r: measurement_covariance(sensor, c.centroid, config),
+            }),
+    );
+}
+
+/// A partial view's centroid — a partly hidden cluster, or one piece of an
+/// object the scan shows in several — can be off by up to the object's
+/// radius: it may keep a track alive and roughly in place, but must not
+/// steer its velocity.
+fn measurement_r(entry: &Entry, meas: &Measurement, partial: bool, clusters: &[Cluster]) -> Matrix2<f64> {
+    if partial || clusters[meas.cluster].occluded {
+        meas.r + Matrix2::identity() * entry.track.radius_m * entry.track.radius_m
+    } else {
+        meas.r
+    }
+}
+
 /// A cluster that can update a track: its index and measurement covariance.
 #[derive(Clone, Debug)]
 struct Measurement {
@@ -229,42 +262,42 @@ impl ObstacleTracker {
 
         let mut scratch = std::mem::take(&mut self.scratch);
         status.deaths += self.predict_all(now, config, &mut scratch.flags);
+        gather_measurements(&mut scratch.measurements, clusters, sensor, config);
+        self.associate(&mut scratch, clusters, config);
+        self.mark_merged(&mut scratch, clusters);
+        self.mark_pieces(&mut scratch, clusters);
+        self.update_assigned(&mut scratch, clusters, now);
+        status.deaths += self.remove(&scratch.flags);
+        status.births += self.birth_tracks(&scratch, clusters, config, now);
 
-        let measurements = &mut scratch.measurements;
-        measurements.clear();
-        measurements.extend(
-            clusters
-                .iter()
-                .enumerate()
-                .filter(|(_, c)| !c.is_structure && c.centroid.north_m.is_finite() && c.centroid.east_m.is_finite())
-                .map(|(cluster, c)| Measurement {
-                    cluster,
-                    r: measurement_covariance(sensor, c.centroid, config),
-                }),
-        );
-        let measurements = &*measurements;
+        status.deaths += self.age_all(now, config, &mut scratch.flags);
+        self.scratch = scratch;
+        self.tracks.clear();
+        self.tracks.extend(self.entries.iter().map(|e| e.track));
+        self.count_tracks(sensor, &mut status);
+        status
+    }
 
-        // A partial view's centroid — a partly hidden cluster, or one piece
-        // of an object the scan shows in several — can be off by up to the
-        // object's radius: it may keep a track alive and roughly in place,
-        // but must not steer its velocity.
-        let r_for = |entry: &Entry, meas: &Measurement, partial: bool| -> Matrix2<f64> {
-            if partial || clusters[meas.cluster].occluded {
-                meas.r + Matrix2::identity() * entry.track.radius_m * entry.track.radius_m
-            } else {
-                meas.r
-            }
-        };
+    /// Every (track, measurement) pair inside the gate, cheapest first (ties
+    /// broken by index so the outcome never depends on sort details), and
+    /// the greedy assignment along that order.
+    fn associate(&self, scratch: &mut UpdateScratch, clusters: &[Cluster], config: &TrackingConfig) {
+        let UpdateScratch {
+            measurements,
+            pairs,
+            assigned,
+            taken,
+            gated,
+            ..
+        } = scratch;
         let gate = chi2_gate_2dof(config.gate_probability);
-        // Every (track, measurement) pair inside the gate, cheapest first;
-        // ties broken by index so the outcome never depends on sort details.
-        let pairs = &mut scratch.pairs;
         pairs.clear();
         for (i, entry) in self.entries.iter().enumerate() {
             for (m, meas) in measurements.iter().enumerate() {
-                let d2 = entry
-                    .kf
-                    .mahalanobis_sq(clusters[meas.cluster].centroid, &r_for(entry, meas, false));
+                let d2 = entry.kf.mahalanobis_sq(
+                    clusters[meas.cluster].centroid,
+                    &measurement_r(entry, meas, false, clusters),
+                );
                 if d2 <= gate {
                     pairs.push((d2, i, m));
                 }
@@ -272,23 +305,27 @@ impl ObstacleTracker {
         }
         pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
 
-        let pairs = &*pairs;
-        let assigned = &mut scratch.assigned;
         refill(assigned, self.entries.len(), None);
-        let taken = &mut scratch.taken;
         refill(taken, measurements.len(), false);
-        let gated = &mut scratch.gated;
         refill(gated, measurements.len(), false);
-        for &(_, i, m) in pairs {
+        for &(_, i, m) in pairs.iter() {
             gated[m] = true;
             if assigned[i].is_none() && !taken[m] {
                 assigned[i] = Some(m);
                 taken[m] = true;
             }
         }
+    }
 
-        // Merged objects: a big cluster another, unserved track also claims.
-        let merged = &mut scratch.merged;
+    /// Merged objects: a big cluster another, unserved track also claims.
+    fn mark_merged(&self, scratch: &mut UpdateScratch, clusters: &[Cluster]) {
+        let UpdateScratch {
+            measurements,
+            pairs,
+            assigned,
+            merged,
+            ..
+        } = scratch;
         refill(merged, measurements.len(), false);
         for (i, slot) in assigned.iter().enumerate() {
             let Some(m) = *slot else { continue };
@@ -300,16 +337,24 @@ impl ObstacleTracker {
                 merged[m] = true;
             }
         }
+    }
 
-        // An object cut in pieces (a run of beams without echo across a
-        // person: two dropouts in a row already split a cluster): the track
-        // takes the piece nearest its prediction, and another piece no track
-        // took lies where this object is. The taken piece's centroid is then
-        // that of a part — one leg's worth of returns off the centre — and an
-        // ordinary update with it turns a few centimetres of offset into a
-        // velocity error of a good fraction of a walking speed, predicting a
-        // collision the object is not on course for.
-        let pieces = &mut scratch.pieces;
+    /// An object cut in pieces (a run of beams without echo across a
+    /// person: two dropouts in a row already split a cluster): the track
+    /// takes the piece nearest its prediction, and another piece no track
+    /// took lies where this object is. The taken piece's centroid is then
+    /// that of a part — one leg's worth of returns off the centre — and an
+    /// ordinary update with it turns a few centimetres of offset into a
+    /// velocity error of a good fraction of a walking speed, predicting a
+    /// collision the object is not on course for.
+    fn mark_pieces(&self, scratch: &mut UpdateScratch, clusters: &[Cluster]) {
+        let UpdateScratch {
+            measurements,
+            assigned,
+            taken,
+            pieces,
+            ..
+        } = scratch;
         pieces.clear();
         pieces.extend(assigned.iter().zip(&self.entries).map(|(slot, entry)| {
             slot.is_some_and(|m| {
@@ -319,15 +364,26 @@ impl ObstacleTracker {
                     .any(|(other, meas)| other != m && !taken[other] && part_of(&entry.track, &clusters[meas.cluster]))
             })
         }));
+    }
 
-        let failed = &mut scratch.flags;
+    /// Updates every track with its assigned cluster (none for a merged one)
+    /// and counts the misses; flags the tracks whose filter refused.
+    fn update_assigned(&mut self, scratch: &mut UpdateScratch, clusters: &[Cluster], now: Duration) {
+        let UpdateScratch {
+            measurements,
+            assigned,
+            merged,
+            pieces,
+            flags: failed,
+            ..
+        } = scratch;
         refill(failed, self.entries.len(), false);
         for (i, entry) in self.entries.iter_mut().enumerate() {
             let hit = assigned[i].filter(|&m| !merged[m]);
             match hit {
                 Some(m) => {
                     let cluster = &clusters[measurements[m].cluster];
-                    let r = r_for(entry, &measurements[m], pieces[i]);
+                    let r = measurement_r(entry, &measurements[m], pieces[i], clusters);
                     if entry.kf.update(cluster.centroid, &r).is_err() {
                         failed[i] = true;
                         continue;
@@ -348,11 +404,21 @@ impl ObstacleTracker {
                 None => {}
             }
         }
-        status.deaths += self.remove(failed);
-        let known = self.entries.len();
+    }
 
-        for (m, meas) in measurements.iter().enumerate() {
-            if gated[m] {
+    /// Starts a tentative track on every cluster outside all gates that is
+    /// not a piece of a known object; returns how many were born.
+    fn birth_tracks(
+        &mut self,
+        scratch: &UpdateScratch,
+        clusters: &[Cluster],
+        config: &TrackingConfig,
+        now: Duration,
+    ) -> u32 {
+        let known = self.entries.len();
+        let mut births = 0;
+        for (m, meas) in scratch.measurements.iter().enumerate() {
+            if scratch.gated[m] {
                 continue;
             }
             let cluster = &clusters[meas.cluster];
@@ -395,14 +461,14 @@ impl ObstacleTracker {
                 fit: cluster.outline.map(|o| (o, cluster.centroid)),
                 stillness: Stillness::new(cluster),
             });
-            status.births += 1;
+            births += 1;
         }
+        births
+    }
 
-        status.deaths += self.age_all(now, config, &mut scratch.flags);
-        self.scratch = scratch;
-        self.tracks.clear();
-        self.tracks.extend(self.entries.iter().map(|e| e.track));
-
+    /// Counts the tentative and confirmed tracks and finds the confirmed one
+    /// whose edge is nearest `sensor`.
+    fn count_tracks(&self, sensor: Ned, status: &mut TrackingStatus) {
         for track in &self.tracks {
             if track.status == TrackStatus::Tentative {
                 status.tentative += 1;
@@ -414,7 +480,6 @@ impl ObstacleTracker {
                 status.nearest = Some((track.id, edge_m));
             }
         }
-        status
     }
 
     /// Every filter to `now`; a refused step deletes the track. Returns the

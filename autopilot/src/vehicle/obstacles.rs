@@ -11,13 +11,16 @@ use drivers::scanner::Scan;
 use mavlink::dialects::ardupilotmega::{MavDistanceSensor, MavFrame, MavSeverity, OBSTACLE_DISTANCE_DATA};
 
 use super::{Core, ScanInput};
+use crate::estimation::Estimate;
 use crate::geo::{Ned, wrap_pi};
 use crate::guidance::tracker::Direction;
 use crate::modes::Mode;
 use crate::obstacles::cluster::{Cluster, ClusterConfig, ScanPoint, cluster_points, scan_points};
 use crate::obstacles::detour::{DetourConfig, DetourRefusal, plan_detour};
-use crate::obstacles::field::{FieldConfig, check_swept_fields, fields, warning_speed_limit};
-use crate::obstacles::policy::{ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, StopCause, Verdict};
+use crate::obstacles::field::{FieldConfig, FieldStatus, Fields, check_swept_fields, fields, warning_speed_limit};
+use crate::obstacles::policy::{
+    ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, PolicyStatus, StopCause, Verdict,
+};
 use crate::obstacles::prediction::CollisionPrediction;
 use crate::obstacles::swept::{Contact, PathAhead, Shape, SweptPath};
 use crate::obstacles::tracking::{ObstacleTracker, TrackingConfig};
@@ -317,51 +320,9 @@ impl Core {
         let now_s = self.now.boot.as_secs_f64();
         let footprint = self.footprint();
         let estimate = *self.estimator.estimate();
-        let fresh_after = VIEW_TIMEOUT;
-        let mut scan_age_s: Option<f64> = None;
-        let mut fitted = 0;
-        for i in 0..SCANNERS {
-            if self.scanner_mount(i).is_none() {
-                continue;
-            }
-            fitted += 1;
-            // The policy cares about the stalest fitted scanner.
-            let age = self.obstacles.views[i]
-                .t
-                .map(|t| self.now.boot.saturating_sub(t).as_secs_f64());
-            scan_age_s = match (fitted, scan_age_s, age) {
-                (1, _, a) => a,
-                (_, Some(worst), Some(a)) => Some(worst.max(a)),
-                _ => None,
-            };
-        }
-        let enabled = self.obstacles_enabled() && fitted > 0;
-        let scans_fresh = scan_age_s.is_some_and(|a| a <= fresh_after.as_secs_f64());
-        let confirmed = self
-            .obstacles
-            .tracker
-            .tracks()
-            .iter()
-            .filter(|t| t.status != TrackStatus::Tentative)
-            .count();
-        let tentative = self.obstacles.tracker.tracks().len() - confirmed;
-        let nearest_m = self.nearest_return_m(&footprint);
-        self.obstacles.status = ObstacleStatus {
-            enabled,
-            scans_fresh,
-            stopped: false,
-            speed_limit_mps: None,
-            speed_up_mps: None,
-            confirmed_tracks: confirmed,
-            tentative_tracks: tentative,
-            nearest_m,
-            detouring: self.obstacles.detour.is_some(),
-        };
+        let (enabled, scan_age_s) = self.refresh_obstacle_status(&footprint);
         if !enabled || !active {
-            self.obstacles.policy.reset();
-            self.obstacles.static_stop_since = None;
-            self.obstacles.hidden.clear();
-            self.obstacles.last_tracks.clear();
+            self.reset_obstacle_policy();
             return Verdict::Go;
         }
 
@@ -391,19 +352,151 @@ impl Core {
             .max(resume_fields.warning_length_m)
             .max(speed.abs().max(planned_mps.abs()) * horizon);
         self.sweep_path_ahead(&pose, &footprint, sign < 0.0, sweep_m);
+        let [field, field_at_resume] = self.check_fields(&here_fields, &resume_fields, &field_config);
+
+        let velocity_gate_mps = f64::from(self.p.obstacles.avoidance.velocity_gate_mps.get(&self.params));
+        let (predictions, mut predictions_at_resume) =
+            self.track_predictions(&estimate, &pose, speed, planned_mps, margin, horizon);
+        self.remember_hidden_tracks(now_s, &pose, &footprint, margin, velocity_gate_mps);
+        self.push_hidden_predictions(now_s, &pose, &footprint, &mut predictions_at_resume);
+        let config = self.policy_config();
+        // At rest the fields that matter are those it would start with.
+        let at_rest = speed.abs() <= 0.05;
+        let warning_limit_mps = if at_rest {
+            warning_speed_limit(&resume_fields, &field_at_resume, &field_config, planned_mps.abs())
+        } else {
+            warning_speed_limit(&here_fields, &field, &field_config, planned_mps.abs())
+        };
+        let inputs = PolicyInputs {
+            t_s: now_s,
+            wants_to_move,
+            settling,
+            speed_mps: speed,
+            scan_age_s,
+            field: &field,
+            field_at_resume: &field_at_resume,
+            predictions: &predictions,
+            predictions_at_resume: &predictions_at_resume,
+            tracks: self.obstacles.tracker.tracks(),
+            pose,
+            footprint: &footprint,
+            warning_limit_mps,
+        };
+        let status = self.obstacles.policy.update(&inputs, &config);
+        let verdict = self.apply_policy_status(&status);
+        self.note_static_block(&verdict, wants_to_move, now_s);
+        verdict
+    }
+
+    /// Avoidance off or not driving: forget any held stop, static block and
+    /// remembered tracks.
+    fn reset_obstacle_policy(&mut self) {
+        self.obstacles.policy.reset();
+        self.obstacles.static_stop_since = None;
+        self.obstacles.hidden.clear();
+        self.obstacles.last_tracks.clear();
+    }
+
+    /// The protective and warning fields (at the speed now and at the
+    /// resume speed) checked against the fresh scans' points.
+    fn check_fields(
+        &self,
+        here_fields: &Fields,
+        resume_fields: &Fields,
+        field_config: &FieldConfig,
+    ) -> [FieldStatus; 2] {
+        let fresh_after = VIEW_TIMEOUT;
         let fresh_points = self
             .obstacles
             .views
             .iter()
             .filter(|v| v.t.is_some_and(|t| self.now.boot.saturating_sub(t) <= fresh_after))
             .flat_map(|v| v.local_points.iter().copied());
-        let [field, field_at_resume] = check_swept_fields(
-            [&here_fields, &resume_fields],
+        check_swept_fields(
+            [here_fields, resume_fields],
             &self.obstacles.swept,
             field_config.lateral_margin_m,
             fresh_points,
-        );
+        )
+    }
 
+    /// Announces the policy's events and reports its state; its verdict.
+    fn apply_policy_status(&mut self, status: &PolicyStatus) -> Verdict {
+        for event in &status.events {
+            self.report_obstacle_event(event);
+        }
+        let verdict = status.verdict;
+        self.obstacles.status.stopped = status.stopped;
+        self.obstacles.status.speed_limit_mps = match verdict {
+            Verdict::Slow { limit_mps } => Some(limit_mps),
+            _ => None,
+        };
+        self.obstacles.status.speed_up_mps = match verdict {
+            Verdict::SpeedUp { target_mps } => Some(target_mps),
+            _ => None,
+        };
+        verdict
+    }
+
+    /// Rebuilds the reported obstacle status for this tick (not yet the
+    /// policy's part of it); returns whether avoidance is on (enabled and a
+    /// scanner fitted) and the age of the stalest fitted scanner's scan, s.
+    fn refresh_obstacle_status(&mut self, footprint: &Footprint) -> (bool, Option<f64>) {
+        let fresh_after = VIEW_TIMEOUT;
+        let mut scan_age_s: Option<f64> = None;
+        let mut fitted = 0;
+        for i in 0..SCANNERS {
+            if self.scanner_mount(i).is_none() {
+                continue;
+            }
+            fitted += 1;
+            // The policy cares about the stalest fitted scanner.
+            let age = self.obstacles.views[i]
+                .t
+                .map(|t| self.now.boot.saturating_sub(t).as_secs_f64());
+            scan_age_s = match (fitted, scan_age_s, age) {
+                (1, _, a) => a,
+                (_, Some(worst), Some(a)) => Some(worst.max(a)),
+                _ => None,
+            };
+        }
+        let enabled = self.obstacles_enabled() && fitted > 0;
+        let scans_fresh = scan_age_s.is_some_and(|a| a <= fresh_after.as_secs_f64());
+        let confirmed = self
+            .obstacles
+            .tracker
+            .tracks()
+            .iter()
+            .filter(|t| t.status != TrackStatus::Tentative)
+            .count();
+        let tentative = self.obstacles.tracker.tracks().len() - confirmed;
+        let nearest_m = self.nearest_return_m(footprint);
+        self.obstacles.status = ObstacleStatus {
+            enabled,
+            scans_fresh,
+            stopped: false,
+            speed_limit_mps: None,
+            speed_up_mps: None,
+            confirmed_tracks: confirmed,
+            tentative_tracks: tentative,
+            nearest_m,
+            detouring: self.obstacles.detour.is_some(),
+        };
+        (enabled, scan_age_s)
+    }
+
+    /// The collision predictions of the tracked obstacles against the path
+    /// ahead: at the vehicle's speed now (`speed`) and at the speed it would
+    /// resume at (`planned_mps`). None without a valid position and heading.
+    fn track_predictions(
+        &self,
+        estimate: &Estimate,
+        pose: &Pose,
+        speed: f64,
+        planned_mps: f64,
+        margin: f64,
+        horizon: f64,
+    ) -> (Vec<CollisionPrediction>, Vec<CollisionPrediction>) {
         let passing = self.obstacles.detour.as_ref().map(|d| d.obstacle);
         let velocity_gate_mps = f64::from(self.p.obstacles.avoidance.velocity_gate_mps.get(&self.params));
         let mut predictions: Vec<CollisionPrediction> = Vec::new();
@@ -411,7 +504,7 @@ impl Core {
         if estimate.position_valid && estimate.heading_valid {
             let vehicle_velocity = (speed * estimate.yaw_rad.cos(), speed * estimate.yaw_rad.sin());
             let view = ViewChange::new(
-                &pose,
+                pose,
                 vehicle_velocity,
                 estimate.yaw_rate_rad_s,
                 (0..SCANNERS).filter_map(|i| self.scanner_mount(i)),
@@ -464,7 +557,18 @@ impl Core {
                 }
             }
         }
-        self.remember_hidden_tracks(now_s, &pose, &footprint, margin, velocity_gate_mps);
+        (predictions, predictions_at_resume)
+    }
+
+    /// The remembered hidden tracks as predictions for starting: each one
+    /// closing, at its distance from the outline now.
+    fn push_hidden_predictions(
+        &self,
+        now_s: f64,
+        pose: &Pose,
+        footprint: &Footprint,
+        predictions_at_resume: &mut Vec<CollisionPrediction>,
+    ) {
         for hidden in &self.obstacles.hidden {
             let at = hidden.position_at(now_s);
             let (x, y) = crate::obstacles::prediction::to_body(
@@ -476,51 +580,17 @@ impl Core {
                 track_id: hidden.id,
                 time_s: 0.0,
                 place: pose.position,
-                distance_m: (outline_distance(&footprint, x, y) - hidden.radius_m).max(0.0),
+                distance_m: (outline_distance(footprint, x, y) - hidden.radius_m).max(0.0),
                 relative_speed_mps: hidden.velocity.0.hypot(hidden.velocity.1),
                 closing: true,
             });
         }
-        let config = self.policy_config();
-        // At rest the fields that matter are those it would start with.
-        let at_rest = speed.abs() <= 0.05;
-        let warning_limit_mps = if at_rest {
-            warning_speed_limit(&resume_fields, &field_at_resume, &field_config, planned_mps.abs())
-        } else {
-            warning_speed_limit(&here_fields, &field, &field_config, planned_mps.abs())
-        };
-        let inputs = PolicyInputs {
-            t_s: now_s,
-            wants_to_move,
-            settling,
-            speed_mps: speed,
-            scan_age_s,
-            field: &field,
-            field_at_resume: &field_at_resume,
-            predictions: &predictions,
-            predictions_at_resume: &predictions_at_resume,
-            tracks: self.obstacles.tracker.tracks(),
-            pose,
-            footprint: &footprint,
-            warning_limit_mps,
-        };
-        let status = self.obstacles.policy.update(&inputs, &config);
-        for event in &status.events {
-            self.report_obstacle_event(event);
-        }
-        let verdict = status.verdict;
-        self.obstacles.status.stopped = status.stopped;
-        self.obstacles.status.speed_limit_mps = match verdict {
-            Verdict::Slow { limit_mps } => Some(limit_mps),
-            _ => None,
-        };
-        self.obstacles.status.speed_up_mps = match verdict {
-            Verdict::SpeedUp { target_mps } => Some(target_mps),
-            _ => None,
-        };
+    }
 
-        // A static obstacle that keeps the vehicle stopped: plan round it.
-        let static_block = match &verdict {
+    /// A static obstacle that keeps the vehicle stopped: plan round it
+    /// (notes since when it has blocked the way).
+    fn note_static_block(&mut self, verdict: &Verdict, wants_to_move: bool, now_s: f64) {
+        let static_block = match verdict {
             Verdict::Stop(StopCause::Collision { track_id, .. }) => self
                 .obstacles
                 .tracker
@@ -536,7 +606,6 @@ impl Core {
         } else {
             None
         };
-        verdict
     }
 
     /// Remembers the tracks lost from view within `HIDDEN_NEAR_M` of the
@@ -780,6 +849,39 @@ impl Core {
         let footprint = self.footprint();
         let corridor_m = f64::from(a.corridor_m.get(&self.params));
         let sign = target.direction.sign();
+        let Some((obstacle, others)) = self.detour_points(from, target.point, sign, &footprint, corridor_m) else {
+            self.obstacles.detour_refusal_reported = false;
+            return;
+        };
+        let config = DetourConfig {
+            clearance_m: 0.5,
+            corridor_m,
+            min_turn_radius_m: self.nav_config().min_arc_radius_m,
+        };
+        match plan_detour(from, target.point, &pose, &footprint, &obstacle, &others, &config) {
+            Ok(detour) => self.start_detour(detour, target, &obstacle, estimate.position),
+            // Nothing in the way yet (or only beyond the leg): keep looking.
+            Err(DetourRefusal::NotInTheWay) => {}
+            Err(why) => {
+                if !self.obstacles.detour_refusal_reported && (stopped || why != DetourRefusal::TooClose) {
+                    self.obstacles.detour_refusal_reported = true;
+                    self.send_text(MavSeverity::MAV_SEVERITY_WARNING, &format!("No detour: {why:?}"));
+                }
+            }
+        }
+    }
+
+    /// The scan returns a detour must pass, or None with nothing in the
+    /// lane: the obstacle (the returns ahead within the corridor, in the
+    /// driving direction `sign`) and the others it must also clear.
+    fn detour_points(
+        &self,
+        from: Ned,
+        to: Ned,
+        sign: f64,
+        footprint: &Footprint,
+        corridor_m: f64,
+    ) -> Option<(Vec<Ned>, Vec<Ned>)> {
         // The obstacle: the returns ahead within the corridor, in the
         // driving direction (Some(true)); the others the detour must also
         // clear (Some(false)).
@@ -797,7 +899,7 @@ impl Core {
             } else {
                 -footprint.rear_m - x
             };
-            let lateral = cross_track(from, target.point, *p);
+            let lateral = cross_track(from, to, *p);
             let moving_near = moving().any(|m| m.distance_to(p) < 1.0);
             if (0.0..DETOUR_LOOKAHEAD_M).contains(&ahead)
                 && lateral.abs() <= footprint.half_width_m + 0.5
@@ -816,8 +918,7 @@ impl Core {
         };
         // Most ticks have nothing in the lane: look before collecting.
         if !points().any(|(p, &(x, _))| class(p, x) == Some(true)) {
-            self.obstacles.detour_refusal_reported = false;
-            return;
+            return None;
         }
         let (mut obstacle, mut others) = (Vec::new(), Vec::new());
         for (p, &(x, _)) in points() {
@@ -827,48 +928,42 @@ impl Core {
                 None => {}
             }
         }
-        let config = DetourConfig {
-            clearance_m: 0.5,
-            corridor_m,
-            min_turn_radius_m: self.nav_config().min_arc_radius_m,
-        };
-        match plan_detour(from, target.point, &pose, &footprint, &obstacle, &others, &config) {
-            Ok(detour) => {
-                self.send_text(
-                    MavSeverity::MAV_SEVERITY_INFO,
-                    &format!(
-                        "Obstacle detour {}, {:.1} m off the path",
-                        match detour.side {
-                            crate::obstacles::detour::Side::Left => "left",
-                            crate::obstacles::detour::Side::Right => "right",
-                        },
-                        detour.max_offset_m
-                    ),
-                );
-                self.obstacles.policy.reset();
-                self.obstacles.static_stop_since = None;
-                let n = obstacle.len() as f64;
-                let centre = Ned::new(
-                    obstacle.iter().map(|p| p.north_m).sum::<f64>() / n,
-                    obstacle.iter().map(|p| p.east_m).sum::<f64>() / n,
-                );
-                let radius_m = obstacle.iter().map(|p| p.distance_to(&centre)).fold(0.0, f64::max);
-                self.obstacles.detour = Some(ActiveDetour {
-                    waypoints: detour.waypoints.into_iter().collect(),
-                    target,
-                    obstacle: (centre, radius_m),
-                });
-                self.next_detour_leg(estimate.position);
-            }
-            // Nothing in the way yet (or only beyond the leg): keep looking.
-            Err(DetourRefusal::NotInTheWay) => {}
-            Err(why) => {
-                if !self.obstacles.detour_refusal_reported && (stopped || why != DetourRefusal::TooClose) {
-                    self.obstacles.detour_refusal_reported = true;
-                    self.send_text(MavSeverity::MAV_SEVERITY_WARNING, &format!("No detour: {why:?}"));
-                }
-            }
-        }
+        Some((obstacle, others))
+    }
+
+    /// Announces and takes up a planned detour round the `obstacle` returns.
+    fn start_detour(
+        &mut self,
+        detour: crate::obstacles::detour::Detour,
+        target: crate::guidance::navigator::NavTarget,
+        obstacle: &[Ned],
+        position: Ned,
+    ) {
+        self.send_text(
+            MavSeverity::MAV_SEVERITY_INFO,
+            &format!(
+                "Obstacle detour {}, {:.1} m off the path",
+                match detour.side {
+                    crate::obstacles::detour::Side::Left => "left",
+                    crate::obstacles::detour::Side::Right => "right",
+                },
+                detour.max_offset_m
+            ),
+        );
+        self.obstacles.policy.reset();
+        self.obstacles.static_stop_since = None;
+        let n = obstacle.len() as f64;
+        let centre = Ned::new(
+            obstacle.iter().map(|p| p.north_m).sum::<f64>() / n,
+            obstacle.iter().map(|p| p.east_m).sum::<f64>() / n,
+        );
+        let radius_m = obstacle.iter().map(|p| p.distance_to(&centre)).fold(0.0, f64::max);
+        self.obstacles.detour = Some(ActiveDetour {
+            waypoints: detour.waypoints.into_iter().collect(),
+            target,
+            obstacle: (centre, radius_m),
+        });
+        self.next_detour_leg(position);
     }
 
     /// Drives to the next detour waypoint, or back onto the interrupted leg.
