@@ -249,27 +249,39 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
         report(course, &runs, started.elapsed());
         report_directions(&runs);
         report_settling(&runs);
-        let name = match model {
-            BenchModel::Ackermann => course.name.clone(),
-            BenchModel::Differential => format!("{}-differential", course.name),
-        };
-        let svg = args.out_dir.join(format!("tracking-{name}.svg"));
-        plot::write_svg(&svg, &format!("{} (seed 1)", course.name), &runs[0].plot)?;
-        println!("  plot: {}", svg.display());
-        if args.trace {
-            let csv = args.out_dir.join(format!("tracking-{name}.csv"));
-            let mut text = String::from(TRACE_HEADER);
-            for line in &runs[0].trace {
-                text.push_str(line);
-                text.push('\n');
-            }
-            std::fs::write(&csv, text).map_err(|e| format!("{}: {e}", csv.display()))?;
-            println!("  trace: {}", csv.display());
-        }
+        write_outputs(args, course, model, &runs)?;
     }
     if args.courses.is_empty() {
         super::magnetic::report(args.seeds.min(4));
         super::manoeuvre::report(1);
+    }
+    Ok(())
+}
+
+/// The first seed's plot, and its trace with `--trace`, in the output
+/// folder.
+fn write_outputs(
+    args: &TrackingBenchArgs,
+    course: &Course,
+    model: BenchModel,
+    runs: &[RunRecord],
+) -> Result<(), String> {
+    let name = match model {
+        BenchModel::Ackermann => course.name.clone(),
+        BenchModel::Differential => format!("{}-differential", course.name),
+    };
+    let svg = args.out_dir.join(format!("tracking-{name}.svg"));
+    plot::write_svg(&svg, &format!("{} (seed 1)", course.name), &runs[0].plot)?;
+    println!("  plot: {}", svg.display());
+    if args.trace {
+        let csv = args.out_dir.join(format!("tracking-{name}.csv"));
+        let mut text = String::from(TRACE_HEADER);
+        for line in &runs[0].trace {
+            text.push_str(line);
+            text.push('\n');
+        }
+        std::fs::write(&csv, text).map_err(|e| format!("{}: {e}", csv.display()))?;
+        println!("  trace: {}", csv.display());
     }
     Ok(())
 }
@@ -339,28 +351,7 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
         trace,
         params,
     } = *options;
-    let config = SimulationConfig {
-        home: course.home,
-        home_heading_deg: heading_deg,
-        model,
-        seed,
-        ..SimulationConfig::default()
-    };
-    let mut sim_params = SimulationParams::new(config.model);
-    sim_params.apply(params).expect("checked before the runs");
-    let mut sim = Simulation::new(&config, sim_params);
-    sim.core_mut().load_plan(
-        MissionType::Mission,
-        Plan::new(MissionType::Mission, course.items.clone()),
-    );
-    gcs::connect(&mut sim);
-    let mut timer = InstantTimer::default();
-    // Let the estimate settle on the first fixes, as an operator would.
-    while sim.time().as_secs_f64() < 5.0 {
-        sim.step(Duration::ZERO, &mut timer).mavlink.clear();
-    }
-    gcs::send(&mut sim, gcs::set_mode(10));
-    gcs::send(&mut sim, gcs::arm());
+    let (mut sim, mut timer) = start_course(course, seed, model, heading_deg, params);
     let start_s = sim.time().as_secs_f64();
 
     let mut record = RunRecord::default();
@@ -435,27 +426,8 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
         // Only while the vehicle drives the leg (not resting at a stop).
         let moving = truth.speed_mps.abs() > 0.01;
         let reverse = target.direction == Direction::Reverse;
-        let class = if !moving {
-            plot::Class::Other
-        } else if on_arc {
-            record.arc_m.push(error);
-            if reverse {
-                record.reverse_arc_m.push(error);
-            } else {
-                record.forward_arc_m.push(error);
-            }
-            plot::Class::Arc
-        } else if odometer_m - turn_end_odometer_m >= AFTER_TURN_M {
-            record.straight_m.push(error);
-            if reverse {
-                record.reverse_straight_m.push(error);
-            } else {
-                record.forward_straight_m.push(error);
-            }
-            plot::Class::Straight
-        } else {
-            plot::Class::Other
-        };
+        let after_turn = odometer_m - turn_end_odometer_m >= AFTER_TURN_M;
+        let class = classify_error(&mut record, moving, on_arc, after_turn, reverse, error);
         if trace {
             let st = nav.status();
             let est = core.estimator().estimate().position;
@@ -523,6 +495,73 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
     record
 }
 
+/// The simulation for one run, the plan loaded, settled for 5 s on its
+/// first fixes (as an operator would wait) and then set to AUTO and armed.
+fn start_course(
+    course: &Course,
+    seed: u64,
+    model: ModelKind,
+    heading_deg: f64,
+    params: &[(String, f64)],
+) -> (Simulation, InstantTimer) {
+    let config = SimulationConfig {
+        home: course.home,
+        home_heading_deg: heading_deg,
+        model,
+        seed,
+        ..SimulationConfig::default()
+    };
+    let mut sim_params = SimulationParams::new(config.model);
+    sim_params.apply(params).expect("checked before the runs");
+    let mut sim = Simulation::new(&config, sim_params);
+    sim.core_mut().load_plan(
+        MissionType::Mission,
+        Plan::new(MissionType::Mission, course.items.clone()),
+    );
+    gcs::connect(&mut sim);
+    let mut timer = InstantTimer::default();
+    while sim.time().as_secs_f64() < 5.0 {
+        sim.step(Duration::ZERO, &mut timer).mavlink.clear();
+    }
+    gcs::send(&mut sim, gcs::set_mode(10));
+    gcs::send(&mut sim, gcs::arm());
+    (sim, timer)
+}
+
+/// Files a cross-track sample under the part of the path it was taken on
+/// (only while moving; not within AFTER_TURN_M after a turn) and returns
+/// its plot class.
+fn classify_error(
+    record: &mut RunRecord,
+    moving: bool,
+    on_arc: bool,
+    after_turn: bool,
+    reverse: bool,
+    error: f64,
+) -> plot::Class {
+    if !moving {
+        plot::Class::Other
+    } else if on_arc {
+        record.arc_m.push(error);
+        if reverse {
+            record.reverse_arc_m.push(error);
+        } else {
+            record.forward_arc_m.push(error);
+        }
+        plot::Class::Arc
+    } else if after_turn {
+        record.straight_m.push(error);
+        if reverse {
+            record.reverse_straight_m.push(error);
+        } else {
+            record.forward_straight_m.push(error);
+        }
+        plot::Class::Straight
+    } else {
+        plot::Class::Other
+    }
+}
+
 /// The simulator's point in the autopilot's frame, through WGS-84.
 fn true_local(sim: &Simulation, frame: &LocalFrame, north_m: f64, east_m: f64) -> Ned {
     let g = sim.world().local_to_geodetic(north_m, east_m);
@@ -576,6 +615,17 @@ fn report(course: &Course, runs: &[RunRecord], wall: Duration) {
     println!();
     println!("## {} ({} seeds, {:.1} s wall)", course.name, seeds, wall.as_secs_f64());
     println!();
+    report_lateral(runs);
+    println!();
+
+    report_stops(runs);
+    report_completion(runs, seeds);
+    let overruns: u64 = runs.iter().map(|r| r.core_tick_overruns).sum();
+    println!("core tick overruns: {overruns}");
+}
+
+/// The lateral error table: straights (after a turn) and arcs.
+fn report_lateral(runs: &[RunRecord]) {
     println!("| lateral error (true pose) | samples | RMS mm | p95 mm | p99 mm | max mm |");
     println!("|---|---:|---:|---:|---:|---:|");
     for (label, pick) in [
@@ -593,8 +643,11 @@ fn report(course: &Course, runs: &[RunRecord], wall: Duration) {
             None => println!("| {label} | 0 | – | – | – | – |"),
         }
     }
-    println!();
+}
 
+/// One row per stop item (position and yaw at rest, the autopilot's own
+/// figures, the estimate's), then the share within tolerance.
+fn report_stops(runs: &[RunRecord]) {
     let mut seqs: Vec<u16> = runs.iter().flat_map(|r| r.stops.iter().map(|s| s.seq)).collect();
     seqs.sort_unstable();
     seqs.dedup();
@@ -656,6 +709,10 @@ fn report(course: &Course, runs: &[RunRecord], wall: Duration) {
             100.0 * all_within as f64 / all as f64
         );
     }
+}
+
+/// How long the runs took to finish, and how many did not.
+fn report_completion(runs: &[RunRecord], seeds: usize) {
     let mut times: Vec<f64> = runs.iter().filter_map(|r| r.completion_s).collect();
     times.sort_by(f64::total_cmp);
     let failed = seeds - times.len();
@@ -674,8 +731,6 @@ fn report(course: &Course, runs: &[RunRecord], wall: Duration) {
             }
         );
     }
-    let overruns: u64 = runs.iter().map(|r| r.core_tick_overruns).sum();
-    println!("core tick overruns: {overruns}");
 }
 
 /// Cross-track error by the direction each leg is driven in (the main table

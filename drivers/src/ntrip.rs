@@ -652,44 +652,15 @@ async fn session(config: &NtripConfig, shared: &Shared, gga: &mut watch::Receive
         error,
         delivered: false,
     };
-    let request = match ntrip_request(config) {
-        Ok(request) => request,
+    let address = format!("{}:{}", config.host, config.port);
+    let mut stream = match connect_and_request(config, shared, &address).await {
+        Ok(stream) => stream,
         Err(e) => return fail(e),
     };
-    let address = format!("{}:{}", config.host, config.port);
-    let mut stream = match timeout(
-        config.stale_after,
-        TcpStream::connect((config.host.as_str(), config.port)),
-    )
-    .await
-    {
-        Ok(Ok(stream)) => stream,
-        Ok(Err(e)) => return fail(NtripError::Link(format!("connect to {address}: {e}"))),
-        Err(_) => return fail(NtripError::Link(format!("connect to {address}: timed out"))),
-    };
-    let _ = stream.set_nodelay(true);
-    if let Err(e) = write_counted(&mut stream, &request, config.stale_after, shared).await {
-        return fail(e);
-    }
-
-    // Response head; whatever follows it in the same reads is stream data.
     let mut buf = vec![0u8; 4096];
-    let mut head = Vec::new();
-    let head_deadline = deadline_after(config.stale_after);
-    let (start, head_len) = loop {
-        let n = match tokio::time::timeout_at(head_deadline, stream.read(&mut buf)).await {
-            Err(_) => return fail(NtripError::Link(format!("no answer from {address}"))),
-            Ok(Err(e)) => return fail(NtripError::Link(format!("read: {e}"))),
-            Ok(Ok(0)) => return fail(NtripError::Link("caster closed the connection before answering".into())),
-            Ok(Ok(n)) => n,
-        };
-        update(&shared.status, |s| s.bytes_in += n as u64);
-        head.extend_from_slice(&buf[..n]);
-        match parse_response_head(&head, mount_name(config)) {
-            Ok(Some(parsed)) => break parsed,
-            Ok(None) => {}
-            Err(e) => return fail(e),
-        }
+    let (head, start, head_len) = match read_response_head(&mut stream, config, shared, &address, &mut buf).await {
+        Ok(parsed) => parsed,
+        Err(e) => return fail(e),
     };
     let StreamStart::Stream { chunked } = start;
     tracing::info!(%address, mountpoint = mount_name(config), chunked, "ntrip stream started");
@@ -761,6 +732,51 @@ async fn session(config: &NtripConfig, shared: &Shared, gga: &mut watch::Receive
                     Err(_) => gga_enabled = false,
                 }
             }
+        }
+    }
+}
+
+/// Connects to the caster and sends the NTRIP request.
+async fn connect_and_request(config: &NtripConfig, shared: &Shared, address: &str) -> Result<TcpStream, NtripError> {
+    let request = ntrip_request(config)?;
+    let mut stream = match timeout(
+        config.stale_after,
+        TcpStream::connect((config.host.as_str(), config.port)),
+    )
+    .await
+    {
+        Ok(Ok(stream)) => stream,
+        Ok(Err(e)) => return Err(NtripError::Link(format!("connect to {address}: {e}"))),
+        Err(_) => return Err(NtripError::Link(format!("connect to {address}: timed out"))),
+    };
+    let _ = stream.set_nodelay(true);
+    write_counted(&mut stream, &request, config.stale_after, shared).await?;
+    Ok(stream)
+}
+
+/// Reads the response head: the bytes read, how the stream starts, and
+/// where the head ends in them (whatever follows it in the same reads is
+/// stream data).
+async fn read_response_head(
+    stream: &mut TcpStream,
+    config: &NtripConfig,
+    shared: &Shared,
+    address: &str,
+    buf: &mut [u8],
+) -> Result<(Vec<u8>, StreamStart, usize), NtripError> {
+    let mut head = Vec::new();
+    let head_deadline = deadline_after(config.stale_after);
+    loop {
+        let n = match tokio::time::timeout_at(head_deadline, stream.read(buf)).await {
+            Err(_) => return Err(NtripError::Link(format!("no answer from {address}"))),
+            Ok(Err(e)) => return Err(NtripError::Link(format!("read: {e}"))),
+            Ok(Ok(0)) => return Err(NtripError::Link("caster closed the connection before answering".into())),
+            Ok(Ok(n)) => n,
+        };
+        update(&shared.status, |s| s.bytes_in += n as u64);
+        head.extend_from_slice(&buf[..n]);
+        if let Some((start, head_len)) = parse_response_head(&head, mount_name(config))? {
+            return Ok((head, start, head_len));
         }
     }
 }

@@ -797,31 +797,7 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
             return;
         }
         let Some(up) = &mut self.upload else {
-            // No upload: a repeat of the last item of one that just ended
-            // gets its final ACK again; late duplicates are ignored.
-            match &self.final_ack {
-                Some(f)
-                    if f.link == link
-                        && f.sender == sender
-                        && Some(f.mission_type) == mission_type
-                        && now.saturating_sub(f.at) <= FINAL_ACK_LINGER =>
-                {
-                    if seq == f.last_seq {
-                        out.push(Outgoing {
-                            dest: Reply::Link(link),
-                            message: ack(sender, ack_type, f.result, f.opaque_id),
-                        });
-                    }
-                }
-                _ => reply(
-                    out,
-                    if mission_type.is_some() {
-                        MavMissionResult::MAV_MISSION_ERROR
-                    } else {
-                        MavMissionResult::MAV_MISSION_UNSUPPORTED
-                    },
-                ),
-            }
+            self.answer_item_without_upload(now, link, sender, seq, raw_type, out);
             return;
         };
         if mission_type != Some(up.mission_type) || seq != up.expected() {
@@ -862,6 +838,51 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
         };
         let outcome = validate_plan(partner.mission_type, up.items);
         self.finish(now, partner, seq, outcome, out, events);
+    }
+
+    /// An item with no upload under way: a repeat of the last item of one
+    /// that just ended gets its final ACK again; late duplicates are
+    /// ignored; anything else is refused.
+    fn answer_item_without_upload(
+        &self,
+        now: Duration,
+        link: L,
+        sender: Sender,
+        seq: u16,
+        raw_type: u8,
+        out: &mut Vec<Outgoing<L>>,
+    ) {
+        let ack_type = raw_mission_type(raw_type).unwrap_or(MavMissionType::MAV_MISSION_TYPE_MISSION);
+        let reply = |out: &mut Vec<Outgoing<L>>, result| {
+            out.push(Outgoing {
+                dest: Reply::Link(link),
+                message: ack(sender, ack_type, result, 0),
+            })
+        };
+        let mission_type = raw_mission_type(raw_type).and_then(MissionType::from_mavlink);
+        match &self.final_ack {
+            Some(f)
+                if f.link == link
+                    && f.sender == sender
+                    && Some(f.mission_type) == mission_type
+                    && now.saturating_sub(f.at) <= FINAL_ACK_LINGER =>
+            {
+                if seq == f.last_seq {
+                    out.push(Outgoing {
+                        dest: Reply::Link(link),
+                        message: ack(sender, ack_type, f.result, f.opaque_id),
+                    });
+                }
+            }
+            _ => reply(
+                out,
+                if mission_type.is_some() {
+                    MavMissionResult::MAV_MISSION_ERROR
+                } else {
+                    MavMissionResult::MAV_MISSION_UNSUPPORTED
+                },
+            ),
+        }
     }
 
     /// Ends an upload (already taken out of `self.upload`) whose last item

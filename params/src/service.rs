@@ -349,18 +349,7 @@ impl<L: Copy + Ord> ParamService<L> {
                 }
             }
             Err(e) => {
-                let (error, why) = match e {
-                    SetError::NotFinite => (
-                        MavParamError::MAV_PARAM_ERROR_VALUE_OUT_OF_RANGE,
-                        format!("{} is not a number", s.param_value),
-                    ),
-                    SetError::OutOfRange { min, max } => (
-                        MavParamError::MAV_PARAM_ERROR_VALUE_OUT_OF_RANGE,
-                        format!("{} outside {min}..{max}", s.param_value),
-                    ),
-                    SetError::ReadOnly => (MavParamError::MAV_PARAM_ERROR_READ_ONLY, "read-only".to_string()),
-                    SetError::UnknownName(_) => (MavParamError::MAV_PARAM_ERROR_DOES_NOT_EXIST, "unknown".to_string()),
-                };
+                let (error, why) = set_error_reply(e, s.param_value);
                 self.refuse(
                     link,
                     sender,
@@ -417,4 +406,21 @@ pub fn hash_message(table: &ParamTable) -> MavMessage {
         param_id: id.into(),
         param_type: MavParamType::MAV_PARAM_TYPE_UINT32,
     })
+}
+
+/// The PARAM_ERROR code and the text that explain a refused set of
+/// `param_value`.
+fn set_error_reply(e: SetError, param_value: f32) -> (MavParamError, String) {
+    match e {
+        SetError::NotFinite => (
+            MavParamError::MAV_PARAM_ERROR_VALUE_OUT_OF_RANGE,
+            format!("{param_value} is not a number"),
+        ),
+        SetError::OutOfRange { min, max } => (
+            MavParamError::MAV_PARAM_ERROR_VALUE_OUT_OF_RANGE,
+            format!("{param_value} outside {min}..{max}"),
+        ),
+        SetError::ReadOnly => (MavParamError::MAV_PARAM_ERROR_READ_ONLY, "read-only".to_string()),
+        SetError::UnknownName(_) => (MavParamError::MAV_PARAM_ERROR_DOES_NOT_EXIST, "unknown".to_string()),
+    }
 }

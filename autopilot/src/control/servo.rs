@@ -294,6 +294,8 @@ const FUNCTION_DESC: &str = "Output function: 0 Disabled (DO_SET_SERVO), 1 RCPas
      113/114 left/right rear wheel throttle; on skid steering (VEH_DRIVE 1) 26 and 70 carry left and right";
 
 impl ServoParams {
+    // Stays whole: a declaration table, one `add` per parameter, in the
+    // order the parameter table (and a ground station's list) shows them.
     pub fn register(builder: &mut ParamTableBuilder) -> Self {
         let mut add = |name: String, ty: ParamType, default: f64, min: f64, max: f64, unit, description| {
             builder.add(ParamDef {

@@ -691,9 +691,19 @@ impl Hub {
         if let Some(tlog) = &self.tlog {
             let _ = tlog.try_send(TlogRecord::now(frame.bytes().to_vec()));
         }
+        if !self.route_frame(link, &frame) || admission == Admission::RouteOnly {
+            return joined;
+        }
+        self.deliver_to_core(link, frame);
+        joined
+    }
+
+    /// Forwards the frame to the links the router picks; true when it is
+    /// also for this vehicle.
+    fn route_frame(&mut self, link: LinkId, frame: &ReceivedFrame) -> bool {
         let (target_system, target_component) = match &frame.message {
             Ok(m) => (m.target_system_id(), m.target_component_id()),
-            Err(_) => command_targets(&frame).map_or((None, None), |(_, s, c)| (Some(s), Some(c))),
+            Err(_) => command_targets(frame).map_or((None, None), |(_, s, c)| (Some(s), Some(c))),
         };
         let decision = self.router.route(
             link,
@@ -709,9 +719,12 @@ impl Hub {
                 self.queue(to, OutItem::Frame(bytes.clone()));
             }
         }
-        if !decision.deliver_locally || admission == Admission::RouteOnly {
-            return joined;
-        }
+        decision.deliver_locally
+    }
+
+    /// Hands a frame for this vehicle to the core; one that does not decode
+    /// goes to `answer_undecodable`.
+    fn deliver_to_core(&mut self, link: LinkId, frame: ReceivedFrame) {
         match frame.message {
             Ok(message) => {
                 let inbound = Inbound {
@@ -724,45 +737,48 @@ impl Hub {
                     self.dropped_to_core += 1;
                 }
             }
-            Err(_) => {
-                if let Some(item) = mission::protocol::inspect_undecodable_item(frame.message_id(), frame.raw.payload())
-                {
-                    let item = UndecodableItem {
-                        link,
-                        header: frame.header,
-                        seq: item.seq,
-                        mission_type: item.mission_type,
-                        target_system: item.target_system,
-                        target_component: item.target_component,
-                        bad_frame: item.bad_frame,
-                    };
-                    if self.to_core.try_send(ToCore::UndecodableItem(item)).is_err() {
-                        self.dropped_to_core += 1;
-                    }
-                } else if let Some(unknown) =
-                    mission::protocol::inspect_unknown_mission_type(frame.message_id(), frame.raw.payload())
-                {
-                    let ours = (unknown.target_system == 0 || unknown.target_system == self.sysid)
-                        && (unknown.target_component == 0 || unknown.target_component == COMPONENT_ID);
-                    if ours {
-                        let ack = OutItem::UnknownMissionTypeAck {
-                            mission_type: unknown.mission_type,
-                            target_system: frame.header.system_id as u8,
-                            target_component: frame.header.component_id,
-                        };
-                        self.queue(link, ack);
-                    }
-                } else if let Some((command, _, _)) = command_targets(&frame) {
-                    let ack = OutItem::UnknownCommandAck {
-                        command,
-                        target_system: frame.header.system_id as u8,
-                        target_component: frame.header.component_id,
-                    };
-                    self.queue(link, ack);
-                }
-            }
+            Err(_) => self.answer_undecodable(link, &frame),
         }
-        joined
+    }
+
+    /// A frame whose payload does not decode: a mission item the core must
+    /// reject by sequence, an unknown mission type or an unknown command,
+    /// each answered with its NACK.
+    fn answer_undecodable(&mut self, link: LinkId, frame: &ReceivedFrame) {
+        if let Some(item) = mission::protocol::inspect_undecodable_item(frame.message_id(), frame.raw.payload()) {
+            let item = UndecodableItem {
+                link,
+                header: frame.header,
+                seq: item.seq,
+                mission_type: item.mission_type,
+                target_system: item.target_system,
+                target_component: item.target_component,
+                bad_frame: item.bad_frame,
+            };
+            if self.to_core.try_send(ToCore::UndecodableItem(item)).is_err() {
+                self.dropped_to_core += 1;
+            }
+        } else if let Some(unknown) =
+            mission::protocol::inspect_unknown_mission_type(frame.message_id(), frame.raw.payload())
+        {
+            let ours = (unknown.target_system == 0 || unknown.target_system == self.sysid)
+                && (unknown.target_component == 0 || unknown.target_component == COMPONENT_ID);
+            if ours {
+                let ack = OutItem::UnknownMissionTypeAck {
+                    mission_type: unknown.mission_type,
+                    target_system: frame.header.system_id as u8,
+                    target_component: frame.header.component_id,
+                };
+                self.queue(link, ack);
+            }
+        } else if let Some((command, _, _)) = command_targets(frame) {
+            let ack = OutItem::UnknownCommandAck {
+                command,
+                target_system: frame.header.system_id as u8,
+                target_component: frame.header.component_id,
+            };
+            self.queue(link, ack);
+        }
     }
 
     /// SETUP_SIGNING: acted on only from a secure link and only when

@@ -148,7 +148,34 @@ fn summary(log: &DataFlashLog) -> String {
     let mut s = String::new();
     let (t0, t1) = span_s(log).unwrap_or((0.0, 0.0));
     let _ = writeln!(s, "duration {:.1} s (boot {:.1} s to {:.1} s)", t1 - t0, t0, t1);
-    let when = |m: &Message| m.time_s().unwrap_or(0.0);
+    write_modes_and_arming(&mut s, log);
+    let _ = writeln!(
+        s,
+        "mission: {} items; {} parameters",
+        log.messages("CMD").count(),
+        log.messages("PARM").count()
+    );
+    let _ = writeln!(s, "distance driven {:.1} m", distance_m(&course(log)));
+    write_cross_track(&mut s, log);
+    write_stops_and_failsafes(&mut s, log);
+    for m in log.messages("MSG") {
+        let _ = writeln!(s, "{:>8.1} s  {}", when(&m), m.text("Message").unwrap_or(""));
+    }
+    let counts: Vec<String> = log.counts().iter().map(|(n, c)| format!("{n} {c}")).collect();
+    let _ = writeln!(s, "records: {}", counts.join(", "));
+    if log.skipped_bytes > 0 {
+        let _ = writeln!(s, "skipped {} bytes that were not records", log.skipped_bytes);
+    }
+    s
+}
+
+/// A record's time since boot, 0 where it has none.
+fn when(m: &Message) -> f64 {
+    m.time_s().unwrap_or(0.0)
+}
+
+/// The mode changes (MODE) and arming events (EV), in log order.
+fn write_modes_and_arming(s: &mut String, log: &DataFlashLog) {
     let modes: Vec<String> = log
         .messages("MODE")
         .map(|m| {
@@ -177,13 +204,10 @@ fn summary(log: &DataFlashLog) -> String {
             events.join(", ")
         }
     );
-    let _ = writeln!(
-        s,
-        "mission: {} items; {} parameters",
-        log.messages("CMD").count(),
-        log.messages("PARM").count()
-    );
-    let _ = writeln!(s, "distance driven {:.1} m", distance_m(&course(log)));
+}
+
+/// The cross-track error's p95 and maximum over the NTUN records.
+fn write_cross_track(s: &mut String, log: &DataFlashLog) {
     let mut xtrack: Vec<f64> = log
         .messages("NTUN")
         .filter_map(|m| m.get("XTrack"))
@@ -200,6 +224,10 @@ fn summary(log: &DataFlashLog) -> String {
             worst * 1000.0
         );
     }
+}
+
+/// Each precision stop (PSTP) and failsafe change (ERR).
+fn write_stops_and_failsafes(s: &mut String, log: &DataFlashLog) {
     for m in log.messages("PSTP") {
         let _ = writeln!(
             s,
@@ -227,15 +255,6 @@ fn summary(log: &DataFlashLog) -> String {
             when(&m)
         );
     }
-    for m in log.messages("MSG") {
-        let _ = writeln!(s, "{:>8.1} s  {}", when(&m), m.text("Message").unwrap_or(""));
-    }
-    let counts: Vec<String> = log.counts().iter().map(|(n, c)| format!("{n} {c}")).collect();
-    let _ = writeln!(s, "records: {}", counts.join(", "));
-    if log.skipped_bytes > 0 {
-        let _ = writeln!(s, "skipped {} bytes that were not records", log.skipped_bytes);
-    }
-    s
 }
 
 /// A CSV quoted field (text with commas, quotes or line breaks).

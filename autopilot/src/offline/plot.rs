@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::geo::Ned;
@@ -85,8 +86,16 @@ fn draw(path: &Path, title: &str, data: &PlotData) -> Result<(), Box<dyn std::er
     let root = SVGBackend::new(path, (1000, 1300)).into_drawing_area();
     root.fill(&WHITE)?;
     let (map_area, error_area) = root.split_vertically(900);
+    draw_map(&map_area, title, data)?;
+    draw_errors(&error_area, data)?;
+    root.present()?;
+    Ok(())
+}
 
-    // The map, with equal scales on both axes.
+type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+
+/// The map, with equal scales on both axes: the planned legs and the track.
+fn draw_map(map_area: &Area, title: &str, data: &PlotData) -> Result<(), Box<dyn std::error::Error>> {
     let all = data.legs.iter().flatten().chain(data.track.iter());
     let (e0, e1) = range(all.clone().map(|p| p.0));
     let (n0, n1) = range(all.map(|p| p.1));
@@ -95,7 +104,7 @@ fn draw(path: &Path, title: &str, data: &PlotData) -> Result<(), Box<dyn std::er
     }
     let half = 0.5 * (e1 - e0).max(n1 - n0) + 5.0;
     let (ec, nc) = (0.5 * (e0 + e1), 0.5 * (n0 + n1));
-    let mut map = ChartBuilder::on(&map_area)
+    let mut map = ChartBuilder::on(map_area)
         .caption(format!("{title}: {}", data.labels.track_caption), ("sans-serif", 22))
         .margin(15)
         .x_label_area_size(40)
@@ -122,8 +131,11 @@ fn draw(path: &Path, title: &str, data: &PlotData) -> Result<(), Box<dyn std::er
         .background_style(WHITE.mix(0.9))
         .border_style(BLACK)
         .draw()?;
+    Ok(())
+}
 
-    // The lateral error along the way.
+/// The lateral error along the way, coloured by the kind of path.
+fn draw_errors(error_area: &Area, data: &PlotData) -> Result<(), Box<dyn std::error::Error>> {
     let (d0, d1) = range(data.errors.iter().map(|e| e.0));
     let limit = data
         .errors
@@ -133,7 +145,7 @@ fn draw(path: &Path, title: &str, data: &PlotData) -> Result<(), Box<dyn std::er
         .fold(10.0, f64::max)
         .min(200.0)
         * 1.1;
-    let mut chart = ChartBuilder::on(&error_area)
+    let mut chart = ChartBuilder::on(error_area)
         .caption(data.labels.error_caption.as_str(), ("sans-serif", 18))
         .margin(15)
         .x_label_area_size(40)
@@ -165,6 +177,5 @@ fn draw(path: &Path, title: &str, data: &PlotData) -> Result<(), Box<dyn std::er
         .background_style(WHITE.mix(0.9))
         .border_style(BLACK)
         .draw()?;
-    root.present()?;
     Ok(())
 }

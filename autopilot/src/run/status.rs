@@ -37,24 +37,7 @@ pub fn run(args: &StatusArgs) -> Result<(), String> {
 
 /// The device lines (without the prefix) from the vehicle at `address`.
 pub fn fetch(address: &str, timeout: Duration) -> Result<Vec<String>, String> {
-    let target = address
-        .to_socket_addrs()
-        .map_err(|e| format!("{address}: {e}"))?
-        .next()
-        .ok_or_else(|| format!("{address}: no address"))?;
-    let mut stream = TcpStream::connect_timeout(&target, timeout).map_err(|e| format!("{address}: {e}"))?;
-    stream
-        .set_read_timeout(Some(Duration::from_millis(100)))
-        .map_err(|e| format!("{address}: {e}"))?;
-    let header = MavHeader {
-        system_id: 255,
-        component_id: 190,
-        sequence: 0,
-    };
-    let heartbeat = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-        mavtype: MavType::MAV_TYPE_GCS,
-        ..HEARTBEAT_DATA::default()
-    });
+    let mut stream = connect(address, timeout)?;
     let deadline = Instant::now() + timeout;
     let mut framer = StreamFramer::new();
     let mut buf = [0u8; 4096];
@@ -64,17 +47,7 @@ pub fn fetch(address: &str, timeout: Duration) -> Result<Vec<String>, String> {
     while Instant::now() < deadline {
         if Instant::now() >= next_request {
             next_request = Instant::now() + Duration::from_secs(1);
-            let request = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
-                command: STATUS_COMMAND,
-                target_system,
-                target_component: 0,
-                ..COMMAND_LONG_DATA::default()
-            });
-            for message in [&heartbeat, &request] {
-                stream
-                    .write_all(&encode_v2(header, message))
-                    .map_err(|e| format!("{address}: {e}"))?;
-            }
+            send_request(&mut stream, address, target_system)?;
         }
         let n = match stream.read(&mut buf) {
             Ok(0) => return Err(format!("{address}: the vehicle closed the connection")),
@@ -116,4 +89,45 @@ pub fn fetch(address: &str, timeout: Duration) -> Result<Vec<String>, String> {
         "{address}: no device table within {:.1} s",
         timeout.as_secs_f64()
     ))
+}
+
+/// A TCP connection to the vehicle at `address`, with a short read timeout
+/// so the caller can resend its request while it waits.
+fn connect(address: &str, timeout: Duration) -> Result<TcpStream, String> {
+    let target = address
+        .to_socket_addrs()
+        .map_err(|e| format!("{address}: {e}"))?
+        .next()
+        .ok_or_else(|| format!("{address}: no address"))?;
+    let stream = TcpStream::connect_timeout(&target, timeout).map_err(|e| format!("{address}: {e}"))?;
+    stream
+        .set_read_timeout(Some(Duration::from_millis(100)))
+        .map_err(|e| format!("{address}: {e}"))?;
+    Ok(stream)
+}
+
+/// A GCS heartbeat (so the vehicle streams to us) and the device-status
+/// command, addressed to `target_system` (0 until its heartbeat is heard).
+fn send_request(stream: &mut TcpStream, address: &str, target_system: u8) -> Result<(), String> {
+    let header = MavHeader {
+        system_id: 255,
+        component_id: 190,
+        sequence: 0,
+    };
+    let heartbeat = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        mavtype: MavType::MAV_TYPE_GCS,
+        ..HEARTBEAT_DATA::default()
+    });
+    let request = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+        command: STATUS_COMMAND,
+        target_system,
+        target_component: 0,
+        ..COMMAND_LONG_DATA::default()
+    });
+    for message in [&heartbeat, &request] {
+        stream
+            .write_all(&encode_v2(header, message))
+            .map_err(|e| format!("{address}: {e}"))?;
+    }
+    Ok(())
 }

@@ -300,30 +300,8 @@ pub struct ScenarioResult {
 
 /// Runs `scenario`; deterministic for a given scenario (seed included).
 pub fn run(scenario: &MagneticScenario) -> ScenarioResult {
-    let config = WorldConfig {
-        vehicle: VehicleModel::Ackermann(scenario.vehicle),
-        gnss: GnssSimConfig {
-            enabled: false,
-            ..GnssSimConfig::default()
-        },
-        magnetic: scenario.sensors,
-        ..WorldConfig::default()
-    };
-    let mut world = World::new(config, scenario.seed);
-    let speed_max_mps = scenario.vehicle.speed_max_mps.abs();
-    let steer_max_rad = scenario.vehicle.max_steer_rad.abs();
-    let demand = |steer_rad: f64, speed_mps: f64| ActuatorDemand::Ackermann {
-        steering: if steer_max_rad > 0.0 {
-            steer_rad / steer_max_rad
-        } else {
-            0.0
-        },
-        throttle: if speed_max_mps > 0.0 {
-            speed_mps / speed_max_mps
-        } else {
-            0.0
-        },
-    };
+    let mut world = scenario_world(scenario);
+    let demand = |steer_rad: f64, speed_mps: f64| ackermann_demand(scenario, steer_rad, speed_mps);
 
     let dt = crate::time::duration_from_secs(1.0 / scenario.control_rate_hz.clamp(1.0, 1000.0));
     let dt_s = dt.as_secs_f64();
@@ -384,6 +362,39 @@ pub fn run(scenario: &MagneticScenario) -> ScenarioResult {
         world.step(dt, &demand(status.steer_rad, status.speed_mps));
     }
     summarise(scenario, geometry.steer_rad, samples)
+}
+
+/// The simulated world of a scenario: its vehicle and tape sensors, no GNSS.
+fn scenario_world(scenario: &MagneticScenario) -> World {
+    let config = WorldConfig {
+        vehicle: VehicleModel::Ackermann(scenario.vehicle),
+        gnss: GnssSimConfig {
+            enabled: false,
+            ..GnssSimConfig::default()
+        },
+        magnetic: scenario.sensors,
+        ..WorldConfig::default()
+    };
+    World::new(config, scenario.seed)
+}
+
+/// The actuator demand for a steering angle and speed, as fractions of the
+/// scenario vehicle's limits.
+fn ackermann_demand(scenario: &MagneticScenario, steer_rad: f64, speed_mps: f64) -> ActuatorDemand {
+    let speed_max_mps = scenario.vehicle.speed_max_mps.abs();
+    let steer_max_rad = scenario.vehicle.max_steer_rad.abs();
+    ActuatorDemand::Ackermann {
+        steering: if steer_max_rad > 0.0 {
+            steer_rad / steer_max_rad
+        } else {
+            0.0
+        },
+        throttle: if speed_max_mps > 0.0 {
+            speed_mps / speed_max_mps
+        } else {
+            0.0
+        },
+    }
 }
 
 /// The arc, and where a vehicle with both sensors centred on it sits.

@@ -153,11 +153,40 @@ impl Core {
     }
 
     fn sys_status(&self) -> SYS_STATUS_DATA {
-        let estimate = self.estimator.estimate();
-        let gps_ok = self
-            .estimator
-            .gnss()
-            .has_fix(self.now.boot, std::time::Duration::from_secs(2));
+        let (fence_present, fence_enabled, fence_healthy) = self.fence_status_bits();
+        let (heading_present, heading_healthy) = self.heading_sensor_bits();
+        let obstacles = self.obstacle_status();
+        let present = self.sensors_present(fence_present, heading_present, obstacles.enabled);
+        let health = self.sensors_health(present, fence_healthy, heading_healthy, obstacles.scans_fresh);
+        let enabled = self.sensors_enabled(present, fence_enabled);
+        let (voltage, current, remaining) = self.battery_status_fields();
+        SYS_STATUS_DATA {
+            onboard_control_sensors_present: present,
+            onboard_control_sensors_enabled: enabled,
+            onboard_control_sensors_health: health,
+            load: self.loop_load_permille(),
+            voltage_battery: voltage,
+            current_battery: current,
+            drop_rate_comm: 0,
+            errors_comm: 0,
+            errors_count1: 0,
+            errors_count2: 0,
+            errors_count3: 0,
+            errors_count4: 0,
+            battery_remaining: remaining,
+            onboard_control_sensors_present_extended: MavSysStatusSensorExtended::empty(),
+            onboard_control_sensors_enabled_extended: MavSysStatusSensorExtended::empty(),
+            onboard_control_sensors_health_extended: MavSysStatusSensorExtended::empty(),
+        }
+    }
+
+    /// SYS_STATUS's "present" bits: the sensors and functions this vehicle has.
+    fn sensors_present(
+        &self,
+        fence_present: bool,
+        heading_present: bool,
+        obstacles_enabled: bool,
+    ) -> MavSysStatusSensor {
         let mut present = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS
             | MavSysStatusSensor::MAV_SYS_STATUS_AHRS
             | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
@@ -166,23 +195,36 @@ impl Core {
         if self.battery.is_some() {
             present |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY;
         }
-        let (fence_present, fence_enabled, fence_healthy) = self.fence_status_bits();
         if fence_present {
             present |= MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE;
         }
-        let (heading_present, heading_healthy) = self.heading_sensor_bits();
         if heading_present {
             present |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG;
         }
-        let obstacles = self.obstacle_status();
-        if obstacles.enabled {
+        if obstacles_enabled {
             present |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_PROXIMITY
                 | MavSysStatusSensor::MAV_SYS_STATUS_OBSTACLE_AVOIDANCE;
         }
+        present
+    }
+
+    /// SYS_STATUS's "health" bits: the present ones, less those failing now.
+    fn sensors_health(
+        &self,
+        present: MavSysStatusSensor,
+        fence_healthy: bool,
+        heading_healthy: bool,
+        scans_fresh: bool,
+    ) -> MavSysStatusSensor {
+        let estimate = self.estimator.estimate();
+        let gps_ok = self
+            .estimator
+            .gnss()
+            .has_fix(self.now.boot, std::time::Duration::from_secs(2));
         let mut health = present;
         // Both are healthy while every fitted scanner is live: without scans
         // avoidance cannot work (and the vehicle will not drive).
-        if !obstacles.scans_fresh {
+        if !scans_fresh {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_PROXIMITY);
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_OBSTACLE_AVOIDANCE);
         }
@@ -220,6 +262,12 @@ impl Core {
         if !self.arming_failures().is_empty() {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_PREARM_CHECK);
         }
+        health
+    }
+
+    /// SYS_STATUS's "enabled" bits: the present ones, less those idle in
+    /// this mode and arming state.
+    fn sensors_enabled(&self, present: MavSysStatusSensor, fence_enabled: bool) -> MavSysStatusSensor {
         let mut enabled = present;
         if !self.armed {
             enabled.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS);
@@ -233,38 +281,31 @@ impl Core {
         if !fence_enabled {
             enabled.remove(MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE);
         }
+        enabled
+    }
+
+    /// SYS_STATUS's `load`: the median loop run time as per-mille of the
+    /// loop period, capped at 1000.
+    fn loop_load_permille(&self) -> u16 {
         let tick = self.sched.tick_stats();
         let period_us = self.loop_period().as_micros() as f64;
-        let load = if tick.runs > 0 {
+        if tick.runs > 0 {
             (tick.histogram.quantile_ns(0.5) as f64 / 1000.0 / period_us * 1000.0).min(1000.0) as u16
         } else {
             0
-        };
-        let (voltage, current, remaining) = match &self.battery {
+        }
+    }
+
+    /// SYS_STATUS's battery fields (mV, cA, %), or MAVLink's "unknown"
+    /// values without a battery monitor.
+    fn battery_status_fields(&self) -> (u16, i16, i8) {
+        match &self.battery {
             Some(b) => (
                 (b.voltage_v * 1000.0).round().clamp(0.0, 65534.0) as u16,
                 (b.current_a * 100.0).round().clamp(-32768.0, 32767.0) as i16,
                 b.remaining_pct.round().clamp(0.0, 100.0) as i8,
             ),
             None => (u16::MAX, -1, -1),
-        };
-        SYS_STATUS_DATA {
-            onboard_control_sensors_present: present,
-            onboard_control_sensors_enabled: enabled,
-            onboard_control_sensors_health: health,
-            load,
-            voltage_battery: voltage,
-            current_battery: current,
-            drop_rate_comm: 0,
-            errors_comm: 0,
-            errors_count1: 0,
-            errors_count2: 0,
-            errors_count3: 0,
-            errors_count4: 0,
-            battery_remaining: remaining,
-            onboard_control_sensors_present_extended: MavSysStatusSensorExtended::empty(),
-            onboard_control_sensors_enabled_extended: MavSysStatusSensorExtended::empty(),
-            onboard_control_sensors_health_extended: MavSysStatusSensorExtended::empty(),
         }
     }
 

@@ -83,6 +83,7 @@ impl Classic {
         }
     }
 
+    // Stays whole: one flat arm per scenario, each placing its obstacles.
     pub fn setup(&self, log: &TruthLog, outline: &VehicleOutline) -> Setup {
         let half_width_m = outline.half_width_m;
         let reach = |point: [f64; 2], within_m: f64, after_s: f64, otherwise_s: f64| {

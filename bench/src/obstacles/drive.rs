@@ -237,49 +237,13 @@ pub fn drive_with(
             break;
         }
         judge.follow(&pose);
-        for text in texts
-            .iter()
-            .filter(|t| t.starts_with("Obstacle") && !t.starts_with("Obstacle stop:"))
-        {
-            result.events.push(format!(
-                "t {:.2} {text} at {:.2},{:.2} v {:.2}",
-                pose.t_s, pose.north_m, pose.east_m, pose.speed_mps
-            ));
-        }
-        for text in texts.iter().filter(|t| t.starts_with("Obstacle stop:")) {
-            result.stops += 1;
-            let nearest_m = judge.nearest_m(&world, t_world, &pose);
-            let blocked = limits.within_margin(nearest_m);
-            if !blocked {
-                result.false_stops += 1;
-            }
-            result.events.push(format!(
-                "t {:.2} {text} at {:.2},{:.2} v {:.2}: {} (nearest {nearest_m:.4} m from the swept outline)",
-                pose.t_s,
-                pose.north_m,
-                pose.east_m,
-                pose.speed_mps,
-                if blocked { "way blocked" } else { "FALSE STOP" }
-            ));
-            braking = Some((pose, false));
+        if let Some(stopped_at) = record_obstacle_texts(&texts, &pose, &judge, &world, &limits, &mut result) {
+            braking = Some(stopped_at);
         }
         let rect = rectangle(&outline, &pose);
         let clearance_m = world.clearance_m(&rect, t_world);
         if setup.trace && (pose.t_s * 50.0).round() as i64 % 10 == 0 {
-            println!(
-                "  t {:.2} at {:.3},{:.3} yaw {:.1}° v {:.4} clearance {:.3} m{}",
-                pose.t_s,
-                pose.north_m,
-                pose.east_m,
-                pose.yaw_rad.to_degrees(),
-                pose.speed_mps,
-                clearance_m,
-                if sim.core().obstacle_status().stopped {
-                    " (obstacle stop)"
-                } else {
-                    ""
-                }
-            );
+            print_trace(&pose, clearance_m, sim.core().obstacle_status().stopped);
         }
         let moving = pose.speed_mps.abs() > MOVING_MPS;
         if moving {
@@ -287,20 +251,7 @@ pub fn drive_with(
         }
         let contact = moving && clearance_m <= 0.0;
         if contact && !in_contact {
-            result.collisions += 1;
-            let why = unavoidable(&world, &rect, t_world, &speeds, &limits);
-            if why.is_some() {
-                result.unavoidable += 1;
-            }
-            result.events.push(format!(
-                "t {:.2} COLLISION at {:.2},{:.2} yaw {:.1}° v {:.2}{}",
-                pose.t_s,
-                pose.north_m,
-                pose.east_m,
-                pose.yaw_rad.to_degrees(),
-                pose.speed_mps,
-                why.unwrap_or_default()
-            ));
+            record_collision(&world, &rect, &speeds, &limits, &pose, &mut result);
         }
         in_contact = contact;
         if let Some((from, done)) = &mut braking
@@ -339,6 +290,88 @@ pub fn drive_with(
         .map(|(with, without)| with - without);
     result.malformed_scans = sim.malformed_scans();
     Ok(result)
+}
+
+/// Files the obstacle STATUSTEXTs of one tick as events, judging each
+/// obstacle stop against the truth; returns where braking began when one
+/// was announced.
+fn record_obstacle_texts(
+    texts: &[String],
+    pose: &Pose,
+    judge: &Judge,
+    world: &ObstacleWorld,
+    limits: &Limits,
+    result: &mut RunResult,
+) -> Option<(Pose, bool)> {
+    let t_world = pose.t_s;
+    let mut stopped_at = None;
+    for text in texts
+        .iter()
+        .filter(|t| t.starts_with("Obstacle") && !t.starts_with("Obstacle stop:"))
+    {
+        result.events.push(format!(
+            "t {:.2} {text} at {:.2},{:.2} v {:.2}",
+            pose.t_s, pose.north_m, pose.east_m, pose.speed_mps
+        ));
+    }
+    for text in texts.iter().filter(|t| t.starts_with("Obstacle stop:")) {
+        result.stops += 1;
+        let nearest_m = judge.nearest_m(world, t_world, pose);
+        let blocked = limits.within_margin(nearest_m);
+        if !blocked {
+            result.false_stops += 1;
+        }
+        result.events.push(format!(
+            "t {:.2} {text} at {:.2},{:.2} v {:.2}: {} (nearest {nearest_m:.4} m from the swept outline)",
+            pose.t_s,
+            pose.north_m,
+            pose.east_m,
+            pose.speed_mps,
+            if blocked { "way blocked" } else { "FALSE STOP" }
+        ));
+        stopped_at = Some((*pose, false));
+    }
+    stopped_at
+}
+
+/// One line of the `--trace` output.
+fn print_trace(pose: &Pose, clearance_m: f64, obstacle_stop: bool) {
+    println!(
+        "  t {:.2} at {:.3},{:.3} yaw {:.1}° v {:.4} clearance {:.3} m{}",
+        pose.t_s,
+        pose.north_m,
+        pose.east_m,
+        pose.yaw_rad.to_degrees(),
+        pose.speed_mps,
+        clearance_m,
+        if obstacle_stop { " (obstacle stop)" } else { "" }
+    );
+}
+
+/// A collision starts: counted, and whether it was unavoidable.
+fn record_collision(
+    world: &ObstacleWorld,
+    rect: &sim::Rectangle,
+    speeds: &[(f64, f64)],
+    limits: &Limits,
+    pose: &Pose,
+    result: &mut RunResult,
+) {
+    let t_world = pose.t_s;
+    result.collisions += 1;
+    let why = unavoidable(world, rect, t_world, speeds, limits);
+    if why.is_some() {
+        result.unavoidable += 1;
+    }
+    result.events.push(format!(
+        "t {:.2} COLLISION at {:.2},{:.2} yaw {:.1}° v {:.2}{}",
+        pose.t_s,
+        pose.north_m,
+        pose.east_m,
+        pose.yaw_rad.to_degrees(),
+        pose.speed_mps,
+        why.unwrap_or_default()
+    ));
 }
 
 /// Why a collision starting now was unavoidable (the object touching the

@@ -188,6 +188,8 @@ impl Family {
         matches!(self, Family::Neighbour { .. }) && self.must_stop()
     }
 
+    // Stays whole: one flat arm per family (sharing the placing closures
+    // above the match), each placing its obstacles.
     pub fn setup(&self, log: &TruthLog, outline: &VehicleOutline, variant: &Variant) -> Result<Setup, String> {
         let turn = Turn::find(log, 0).ok_or("the empty run has no turn")?;
         let mut setup = Setup {

@@ -136,56 +136,62 @@ pub fn scenario_table(scenarios: &[Scenario], outcomes: &[Outcome], verbose: boo
                     );
                 }
             }
-            let name = match speed {
-                Some(s) => format!("{} ({s:.1} m/s)", scenario.name()),
-                None => scenario.name(),
-            };
-            let required = match scenario {
-                Scenario::Family(f) if f.must_stop() => format!("stopped {}/{}", tally.stopped_runs, tally.runs),
-                Scenario::Family(f) if f.must_pass() => {
-                    format!("no stop {}/{}", tally.runs - tally.stopped_runs, tally.runs)
-                }
-                _ => "–".into(),
-            };
-            let worst = runs
-                .iter()
-                .max_by(|a, b| worse(&a.result, &b.result))
-                .filter(|o| o.result.collisions + o.result.stalls + o.result.false_stops > 0)
-                .map_or("–".to_string(), |o| o.variant.label());
-            let blocked = matches!(
-                scenario,
-                Scenario::Classic {
-                    kind: super::Classic::StaticBox { detour: false },
-                    ..
-                }
-            ) || matches!(scenario, Scenario::Family(super::Family::Neighbour { gap_m, .. }) if *gap_m < 0.5);
-            println!(
-                "| {name} | {} | {}/{}{} | {} | {} | {} | {} | {required} | {} | {} | {} | {} | {} | {worst} |{}",
-                tally.runs,
-                tally.completed,
-                tally.runs,
-                if blocked { " (blocked by design)" } else { "" },
-                tally.collisions_text(),
-                tally.false_stops,
-                tally.stalls,
-                tally.stops,
-                fmt(tally.min_clearance_m),
-                fmt(tally.min_rest_clearance_m),
-                fmt(tally.max_braking_m),
-                tally.lost_text(),
-                tally.kf_text(),
-                if tally.malformed_scans > 0 {
-                    format!(" {} malformed scans!", tally.malformed_scans)
-                } else {
-                    String::new()
-                }
-            );
+            print_scenario_row(scenario, speed, &runs, &tally);
         }
     }
     println!();
     println!(
         "Scenario total: {} runs, {} collisions ({} unavoidable), {} false stops, {} stalls.",
         total.runs, total.collisions, total.unavoidable, total.false_stops, total.stalls
+    );
+}
+
+/// One row of the scenario table: a scenario's runs (at one speed for a
+/// classic one) and their tally.
+fn print_scenario_row(scenario: &Scenario, speed: Option<f64>, runs: &[&Outcome], tally: &Tally) {
+    let name = match speed {
+        Some(s) => format!("{} ({s:.1} m/s)", scenario.name()),
+        None => scenario.name(),
+    };
+    let required = match scenario {
+        Scenario::Family(f) if f.must_stop() => format!("stopped {}/{}", tally.stopped_runs, tally.runs),
+        Scenario::Family(f) if f.must_pass() => {
+            format!("no stop {}/{}", tally.runs - tally.stopped_runs, tally.runs)
+        }
+        _ => "–".into(),
+    };
+    let worst = runs
+        .iter()
+        .max_by(|a, b| worse(&a.result, &b.result))
+        .filter(|o| o.result.collisions + o.result.stalls + o.result.false_stops > 0)
+        .map_or("–".to_string(), |o| o.variant.label());
+    let blocked = matches!(
+        scenario,
+        Scenario::Classic {
+            kind: super::Classic::StaticBox { detour: false },
+            ..
+        }
+    ) || matches!(scenario, Scenario::Family(super::Family::Neighbour { gap_m, .. }) if *gap_m < 0.5);
+    println!(
+        "| {name} | {} | {}/{}{} | {} | {} | {} | {} | {required} | {} | {} | {} | {} | {} | {worst} |{}",
+        tally.runs,
+        tally.completed,
+        tally.runs,
+        if blocked { " (blocked by design)" } else { "" },
+        tally.collisions_text(),
+        tally.false_stops,
+        tally.stalls,
+        tally.stops,
+        fmt(tally.min_clearance_m),
+        fmt(tally.min_rest_clearance_m),
+        fmt(tally.max_braking_m),
+        tally.lost_text(),
+        tally.kf_text(),
+        if tally.malformed_scans > 0 {
+            format!(" {} malformed scans!", tally.malformed_scans)
+        } else {
+            String::new()
+        }
     );
 }
 

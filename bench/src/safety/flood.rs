@@ -478,6 +478,7 @@ fn flood_link_counts(log: &str, names: &[String]) -> (u64, u64) {
     (frames, dropped)
 }
 
+// Stays whole: a table, one `Row` per flood target, in report order.
 fn rows(rate: u32, quiet: &CourseRun, flooded: &CourseRun) -> Vec<Row> {
     let f = &flooded.flood;
     let offered = f.per_second(f.messages() + f.garbage_chunks);

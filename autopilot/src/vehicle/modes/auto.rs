@@ -85,40 +85,12 @@ impl Core {
         self.apply_mission_actions(actions);
     }
 
-    /// The vehicle's side of each executor action. Long because it is one
-    /// flat arm per `Action` variant, each short; splitting it would hide
-    /// the list of what a mission can do.
+    /// The vehicle's side of each executor action: one arm per `Action`
+    /// variant, so the list of what a mission can do reads in one place.
     fn apply_mission_actions(&mut self, actions: Vec<Action>) {
         for action in actions {
             match action {
-                Action::Navigate(leg) => {
-                    let here = self.estimator.estimate().position;
-                    let (Some(to), from) = (self.resolve(&leg.to), leg.from.and_then(|p| self.resolve(&p))) else {
-                        continue;
-                    };
-                    let next = leg.next.and_then(|p| self.resolve(&p));
-                    let speed_mps = self.missions.speed_mps;
-                    if let Some(yaw_rad) = self.mission_stop_yaw(&leg, to)
-                        && self.navigate_to_mission_pose(to, yaw_rad, speed_mps, leg.seq)
-                    {
-                        continue;
-                    }
-                    self.goals.goal = None;
-                    let target = NavTarget {
-                        point: to,
-                        speed_mps: self.missions.speed_mps,
-                        direction: if leg.reverse {
-                            Direction::Reverse
-                        } else {
-                            Direction::Forward
-                        },
-                        stop: leg.stop,
-                        next,
-                        seq: Some(leg.seq),
-                    };
-                    self.missions.stop_retried = None;
-                    self.navigator.set_target(from.unwrap_or(here), target);
-                }
+                Action::Navigate(leg) => self.apply_navigate(leg),
                 Action::Hold => self.navigator.clear(),
                 Action::ReturnToLaunch => {
                     if let Some(target) = self.rtl_target() {
@@ -129,26 +101,7 @@ impl Core {
                     self.missions.speed_mps = speed.map(f64::from);
                     self.navigator.set_speed(self.missions.speed_mps);
                 }
-                Action::SetServo { channel, pwm_us } => {
-                    let owned = self
-                        .p
-                        .servos
-                        .config(&self.params)
-                        .channels
-                        .get(usize::from(channel).wrapping_sub(1))
-                        .is_some_and(|ch| !ch.function.accepts_direct_pulse());
-                    if let Some(slot) = self.missions.servo_us.get_mut(usize::from(channel) - 1) {
-                        *slot = pwm_us;
-                    }
-                    // A channel a function owns is refused (and said so) when
-                    // the outputs are set.
-                    if !owned {
-                        self.send_text(
-                            MavSeverity::MAV_SEVERITY_INFO,
-                            &format!("Servo {channel} set to {pwm_us}"),
-                        );
-                    }
-                }
+                Action::SetServo { channel, pwm_us } => self.apply_set_servo(channel, pwm_us),
                 Action::SetRelay { relay, state } => {
                     let bit = 1u16 << relay.min(15);
                     self.missions.relays_used |= bit;
@@ -158,22 +111,7 @@ impl Core {
                         _ => self.missions.relays_on ^= bit,
                     }
                 }
-                Action::SetHome(position) => {
-                    let home = match position {
-                        None => {
-                            self.set_home_to_current(true);
-                            continue;
-                        }
-                        Some(p) => self
-                            .resolve(&p)
-                            .zip(self.frame())
-                            .map(|(local, f)| f.to_geodetic(&local)),
-                    };
-                    if let Some(mut home) = home {
-                        home.alt_m = self.estimator.gnss().alt_msl_m;
-                        self.set_home(home, true);
-                    }
-                }
+                Action::SetHome(position) => self.apply_set_home(position),
                 Action::Reached(seq) if self.goals.missed_seq == Some(seq) => {
                     self.goals.missed_seq = None;
                     self.send_text(
@@ -199,6 +137,78 @@ impl Core {
                     }
                 }
             }
+        }
+    }
+
+    /// A NAV leg: to a mission pose when the stop has a heading, else a
+    /// navigator target from the leg's start (or here).
+    fn apply_navigate(&mut self, leg: mission::NavLeg) {
+        let here = self.estimator.estimate().position;
+        let (Some(to), from) = (self.resolve(&leg.to), leg.from.and_then(|p| self.resolve(&p))) else {
+            return;
+        };
+        let next = leg.next.and_then(|p| self.resolve(&p));
+        let speed_mps = self.missions.speed_mps;
+        if let Some(yaw_rad) = self.mission_stop_yaw(&leg, to)
+            && self.navigate_to_mission_pose(to, yaw_rad, speed_mps, leg.seq)
+        {
+            return;
+        }
+        self.goals.goal = None;
+        let target = NavTarget {
+            point: to,
+            speed_mps: self.missions.speed_mps,
+            direction: if leg.reverse {
+                Direction::Reverse
+            } else {
+                Direction::Forward
+            },
+            stop: leg.stop,
+            next,
+            seq: Some(leg.seq),
+        };
+        self.missions.stop_retried = None;
+        self.navigator.set_target(from.unwrap_or(here), target);
+    }
+
+    /// DO_SET_SERVO: the pulse is kept for the output either way; the GCS
+    /// is told only for a channel no function owns.
+    fn apply_set_servo(&mut self, channel: u8, pwm_us: u16) {
+        let owned = self
+            .p
+            .servos
+            .config(&self.params)
+            .channels
+            .get(usize::from(channel).wrapping_sub(1))
+            .is_some_and(|ch| !ch.function.accepts_direct_pulse());
+        if let Some(slot) = self.missions.servo_us.get_mut(usize::from(channel) - 1) {
+            *slot = pwm_us;
+        }
+        // A channel a function owns is refused (and said so) when
+        // the outputs are set.
+        if !owned {
+            self.send_text(
+                MavSeverity::MAV_SEVERITY_INFO,
+                &format!("Servo {channel} set to {pwm_us}"),
+            );
+        }
+    }
+
+    /// DO_SET_HOME: here, or the item's position.
+    fn apply_set_home(&mut self, position: Option<Position>) {
+        let home = match position {
+            None => {
+                self.set_home_to_current(true);
+                return;
+            }
+            Some(p) => self
+                .resolve(&p)
+                .zip(self.frame())
+                .map(|(local, f)| f.to_geodetic(&local)),
+        };
+        if let Some(mut home) = home {
+            home.alt_m = self.estimator.gnss().alt_msl_m;
+            self.set_home(home, true);
         }
     }
 
