@@ -9,6 +9,7 @@
 //!   reassembled from MAVLink.
 //! - [`pwm`]: servo and ESC pulses through Linux sysfs PWM.
 //! - [`backoff`]: the reconnect wait every device and link uses.
+//! - [`clock`]: the time a device thread reads (the wall, or a test's manual clock).
 //! - [`device`]: the health counters each device thread shares with the core's edge.
 //!
 //! The simulated world whose devices emit the same bytes lives in the `sim`
@@ -20,6 +21,7 @@
 //! port, a socket or files, and are the edges the real vehicle runs.
 
 pub mod backoff;
+pub mod clock;
 pub mod device;
 pub mod gnss;
 pub mod magnetic;

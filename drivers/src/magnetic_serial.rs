@@ -40,7 +40,9 @@
 //! dropped. A port that fails to open, reaches EOF or errors (adapter
 //! unplugged) is reopened with a backoff from 100 ms to 2 s; the thread only
 //! ends when the handle is dropped. Samples are stamped with
-//! `origin.elapsed()` when their bytes are read.
+//! `origin.elapsed()` when their bytes are read (or, from
+//! [`MagneticSerial::spawn_with_clock`], with the given clock, which also
+//! times the backoff).
 
 use std::io::{self, Read};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -49,6 +51,7 @@ use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
 use crate::backoff::Backoff;
+use crate::clock::{DeviceClock, WallClock};
 use crate::device::{self, DeviceStatus, SharedStatus};
 use crate::magnetic::MagneticSample;
 
@@ -234,13 +237,24 @@ impl MagneticSerial {
     /// Starts reading `path` at `baud`. Never fails: a missing port is
     /// retried (and shows in [`MagneticSerial::status`]).
     pub fn spawn(path: String, baud: u32, stale_after: Duration, origin: Instant) -> MagneticSerial {
+        Self::spawn_with_clock(path, baud, stale_after, Arc::new(WallClock::new(origin)))
+    }
+
+    /// [`MagneticSerial::spawn`] on a given clock: sample stamps and
+    /// backoff waits read `clock`.
+    pub fn spawn_with_clock(
+        path: String,
+        baud: u32,
+        stale_after: Duration,
+        clock: Arc<dyn DeviceClock>,
+    ) -> MagneticSerial {
         let status = device::shared_status();
         let readings = Arc::new(Mutex::new(Readings::default()));
         let stop = Arc::new(AtomicBool::new(false));
         let reader = Reader {
             path: path.clone(),
             baud,
-            origin,
+            clock,
             status: status.clone(),
             readings: readings.clone(),
             stop: stop.clone(),
@@ -323,7 +337,7 @@ fn lock(readings: &Mutex<Readings>) -> std::sync::MutexGuard<'_, Readings> {
 struct Reader {
     path: String,
     baud: u32,
-    origin: Instant,
+    clock: Arc<dyn DeviceClock>,
     status: SharedStatus,
     readings: Arc<Mutex<Readings>>,
     stop: Arc<AtomicBool>,
@@ -380,7 +394,7 @@ impl Reader {
     }
 
     fn take_bytes(&mut self, bytes: &[u8]) {
-        let t = self.origin.elapsed();
+        let t = self.clock.now();
         let bad_before = self.framer.stats().bad_checksums;
         let frames = self.framer.push(bytes);
         let stats = self.framer.stats();
@@ -418,13 +432,13 @@ impl Reader {
     }
 
     fn sleep_unless_stopped(&self, total: Duration) {
-        let until = Instant::now() + total;
+        let until = self.clock.now().saturating_add(total);
         while !self.stopped() {
-            let left = until.saturating_duration_since(Instant::now());
+            let left = until.saturating_sub(self.clock.now());
             if left.is_zero() {
                 return;
             }
-            thread::sleep(left.min(READ_TIMEOUT));
+            thread::sleep(self.clock.wall_wait(left).min(READ_TIMEOUT));
         }
     }
 }

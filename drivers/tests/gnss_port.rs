@@ -2,13 +2,21 @@
 //! USB receiver (unplugged and replugged behind a symlink, as udev's
 //! `/dev/serial/by-id` links behave) and a local TCP NMEA server that goes
 //! away and comes back.
+//!
+//! The port runs on a [`ManualClock`]: backoff expiries, staleness and the
+//! silence timeout happen when a test moves the clock. Bytes still travel
+//! through a real pty or socket and the port's thread still has to run, so
+//! tests wait for those with a bounded wall-time poll ([`DEADLINE`] is only
+//! the limit before a failure is declared, never a timing decision).
 
 use std::fs;
 use std::io::{self, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use drivers::clock::{DeviceClock, ManualClock};
 use drivers::gnss::port::{GnssPort, GnssPortConfig, GnssSource};
 use drivers::gnss::{FixQuality, GnssFix, GnssSample, HeadingReference};
 use rand::{Rng, SeedableRng};
@@ -17,6 +25,7 @@ use serialport::{SerialPort, TTYPort};
 
 const DEADLINE: Duration = Duration::from_secs(2);
 const STALE_AFTER: Duration = Duration::from_millis(300);
+const BACKOFF_MAX: Duration = Duration::from_millis(100);
 
 // ---- NMEA built here, independently of the simulator's writer ----
 
@@ -64,7 +73,7 @@ fn rtcm_like_payload() -> Vec<u8> {
     payload
 }
 
-// ---- polling with deadlines ----
+// ---- polling with deadlines (wall time: for the port's thread and real I/O) ----
 
 fn wait_until(timeout: Duration, mut condition: impl FnMut() -> bool) -> bool {
     let deadline = Instant::now() + timeout;
@@ -77,6 +86,18 @@ fn wait_until(timeout: Duration, mut condition: impl FnMut() -> bool) -> bool {
         }
         std::thread::sleep(Duration::from_millis(2));
     }
+}
+
+/// Moves the port's clock past the longest backoff between looks until
+/// `condition` holds: each look gives a waiting thread its next attempt.
+fn retry_until(clock: &ManualClock, mut condition: impl FnMut() -> bool) -> bool {
+    wait_until(DEADLINE, || {
+        if condition() {
+            return true;
+        }
+        clock.advance(BACKOFF_MAX);
+        false
+    })
 }
 
 /// Drains the port into `seen` until `done(seen)` or the deadline.
@@ -119,11 +140,18 @@ fn read_exactly(source: &mut impl Read, len: usize) -> Vec<u8> {
     got
 }
 
+fn spawn(config: GnssPortConfig, clock: &Arc<ManualClock>) -> GnssPort {
+    GnssPort::spawn_with_clock(config, Arc::clone(clock) as Arc<dyn DeviceClock>)
+}
+
 fn fast_config(source: GnssSource) -> GnssPortConfig {
     GnssPortConfig {
         stale_after: STALE_AFTER,
         backoff_initial: Duration::from_millis(20),
-        backoff_max: Duration::from_millis(100),
+        backoff_max: BACKOFF_MAX,
+        // Tests move the clock by whole backoffs while waiting on a thread;
+        // only the silence test wants this timeout to trip.
+        reconnect_after_silence: Duration::from_secs(3600),
         ..GnssPortConfig::new(source)
     }
 }
@@ -186,11 +214,11 @@ impl FakeSerialReceiver {
 
 #[test]
 fn serial_fixes_rtcm_unplug_and_replug() {
-    let origin = Instant::now();
+    let clock = ManualClock::new();
     let mut receiver = FakeSerialReceiver::new("replug");
     receiver.plug();
-    let port = GnssPort::spawn(fast_config(receiver.source()), origin);
-    assert!(port.is_stale(origin.elapsed()), "stale before any sentence");
+    let port = spawn(fast_config(receiver.source()), &clock);
+    assert!(port.is_stale(clock.now()), "stale before any sentence");
     assert!(wait_until(DEADLINE, || port.status().connected), "{:?}", port.status());
 
     let (lat, lon) = (48.117_301_5, -11.516_666_7);
@@ -216,8 +244,8 @@ fn serial_fixes_rtcm_unplug_and_replug() {
     assert!((velocity.speed_mps - 2.5 * 1852.0 / 3600.0).abs() < 1e-9);
     assert_eq!(velocity.course_deg, Some(87.5));
     // Stamped on the caller's clock, after the port started and before now.
-    assert!(fix.t <= origin.elapsed());
-    assert!(!port.is_stale(origin.elapsed()));
+    assert!(fix.t <= clock.now());
+    assert!(!port.is_stale(clock.now()));
     let status = port.status();
     assert_eq!((status.connects, status.messages, status.errors), (1, 2, 0));
     assert_eq!(status.bytes_in, nmea.len() as u64);
@@ -240,11 +268,12 @@ fn serial_fixes_rtcm_unplug_and_replug() {
     assert!(wait_until(DEADLINE, || !port.status().connected));
     let lost = port.status();
     assert!(lost.errors >= 1 && lost.last_error.is_some(), "{lost:?}");
-    assert!(wait_until(DEADLINE, || port.is_stale(origin.elapsed())));
-    let stale_at = origin.elapsed();
     let last_message = port.status().last_message.expect("had sentences");
-    assert!(stale_at - last_message > STALE_AFTER);
-    assert!(wait_until(DEADLINE, || port.status().errors >= lost.errors + 2));
+    clock.advance((last_message + STALE_AFTER).saturating_sub(clock.now()));
+    assert!(!port.is_stale(clock.now()), "stale at exactly stale_after");
+    clock.advance(Duration::from_millis(1));
+    assert!(port.is_stale(clock.now()));
+    assert!(retry_until(&clock, || port.status().errors >= lost.errors + 2));
     let retrying = port.status();
     assert!(
         retrying
@@ -260,7 +289,7 @@ fn serial_fixes_rtcm_unplug_and_replug() {
     // and fixes from it.
     receiver.plug();
     assert!(
-        wait_until(DEADLINE, || port.status().connects == 2),
+        retry_until(&clock, || port.status().connects == 2),
         "{:?}",
         port.status()
     );
@@ -271,7 +300,7 @@ fn serial_fixes_rtcm_unplug_and_replug() {
         collect_until(&port, &mut seen, |s| has_fix_at(s, lat2, lon2)),
         "{seen:?}"
     );
-    assert!(!port.is_stale(origin.elapsed()));
+    assert!(!port.is_stale(clock.now()));
     let status = port.status();
     assert!(status.connected);
     assert_eq!(status.connects, 2);
@@ -280,10 +309,11 @@ fn serial_fixes_rtcm_unplug_and_replug() {
 
 #[test]
 fn serial_device_missing_at_start_is_retried_until_it_appears() {
-    let origin = Instant::now();
+    let clock = ManualClock::new();
     let mut receiver = FakeSerialReceiver::new("late");
-    let port = GnssPort::spawn(fast_config(receiver.source()), origin);
-    assert!(wait_until(DEADLINE, || port.status().errors >= 3));
+    let port = spawn(fast_config(receiver.source()), &clock);
+    assert!(wait_until(DEADLINE, || port.status().errors == 1));
+    assert!(retry_until(&clock, || port.status().errors >= 3));
     let status = port.status();
     assert!(!status.connected);
     assert_eq!(status.connects, 0);
@@ -294,7 +324,7 @@ fn serial_device_missing_at_start_is_retried_until_it_appears() {
     assert!(wait_until(DEADLINE, || port.frames_dropped() == 1));
 
     receiver.plug();
-    assert!(wait_until(DEADLINE, || port.status().connected));
+    assert!(retry_until(&clock, || port.status().connected));
     receiver.master().write_all(gga(1.5, 2.25).as_bytes()).unwrap();
     let mut seen = Vec::new();
     assert!(
@@ -309,10 +339,10 @@ fn serial_device_missing_at_start_is_retried_until_it_appears() {
 
 #[test]
 fn serial_noise_between_sentences_is_counted_and_survived() {
-    let origin = Instant::now();
+    let clock = ManualClock::new();
     let mut receiver = FakeSerialReceiver::new("noise");
     receiver.plug();
-    let port = GnssPort::spawn(fast_config(receiver.source()), origin);
+    let port = spawn(fast_config(receiver.source()), &clock);
     assert!(wait_until(DEADLINE, || port.status().connected));
 
     let mut rng = ChaCha8Rng::seed_from_u64(7);
@@ -355,14 +385,14 @@ fn serial_noise_between_sentences_is_counted_and_survived() {
 
 #[test]
 fn serial_full_queue_drops_whole_frames_and_keeps_order() {
-    let origin = Instant::now();
+    let clock = ManualClock::new();
     let mut receiver = FakeSerialReceiver::new("queue");
     receiver.plug();
     let config = GnssPortConfig {
         write_queue: 4,
         ..fast_config(receiver.source())
     };
-    let port = GnssPort::spawn(config, origin);
+    let port = spawn(config, &clock);
     assert!(wait_until(DEADLINE, || port.status().connected));
 
     // Nobody reads the receiver's side while 256 KiB are offered: far more
@@ -401,9 +431,11 @@ fn serial_full_queue_drops_whole_frames_and_keeps_order() {
 
 // ---- a TCP NMEA server ----
 
-fn accept_within(listener: &TcpListener, timeout: Duration) -> TcpStream {
+/// The port's connection, moving its clock on so a backoff it waits out
+/// ends.
+fn accept(listener: &TcpListener, clock: &ManualClock) -> TcpStream {
     listener.set_nonblocking(true).unwrap();
-    let deadline = Instant::now() + timeout;
+    let deadline = Instant::now() + DEADLINE;
     loop {
         match listener.accept() {
             Ok((stream, _)) => {
@@ -412,6 +444,7 @@ fn accept_within(listener: &TcpListener, timeout: Duration) -> TcpStream {
                 return stream;
             }
             Err(e) if e.kind() == io::ErrorKind::WouldBlock && Instant::now() < deadline => {
+                clock.advance(BACKOFF_MAX);
                 std::thread::sleep(Duration::from_millis(2));
             }
             Err(e) => panic!("no connection from the port: {e}"),
@@ -435,16 +468,16 @@ fn bind_again(addr: SocketAddr) -> TcpListener {
 
 #[test]
 fn tcp_source_reconnects_after_the_server_restarts() {
-    let origin = Instant::now();
+    let clock = ManualClock::new();
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = listener.local_addr().unwrap();
-    let port = GnssPort::spawn(
+    let port = spawn(
         fast_config(GnssSource::Tcp {
             address: addr.to_string(),
         }),
-        origin,
+        &clock,
     );
-    let mut server = accept_within(&listener, DEADLINE);
+    let mut server = accept(&listener, &clock);
     assert!(wait_until(DEADLINE, || port.status().connected));
 
     let (lat, lon) = (52.520_008_1, 13.404_954_2);
@@ -465,13 +498,13 @@ fn tcp_source_reconnects_after_the_server_restarts() {
         lost.last_error.as_deref().unwrap_or_default().contains("end of stream"),
         "{lost:?}"
     );
-    assert!(wait_until(DEADLINE, || port.status().errors >= lost.errors + 2));
+    assert!(retry_until(&clock, || port.status().errors >= lost.errors + 2));
     assert!(port.status().last_error.unwrap_or_default().contains("cannot open"));
     assert_eq!(port.status().connects, 1);
 
     // Back on the same port, now also as a compass (HDM).
     let listener = bind_again(addr);
-    let mut server = accept_within(&listener, DEADLINE);
+    let mut server = accept(&listener, &clock);
     assert!(
         wait_until(DEADLINE, || port.status().connects == 2),
         "{:?}",
@@ -511,22 +544,63 @@ fn tcp_source_reconnects_after_the_server_restarts() {
 fn tcp_nothing_listening_counts_errors_and_stays_stale() {
     // A port that was free a moment ago: connects are refused.
     let addr = TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap();
-    let origin = Instant::now();
-    let port = GnssPort::spawn(
+    let clock = ManualClock::new();
+    let port = spawn(
         fast_config(GnssSource::Tcp {
             address: addr.to_string(),
         }),
-        origin,
+        &clock,
     );
-    assert!(wait_until(DEADLINE, || port.status().errors >= 3));
+    assert!(wait_until(DEADLINE, || port.status().errors == 1));
+    assert!(retry_until(&clock, || port.status().errors >= 3));
     let status = port.status();
     assert_eq!((status.connected, status.connects, status.messages), (false, 0, 0));
-    assert!(port.is_stale(origin.elapsed()));
+    assert!(port.is_stale(clock.now()));
     let started = Instant::now();
     drop(port);
     assert!(
         started.elapsed() < Duration::from_millis(150),
         "took {:?}",
         started.elapsed()
+    );
+}
+
+#[test]
+fn tcp_silent_connection_is_reopened_after_reconnect_after_silence() {
+    let clock = ManualClock::new();
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let silence = Duration::from_secs(5);
+    let config = GnssPortConfig {
+        reconnect_after_silence: silence,
+        ..fast_config(GnssSource::Tcp {
+            address: listener.local_addr().unwrap().to_string(),
+        })
+    };
+    let port = spawn(config, &clock);
+    let mut server = accept(&listener, &clock);
+    assert!(wait_until(DEADLINE, || port.status().connected));
+    server.write_all(gga(1.0, 2.0).as_bytes()).unwrap();
+    let mut seen = Vec::new();
+    assert!(collect_until(&port, &mut seen, |s| has_fix_at(s, 1.0, 2.0)));
+
+    // Exactly the allowance of silence is tolerated (the thread gets several
+    // read timeouts to look at the clock); a millisecond more is not.
+    clock.advance(silence);
+    // A bounded look for something that must not happen: five read timeouts.
+    assert!(!wait_until(Duration::from_millis(50), || !port.status().connected));
+    assert_eq!(port.status().connects, 1);
+    clock.advance(Duration::from_millis(1));
+    assert!(wait_until(DEADLINE, || !port.status().connected));
+    let lost = port.status();
+    assert!(
+        lost.last_error.as_deref().unwrap_or_default().contains("no bytes for"),
+        "{lost:?}"
+    );
+    // The server is still there: the port comes back once its backoff ends.
+    let _server = accept(&listener, &clock);
+    assert!(
+        wait_until(DEADLINE, || port.status().connects == 2),
+        "{:?}",
+        port.status()
     );
 }

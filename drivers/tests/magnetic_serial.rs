@@ -9,6 +9,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
+use drivers::clock::{DeviceClock, ManualClock};
+
 use drivers::magnetic_serial::{
     FRAME_LEN, FramerStats, MagneticFrame, MagneticFramer, MagneticSerial, crc8_smbus, encode_frame,
 };
@@ -191,7 +193,11 @@ proptest! {
 
 // ---- the device thread on pseudo-terminals ----
 
+/// Bounded waits for the reader thread and bytes over the pty; timing
+/// decisions (staleness, backoff expiry) are made on a [`ManualClock`].
 const DEADLINE: Duration = Duration::from_secs(2);
+/// The longest reopen backoff (2 s): one step ends any backoff wait.
+const RETRY_STEP: Duration = Duration::from_secs(2);
 
 fn temp_dir() -> tempfile::TempDir {
     tempfile::Builder::new()
@@ -263,6 +269,22 @@ fn wait_for(what: &str, mut done: impl FnMut() -> bool) {
     }
 }
 
+/// Moves the clock past any backoff between looks until `done`.
+fn retry_until(clock: &ManualClock, what: &str, mut done: impl FnMut() -> bool) {
+    wait_for(what, || {
+        let met = done();
+        if !met {
+            clock.advance(RETRY_STEP);
+        }
+        met
+    });
+}
+
+fn spawn(link: &Path, baud: u32, stale_after: Duration, clock: &Arc<ManualClock>) -> MagneticSerial {
+    let clock = Arc::clone(clock) as Arc<dyn DeviceClock>;
+    MagneticSerial::spawn_with_clock(link.to_string_lossy().into_owned(), baud, stale_after, clock)
+}
+
 /// Waits for a sample from the device and returns it.
 fn next_sample(sensor: &MagneticSerial) -> drivers::magnetic::MagneticSample {
     let mut sample = None;
@@ -277,18 +299,25 @@ fn next_sample(sensor: &MagneticSerial) -> drivers::magnetic::MagneticSample {
 fn samples_arrive_go_stale_on_unplug_and_resume_on_replug() {
     let dir = temp_dir();
     let link = dir.path().join("magnetic");
-    let origin = Instant::now();
+    let clock = ManualClock::new();
     let stale_after = Duration::from_millis(150);
 
+    // Plugged after the start, so "no sample yet" is certain when checked
+    // (the sensor streams at once, and samples are stamped on the same
+    // clock that is read here).
+    let sensor = spawn(&link, 115_200, stale_after, &clock);
+    wait_for("a failed open", || sensor.status().errors >= 1);
+    assert!(sensor.is_stale(clock.now()), "stale before any sample");
     let first = FakeSensor::plug(0x0180, 0x03C0);
     point_link(&link, &first.slave_path);
-    let sensor = MagneticSerial::spawn(link.to_string_lossy().into_owned(), 115_200, stale_after, origin);
-    assert!(sensor.is_stale(origin.elapsed()), "stale before any sample");
+    retry_until(&clock, "the open", || sensor.status().connects == 1);
 
     let sample = next_sample(&sensor);
     assert_eq!((sample.front_mask, sample.rear_mask), (0x0180, 0x03C0));
-    assert!(sample.t <= origin.elapsed());
-    assert!(!sensor.is_stale(origin.elapsed()));
+    assert!(sample.t <= clock.now());
+    // The last retry step may have come after the first samples; the sensor
+    // streams, so one stamped after it follows.
+    wait_for("a fresh sample", || !sensor.is_stale(clock.now()));
     // latest() hands out each sample once, then newer ones.
     let again = next_sample(&sensor);
     assert!(again.t >= sample.t);
@@ -305,7 +334,11 @@ fn samples_arrive_go_stale_on_unplug_and_resume_on_replug() {
     point_link(&link, &dir.path().join("unplugged"));
     drop(first);
     wait_for("disconnect", || !sensor.status().connected);
-    wait_for("staleness", || sensor.is_stale(origin.elapsed()));
+    let last_message = sensor.status().last_message.expect("had samples");
+    clock.advance((last_message + stale_after).saturating_sub(clock.now()));
+    assert!(!sensor.is_stale(clock.now()), "stale at exactly stale_after");
+    clock.advance(Duration::from_millis(1));
+    assert!(sensor.is_stale(clock.now()));
     let _ = sensor.latest();
     thread::sleep(Duration::from_millis(50));
     assert_eq!(sensor.latest(), None, "no samples while unplugged");
@@ -316,12 +349,15 @@ fn samples_arrive_go_stale_on_unplug_and_resume_on_replug() {
     // Replug a sensor with other masks on a new pty.
     let second = FakeSensor::plug(0x8001, 0x0002);
     point_link(&link, &second.slave_path);
+    retry_until(&clock, "the reopen", || sensor.status().connects == 2);
     let mut masks = (0, 0);
     wait_for("samples from the replugged sensor", || {
         masks = sensor.latest().map_or(masks, |s| (s.front_mask, s.rear_mask));
         masks == (0x8001, 0x0002)
     });
-    assert!(!sensor.is_stale(origin.elapsed()));
+    // The clock may have moved on between the reopen and this look; the
+    // sensor streams, so a sample stamped after it follows.
+    wait_for("a fresh sample", || !sensor.is_stale(clock.now()));
     let status = sensor.status();
     assert!(status.connected);
     assert_eq!(status.connects, 2);
@@ -341,14 +377,9 @@ fn samples_arrive_go_stale_on_unplug_and_resume_on_replug() {
 fn a_port_that_is_not_there_is_retried_and_drop_is_prompt() {
     let dir = temp_dir();
     let link = dir.path().join("magnetic");
-    let origin = Instant::now();
-    let sensor = MagneticSerial::spawn(
-        link.to_string_lossy().into_owned(),
-        9_600,
-        Duration::from_millis(200),
-        origin,
-    );
-    wait_for("two failed opens", || sensor.status().errors >= 2);
+    let clock = ManualClock::new();
+    let sensor = spawn(&link, 9_600, Duration::from_millis(200), &clock);
+    retry_until(&clock, "two failed opens", || sensor.status().errors >= 2);
     let status = sensor.status();
     assert!(!status.connected);
     assert_eq!(status.connects, 0);
@@ -356,10 +387,10 @@ fn a_port_that_is_not_there_is_retried_and_drop_is_prompt() {
         status.last_error.as_deref().is_some_and(|e| e.contains("magnetic")),
         "{status:?}"
     );
-    assert!(sensor.is_stale(origin.elapsed()));
+    assert!(sensor.is_stale(clock.now()));
 
-    // The thread is in its backoff sleep now; drop must not wait it out.
-    thread::sleep(Duration::from_millis(150));
+    // The thread is in its backoff wait now (the clock stands still, so it
+    // would never end); drop must not wait it out.
     let start = Instant::now();
     drop(sensor);
     assert!(

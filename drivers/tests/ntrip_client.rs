@@ -4,12 +4,15 @@
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
-use std::sync::mpsc;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::{Arc, mpsc};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use drivers::ntrip::{NtripClient, NtripConfig, NtripVersion, gga_sentence};
+use drivers::ntrip::{NtripClient, NtripConfig, NtripVersion, REFUSED_RETRY, gga_sentence};
 use drivers::rtcm::crc24q;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::runtime::Handle;
 
 const IO_TIMEOUT: Duration = Duration::from_secs(2);
 /// RFC 7617's example credentials and their published encoding.
@@ -124,6 +127,33 @@ fn wait_for(limit: Duration, mut done: impl FnMut() -> bool) -> bool {
         thread::sleep(Duration::from_millis(5));
     }
     done()
+}
+
+/// How often the paused-time tests look at the client (on tokio's clock).
+const LOOK: Duration = Duration::from_millis(5);
+
+/// Looks every [`LOOK`] until `done`; a minute of paused time at most.
+async fn wait_for_async(mut done: impl FnMut() -> bool) {
+    let looking = async {
+        while !done() {
+            tokio::time::sleep(LOOK).await;
+        }
+    };
+    tokio::time::timeout(Duration::from_secs(60), looking)
+        .await
+        .expect("condition within a minute of tokio time");
+}
+
+/// Reads a request head (up to the blank line) on an async socket.
+async fn read_head_async(stream: &mut tokio::net::TcpStream) -> String {
+    let mut got = Vec::new();
+    while !got.ends_with(b"\r\n\r\n") {
+        match stream.read_u8().await {
+            Ok(byte) => got.push(byte),
+            Err(e) => panic!("caster read: {e} after {:?}", String::from_utf8_lossy(&got)),
+        }
+    }
+    String::from_utf8(got).expect("ASCII from the client")
 }
 
 fn parse_gga(line: &str) -> (f64, f64) {
@@ -253,7 +283,8 @@ fn v2_chunked_stream_arrives_byte_exact_and_gga_repeats() {
     });
 
     let mut cfg = config(port, "/MOUNT2", NtripVersion::V2);
-    cfg.gga_interval = Duration::from_millis(150);
+    // Short: the interval itself is checked on paused time; here only the repeat.
+    cfg.gga_interval = Duration::from_millis(20);
     let runtime = edge_runtime();
     let client = NtripClient::spawn(cfg, Instant::now(), runtime.handle());
     client.set_gga(gga_at(-33.856_78, 151.215_3));
@@ -277,16 +308,13 @@ fn v2_chunked_stream_arrives_byte_exact_and_gga_repeats() {
     let received = collect_corrections(&client, stream_bytes.len(), IO_TIMEOUT);
     assert_eq!(received, stream_bytes, "chunk framing must not leak into the data");
 
-    let started = Instant::now();
+    // Repeated (the interval itself is checked on paused time below).
     for _ in 0..3 {
         let Ok(Seen::Gga(gga)) = seen_rx.recv_timeout(IO_TIMEOUT) else {
             panic!("GGA not repeated")
         };
         assert_near(parse_gga(&gga), (-33.856_78, 151.215_3));
     }
-    // Three sends at 150 ms: the first at once, then two intervals.
-    let elapsed = started.elapsed();
-    assert!(elapsed < Duration::from_millis(1500), "{elapsed:?}");
     assert!(wait_for(Duration::from_millis(500), || client.status().messages == 5));
     drop(client);
     caster.join().expect("caster");
@@ -352,38 +380,45 @@ fn dropped_connection_is_reopened_and_gga_resent() {
     caster.join().expect("caster");
 }
 
-#[test]
-fn unauthorized_is_reported_and_not_retried_fast() {
-    let (listener, port) = listen();
-    let (accepts_tx, accepts_rx) = mpsc::channel();
-    let caster = thread::spawn(move || {
-        let deadline = Instant::now() + Duration::from_millis(1500);
-        while Instant::now() < deadline {
-            if let Some(mut s) = accept_within(&listener, deadline - Instant::now()) {
-                read_until(&mut s, b"\r\n\r\n");
-                s.write_all(b"HTTP/1.1 401 Unauthorized\r\nWWW-Authenticate: Basic realm=\"/M\"\r\n\r\n")
-                    .unwrap();
-                accepts_tx.send(()).unwrap();
-            }
+// Paused time: REFUSED_RETRY (10 s) passes on tokio's clock, which jumps
+// ahead whenever every task waits. The fake caster is a task on the same
+// thread, and loopback delivers its bytes within its write, so no jump can
+// overtake bytes in flight.
+#[tokio::test(start_paused = true)]
+async fn unauthorized_is_reported_and_retried_only_after_refused_retry() {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+    let port = listener.local_addr().expect("addr").port();
+    let accepts = Arc::new(AtomicU32::new(0));
+    let caster_accepts = Arc::clone(&accepts);
+    tokio::spawn(async move {
+        loop {
+            let (mut s, _) = listener.accept().await.expect("accept");
+            read_head_async(&mut s).await;
+            s.write_all(b"HTTP/1.1 401 Unauthorized\r\nWWW-Authenticate: Basic realm=\"/M\"\r\n\r\n")
+                .await
+                .unwrap();
+            caster_accepts.fetch_add(1, Ordering::Relaxed);
         }
     });
 
-    let runtime = edge_runtime();
-    let client = NtripClient::spawn(config(port, "M", NtripVersion::V2), Instant::now(), runtime.handle());
-    assert!(
-        wait_for(IO_TIMEOUT, || client
+    let client = NtripClient::spawn(config(port, "M", NtripVersion::V2), Instant::now(), &Handle::current());
+    let unauthorized = || {
+        client
             .status()
             .last_error
-            .is_some_and(|e| e.starts_with("NTRIP: unauthorized"))),
-        "{:?}",
-        client.status()
-    );
+            .is_some_and(|e| e.starts_with("NTRIP: unauthorized"))
+    };
+    wait_for_async(unauthorized).await;
+    let refused_at = tokio::time::Instant::now();
     let status = client.status();
     assert!(!status.connected);
     assert_eq!(status.connects, 0);
-    caster.join().expect("caster");
-    // Backoff here is 50–200 ms; a refusal must wait longer than that.
-    assert_eq!(accepts_rx.try_iter().count(), 1, "retried a refused login quickly");
+    // Backoff here is 50–200 ms; a refusal waits REFUSED_RETRY instead
+    // (the refusal was seen within one look, LOOK, after it happened).
+    tokio::time::sleep_until(refused_at + REFUSED_RETRY - LOOK).await;
+    assert_eq!(accepts.load(Ordering::Relaxed), 1, "retried a refused login early");
+    wait_for_async(|| accepts.load(Ordering::Relaxed) == 2).await;
+    assert!(refused_at.elapsed() <= REFUSED_RETRY, "{:?}", refused_at.elapsed());
 }
 
 #[test]
@@ -411,40 +446,74 @@ fn wrong_mountpoint_source_table_is_reported() {
     caster.join().expect("caster");
 }
 
-#[test]
-fn silent_caster_is_left_after_stale_after() {
-    let (listener, port) = listen();
-    let (accepted_tx, accepted_rx) = mpsc::channel();
-    let (done_tx, done_rx) = mpsc::channel::<()>();
-    let caster = thread::spawn(move || {
+// Paused time (see above): the GGA interval on tokio's clock.
+#[tokio::test(start_paused = true)]
+async fn gga_is_sent_at_once_then_every_gga_interval() {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+    let port = listener.local_addr().expect("addr").port();
+    let (gga_tx, mut gga_rx) = tokio::sync::mpsc::unbounded_channel();
+    tokio::spawn(async move {
+        let (mut s, _) = listener.accept().await.expect("accept");
+        read_head_async(&mut s).await;
+        s.write_all(b"ICY 200 OK\r\n").await.unwrap();
+        let mut line = Vec::new();
+        while let Ok(byte) = s.read_u8().await {
+            line.push(byte);
+            if byte == b'\n' {
+                let _ = gga_tx.send((tokio::time::Instant::now(), String::from_utf8_lossy(&line).into_owned()));
+                line.clear();
+            }
+        }
+    });
+    let mut cfg = config(port, "M", NtripVersion::V1);
+    cfg.gga_interval = Duration::from_millis(150);
+    let client = NtripClient::spawn(cfg, Instant::now(), &Handle::current());
+    client.set_gga(gga_at(47.5, 8.25));
+    let mut sent_at = Vec::new();
+    for _ in 0..4 {
+        let (at, line) = gga_rx.recv().await.expect("a GGA");
+        assert_near(parse_gga(&line), (47.5, 8.25));
+        sent_at.push(at);
+    }
+    let gaps: Vec<Duration> = sent_at.windows(2).map(|w| w[1] - w[0]).collect();
+    // Timers fire on whole milliseconds of the paused clock.
+    let on_interval = |gap: &Duration| (Duration::from_millis(150)..=Duration::from_millis(151)).contains(gap);
+    assert!(gaps.iter().all(on_interval), "{gaps:?}");
+    assert_eq!(client.status().connects, 1);
+}
+
+// Paused time (see above): stale_after and the backoff pass on tokio's clock.
+#[tokio::test(start_paused = true)]
+async fn silent_caster_is_left_after_stale_after() {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+    let port = listener.local_addr().expect("addr").port();
+    let (accepted_tx, mut accepted_rx) = tokio::sync::mpsc::unbounded_channel();
+    tokio::spawn(async move {
         let mut held = Vec::new();
-        for _ in 0..2 {
-            let mut s = accept_within(&listener, IO_TIMEOUT).expect("client connects");
-            read_until(&mut s, b"\r\n\r\n");
-            s.write_all(b"ICY 200 OK\r\n").unwrap();
-            accepted_tx.send(Instant::now()).unwrap();
+        loop {
+            let (mut s, _) = listener.accept().await.expect("accept");
+            read_head_async(&mut s).await;
+            s.write_all(b"ICY 200 OK\r\n").await.unwrap();
+            let _ = accepted_tx.send(tokio::time::Instant::now());
             // Say nothing more, but keep the socket open: closing it would
             // replace the error under test.
             held.push(s);
         }
-        let _ = done_rx.recv_timeout(IO_TIMEOUT);
     });
     let mut cfg = config(port, "M", NtripVersion::V1);
     cfg.stale_after = Duration::from_millis(300);
-    let runtime = edge_runtime();
-    let client = NtripClient::spawn(cfg, Instant::now(), runtime.handle());
-    let first = accepted_rx.recv_timeout(IO_TIMEOUT).expect("first connection");
-    let second = accepted_rx.recv_timeout(IO_TIMEOUT).expect("reconnect after silence");
+    let client = NtripClient::spawn(cfg, Instant::now(), &Handle::current());
+    let first = accepted_rx.recv().await.expect("first connection");
+    let second = accepted_rx.recv().await.expect("reconnect after silence");
+    // stale_after from the response head, then the initial backoff (50 ms),
+    // both on the paused clock (timers round up to whole milliseconds).
     let gap = second - first;
     assert!(
-        gap >= Duration::from_millis(300) && gap < Duration::from_millis(1500),
+        gap >= Duration::from_millis(350) && gap <= Duration::from_millis(355),
         "{gap:?}"
     );
     let error = client.status().last_error.unwrap_or_default();
     assert!(error.contains("no data"), "{error}");
-    done_tx.send(()).unwrap();
-    drop(client);
-    caster.join().expect("caster");
 }
 
 #[test]

@@ -254,7 +254,11 @@ async fn malformed_telegram_is_counted_and_later_scans_still_arrive() {
     client.stop().await;
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+// Paused time: the scanner's 400 ms off and the client's backoff pass on
+// tokio's clock, which jumps ahead whenever every task waits. The fake
+// scanner is a task on the same thread, and loopback delivers its bytes
+// within its write, so no jump can overtake bytes in flight.
+#[tokio::test(start_paused = true)]
 async fn client_reconnects_when_the_scanner_comes_back() {
     let listener = listen(local_any());
     let addr = listener.local_addr().unwrap();
@@ -299,7 +303,8 @@ async fn client_reconnects_when_the_scanner_comes_back() {
     );
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+// Paused time (see above): stale_after is measured on tokio's clock.
+#[tokio::test(start_paused = true)]
 async fn silent_scanner_is_declared_stale_and_redialled() {
     let listener = listen(local_any());
     let addr = listener.local_addr().unwrap();
@@ -319,13 +324,14 @@ async fn silent_scanner_is_declared_stale_and_redialled() {
     });
     let (client, mut rx) = ScannerClient::spawn(config(addr), test_clock(), 8);
     let stats = Arc::clone(client.stats());
-    let started = Instant::now();
+    let started = tokio::time::Instant::now();
     wait_until("a second connection", || stats.connects.load(Ordering::Relaxed) >= 2).await;
-    // stale_after (300 ms) counts from the last telegram, the sEA ack.
+    // stale_after (300 ms) counts from the last telegram, the sEA ack; then
+    // one initial backoff (50 ms), seen within one 10 ms look.
+    let redialled_after = started.elapsed();
     assert!(
-        started.elapsed() >= Duration::from_millis(300),
-        "{:?}",
-        started.elapsed()
+        redialled_after >= Duration::from_millis(350) && redialled_after <= Duration::from_millis(370),
+        "{redialled_after:?}"
     );
     assert!(stats.last_error().unwrap_or_default().contains("no telegram"));
     assert_eq!(

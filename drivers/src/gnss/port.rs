@@ -29,6 +29,7 @@ use serialport::{SerialPort, TTYPort};
 
 use super::{GnssSample, NmeaReader, NmeaStats};
 use crate::backoff::{Backoff, MIN_BACKOFF};
+use crate::clock::{DeviceClock, WallClock};
 use crate::device::{DeviceStatus, SharedStatus, shared_status, snapshot, update};
 
 /// Longest a read waits for bytes: also how late a queued correction or a
@@ -119,7 +120,14 @@ pub struct GnssPort {
 impl GnssPort {
     /// Starts the device thread. Never fails: a device that cannot be opened
     /// is retried with backoff and reported through [`GnssPort::status`].
+    /// Samples are stamped with the wall time since `origin`.
     pub fn spawn(config: GnssPortConfig, origin: Instant) -> GnssPort {
+        Self::spawn_with_clock(config, Arc::new(WallClock::new(origin)))
+    }
+
+    /// [`GnssPort::spawn`] on a given clock: sample stamps, silence detection
+    /// and backoff waits all read `clock`.
+    pub fn spawn_with_clock(config: GnssPortConfig, clock: Arc<dyn DeviceClock>) -> GnssPort {
         let shared = Arc::new(Shared::new());
         let (frames, frames_rx) = sync_channel(config.write_queue.max(1));
         let stale_after = config.stale_after;
@@ -129,7 +137,7 @@ impl GnssPort {
         };
         let worker = Worker {
             config,
-            origin,
+            clock,
             shared: Arc::clone(&shared),
             frames: frames_rx,
         };
@@ -189,7 +197,8 @@ impl GnssPort {
     }
 
     /// No good sentence within `stale_after` before `now` (or none ever).
-    /// `now` is on the clock of the `origin` given to [`GnssPort::spawn`].
+    /// `now` is on the port's clock (the wall since the `origin` given to
+    /// [`GnssPort::spawn`]).
     pub fn is_stale(&self, now: Duration) -> bool {
         is_stale(self.status().last_message, now, self.stale_after)
     }
@@ -434,7 +443,7 @@ enum SessionEnd {
 /// The device thread.
 struct Worker {
     config: GnssPortConfig,
-    origin: Instant,
+    clock: Arc<dyn DeviceClock>,
     shared: Arc<Shared>,
     frames: Receiver<Vec<u8>>,
 }
@@ -489,17 +498,18 @@ impl Worker {
     /// Sleeps `delay`, discarding corrections that arrive meanwhile (they
     /// would be stale by the time a device is back). `false`: stop.
     fn wait_out(&self, delay: Duration) -> bool {
-        let deadline = Instant::now() + delay;
+        let deadline = self.clock.now().saturating_add(delay);
         loop {
-            let left = deadline.saturating_duration_since(Instant::now());
-            if left.is_zero() {
+            let left = deadline.saturating_sub(self.clock.now());
+            if left.is_zero() || self.stopping() {
                 return !self.stopping();
             }
-            match self.frames.recv_timeout(left) {
+            match self.frames.recv_timeout(self.clock.wall_wait(left)) {
                 Ok(_) => {
                     self.shared.frames_dropped.fetch_add(1, Ordering::Relaxed);
                 }
-                Err(RecvTimeoutError::Timeout) => return !self.stopping(),
+                // The clock decides whether the deadline has passed.
+                Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => return false,
             }
         }
@@ -510,7 +520,7 @@ impl Worker {
         let mut fresh = Vec::new();
         let mut pending: Option<OutFrame> = None;
         let mut heard_sentence = false;
-        let mut last_bytes_at = self.origin.elapsed();
+        let mut last_bytes_at = self.clock.now();
         let end = loop {
             if self.stopping() {
                 break SessionEnd::Stopped;
@@ -518,7 +528,7 @@ impl Worker {
             let failure = match link.read(&mut buf) {
                 Ok(0) => Some("closed by the device (end of stream)".to_owned()),
                 Ok(n) => {
-                    let t = self.origin.elapsed();
+                    let t = self.clock.now();
                     last_bytes_at = t;
                     let lines = intake.push(t, &buf[..n], &mut fresh);
                     heard_sentence |= lines.good > 0;
@@ -541,7 +551,7 @@ impl Worker {
                     };
                 }
             }
-            let silent_for = self.origin.elapsed().saturating_sub(last_bytes_at);
+            let silent_for = self.clock.now().saturating_sub(last_bytes_at);
             if silent_for > self.config.reconnect_after_silence {
                 break SessionEnd::Lost {
                     error: format!("no bytes for {silent_for:?}"),
