@@ -143,6 +143,9 @@ impl Core {
     /// A NAV leg: to a mission pose when the stop has a heading, else a
     /// navigator target from the leg's start (or here).
     fn apply_navigate(&mut self, leg: mission::NavLeg) {
+        // A new leg (a DO_JUMP may come back to the same item): its stop
+        // has its one retry again, whichever way it is driven.
+        self.missions.stop_retried = None;
         let here = self.estimator.estimate().position;
         let (Some(to), from) = (self.resolve(&leg.to), leg.from.and_then(|p| self.resolve(&p))) else {
             return;
@@ -167,7 +170,6 @@ impl Core {
             next,
             seq: Some(leg.seq),
         };
-        self.missions.stop_retried = None;
         self.navigator.set_target(from.unwrap_or(here), target);
     }
 
