@@ -439,11 +439,18 @@ mod tests {
         let data = scratch.path().join("data");
         let (outbound, _rx) = tokio::sync::mpsc::channel(16);
         let mut logger = Logger::start(&data, outbound, BulkBacklog::default());
-        let mut commands: Vec<_> = (0..QUEUE * 4).map(|_| LogCommand::Records(records(1000))).collect();
-        let started = Instant::now();
-        logger.send(&mut commands);
-        assert!(started.elapsed() < Duration::from_millis(500));
-        assert!(commands.is_empty());
+        // The writer may keep up with one burst on an idle machine: send
+        // bursts until the queue overflows; no send may wait for it.
+        for _ in 0..100 {
+            let mut commands: Vec<_> = (0..QUEUE * 4).map(|_| LogCommand::Records(records(1000))).collect();
+            let started = Instant::now();
+            logger.send(&mut commands);
+            assert!(started.elapsed() < Duration::from_millis(500));
+            assert!(commands.is_empty());
+            if logger.dropped() > 0 {
+                break;
+            }
+        }
         // Records without an open file are discarded; some did not fit.
         assert!(logger.dropped() > 0, "{} dropped", logger.dropped());
         drop(logger);
