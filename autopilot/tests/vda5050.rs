@@ -12,60 +12,9 @@ use autopilot::time::FrozenTimer;
 use autopilot::vehicle::FleetMessage;
 use common::Harness;
 use serde_json::{Value, json};
+use test_support::vda5050::{N, instant, order};
 use vda5050::state::{ActionStatus, OperatingMode, State};
 use vda5050::{Topic, TopicPrefix};
-
-/// A node: id, map x (east) / y (north), released, optional HARD action.
-struct N(&'static str, f64, f64, bool, Option<(&'static str, &'static str)>);
-
-fn order(order_id: &str, update_id: u32, first_seq: u32, nodes: &[N], reverse: &[usize]) -> Value {
-    let node_json: Vec<Value> = nodes
-        .iter()
-        .enumerate()
-        .map(|(i, N(id, x, y, released, action))| {
-            let actions: Vec<Value> = action
-                .iter()
-                .map(|(aid, kind)| json!({"actionId": aid, "actionType": kind, "blockingType": "HARD"}))
-                .collect();
-            json!({
-                "nodeId": id, "sequenceId": first_seq + 2 * i as u32, "released": released,
-                "nodePosition": {"x": x, "y": y, "mapId": "yard", "allowedDeviationXY": 0.25},
-                "actions": actions,
-            })
-        })
-        .collect();
-    let edge_json: Vec<Value> = nodes
-        .windows(2)
-        .enumerate()
-        .map(|(i, pair)| {
-            let mut edge = json!({
-                "edgeId": format!("e{}", first_seq + 2 * i as u32 + 1),
-                "sequenceId": first_seq + 2 * i as u32 + 1,
-                "released": pair[0].3 && pair[1].3,
-                "startNodeId": pair[0].0, "endNodeId": pair[1].0,
-                "maxSpeed": 1.5, "actions": [],
-            });
-            if reverse.contains(&i) {
-                edge["orientation"] = json!(std::f64::consts::PI);
-                edge["orientationType"] = json!("TANGENTIAL");
-            }
-            edge
-        })
-        .collect();
-    json!({
-        "headerId": 1, "timestamp": "2026-11-27T04:00:00.00Z", "version": "2.1.0",
-        "manufacturer": "Furrow", "serialNumber": "R1",
-        "orderId": order_id, "orderUpdateId": update_id, "nodes": node_json, "edges": edge_json,
-    })
-}
-
-fn instant(action_id: &str, kind: &str) -> Value {
-    json!({
-        "headerId": 2, "timestamp": "2026-11-27T04:00:00.00Z", "version": "2.1.0",
-        "manufacturer": "Furrow", "serialNumber": "R1",
-        "actions": [{"actionId": action_id, "actionType": kind, "blockingType": "NONE"}],
-    })
-}
 
 /// Every message published is stamped as the MQTT edge stamps it and
 /// validated against the official schema of its topic.

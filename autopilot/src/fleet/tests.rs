@@ -2,72 +2,12 @@
 //! progress, actions, cancel and pause.
 
 use serde_json::{Value, json};
+use test_support::vda5050::{ALLOWED_DEVIATION_XY_M, N, instant, order};
 use vda5050::Topic;
 use vda5050::state::{ActionStatus, OperatingMode};
 
 use super::agent::{Agent, AgentConfig, Command, Publish, VehicleView};
 use super::map::MapPose;
-
-/// A node: id, map x/y, released, and an optional (actionId, type) HARD action.
-pub struct N(
-    pub &'static str,
-    pub f64,
-    pub f64,
-    pub bool,
-    pub Option<(&'static str, &'static str)>,
-);
-
-/// An order whose edge i joins nodes i and i+1; `reverse` lists edges
-/// driven backwards.
-pub fn order(order_id: &str, update_id: u32, first_seq: u32, nodes: &[N], reverse: &[usize]) -> Value {
-    let node_json: Vec<Value> = nodes
-        .iter()
-        .enumerate()
-        .map(|(i, N(id, x, y, released, action))| {
-            let actions: Vec<Value> = action
-                .iter()
-                .map(|(aid, kind)| json!({"actionId": aid, "actionType": kind, "blockingType": "HARD"}))
-                .collect();
-            json!({
-                "nodeId": id, "sequenceId": first_seq + 2 * i as u32, "released": released,
-                "nodePosition": {"x": x, "y": y, "mapId": "yard", "allowedDeviationXY": 0.3},
-                "actions": actions,
-            })
-        })
-        .collect();
-    let edge_json: Vec<Value> = nodes
-        .windows(2)
-        .enumerate()
-        .map(|(i, pair)| {
-            let mut edge = json!({
-                "edgeId": format!("e{}", first_seq + 2 * i as u32 + 1),
-                "sequenceId": first_seq + 2 * i as u32 + 1,
-                "released": pair[0].3 && pair[1].3,
-                "startNodeId": pair[0].0, "endNodeId": pair[1].0,
-                "maxSpeed": 1.5,
-                "actions": [],
-            });
-            if reverse.contains(&i) {
-                edge["orientation"] = json!(std::f64::consts::PI);
-                edge["orientationType"] = json!("TANGENTIAL");
-            }
-            edge
-        })
-        .collect();
-    json!({
-        "headerId": 1, "timestamp": "2026-11-27T04:00:00.00Z", "version": "2.1.0",
-        "manufacturer": "Furrow", "serialNumber": "R1",
-        "orderId": order_id, "orderUpdateId": update_id, "nodes": node_json, "edges": edge_json,
-    })
-}
-
-pub fn instant(action_id: &str, kind: &str) -> Value {
-    json!({
-        "headerId": 2, "timestamp": "2026-11-27T04:00:00.00Z", "version": "2.1.0",
-        "manufacturer": "Furrow", "serialNumber": "R1",
-        "actions": [{"actionId": action_id, "actionType": kind, "blockingType": "NONE"}],
-    })
-}
 
 fn agent() -> Agent {
     Agent::new(AgentConfig {
@@ -144,7 +84,7 @@ fn a_new_order_is_taken_from_its_first_node_and_driven_leg_by_leg() {
     assert_eq!((a.order.last_node_id.as_str(), a.order.last_node_sequence_id), ("b", 2));
     let second = leg(&command);
     assert!(second.stop, "c is the last node");
-    assert_eq!(second.allowed_deviation_m, Some(0.3));
+    assert_eq!(second.allowed_deviation_m, Some(ALLOWED_DEVIATION_XY_M));
     let mut at_c = view(10.0);
     at_c.arrived_at = Some(4);
     assert_eq!(a.step(&at_c), Command::Hold);

@@ -459,9 +459,7 @@ impl Navigator {
             return NavDemand::default();
         }
         let wp_dist = est.position.distance_to(&target.point);
-        let has_corner = path.exit_arc_rest().is_some();
-
-        let min_preview_m = stop_preview_m(&target, config, cusp, remaining);
+        let exit_rest = path.exit_arc_rest();
         let tracker = track(
             &config.tracker,
             &mut self.tracker,
@@ -471,53 +469,14 @@ impl Navigator {
                 path,
                 projection,
                 direction: target.direction,
-                min_preview_m,
+                min_preview_m: stop_preview_m(&target, config, cusp, remaining),
             },
             dt_s,
         );
-        // Signed along the direction of travel.
-        let travel_speed = est.speed_mps * target.direction.sign();
-        self.travel_speed_mps += (travel_speed - self.travel_speed_mps) * dt_s / (STOP_SPEED_FILTER_S + dt_s);
-
-        let half_tol = 0.5
-            * if cusp {
-                config.stop.position_m.max(CUSP_TOL_M)
-            } else {
-                config.stop.position_m
-            };
-        let done = if target.stop {
-            if remaining.abs() < APPROACH_ZONE_M {
-                self.approach_s += dt_s;
-            }
-            (remaining.abs() <= half_tol && self.travel_speed_mps.abs() <= config.speed.approach_gain_per_s * half_tol)
-                || self.approach_s > APPROACH_TIMEOUT_S
-        } else if has_corner {
-            remaining <= 0.0
-        } else {
-            remaining <= 0.0 || wp_dist <= config.wp_radius_m
-        };
-        // A stop is reached once the vehicle rests on it (below), so the
-        // mission's hold time and a change of direction start from rest.
-        if done && !self.arrived && self.settling.is_none() {
-            if target.stop {
-                self.settling = Some(Settling::default());
-            } else {
-                self.arrived = true;
-                if let Some(rest) = path.exit_arc_rest() {
-                    self.carry = Some(Carry {
-                        corner: target.point,
-                        direction: target.direction,
-                        rest,
-                    });
-                }
-            }
-        }
-
         self.arcs_ahead.clear();
         self.arcs_ahead.extend(path.arcs_from(projection.along_m));
-        let speed_config = cruise_speed_config(&target, config, self.manoeuvre.is_some());
         let speed = scheduled_speed(
-            &speed_config,
+            &cruise_speed_config(&target, config, self.manoeuvre.is_some()),
             &mut self.speed,
             &SpeedInputs {
                 along_m: projection.along_m,
@@ -528,15 +487,9 @@ impl Navigator {
             dt_s,
         );
 
-        // On a manoeuvre the destination is its goal, by the path still to
-        // drive, and it is reached only by stopping there.
-        let (wp_dist_m, goal) = match &self.manoeuvre {
-            Some(m) => (
-                remaining.max(0.0) + m.rest.iter().map(Stroke::length_m).sum::<f64>(),
-                m.goal.position,
-            ),
-            None => (wp_dist, target.point),
-        };
+        let half_tol = 0.5 * stop_tolerance_m(config, cusp);
+        self.note_leg_end(est, &target, remaining, wp_dist, exit_rest, half_tol, config, dt_s);
+        let (wp_dist_m, goal) = self.destination(&target, remaining, wp_dist);
         self.status = NavStatus {
             active: true,
             wp_dist_m,
@@ -551,38 +504,107 @@ impl Navigator {
         };
 
         let settled = self.settle(est.speed_mps, remaining, half_tol, cusp, dt_s);
-        if settled == Settled::Arrived
-            && let Some(path) = self.leg.as_ref().and_then(|leg| leg.path.as_ref())
-        {
-            self.stop_report = Some(stop_report(
-                path,
-                &target,
-                est,
-                remaining,
-                projection.crosstrack_m,
-                config,
-            ));
+        if settled == Settled::Arrived {
+            self.report_stop(&target, est, remaining, projection.crosstrack_m, config);
         }
-        let next_stroke = settled == Settled::NextStroke;
-
-        if next_stroke {
+        if settled == Settled::NextStroke {
             self.next_stroke();
             return NavDemand::default();
         }
+        self.demand(tracker.steer_rad, speed.speed_mps * target.direction.sign(), dt_s)
+    }
+
+    /// Whether the leg's end is reached this tick: a stop once the vehicle
+    /// is within half the tolerance and slow (or has approached too long),
+    /// a pass-through waypoint once past it (or within `WP_RADIUS` of it,
+    /// with no corner to round). A stop then settles; a pass-through leg
+    /// has arrived, carrying the rest of its corner's arc.
+    #[allow(clippy::too_many_arguments)]
+    fn note_leg_end(
+        &mut self,
+        est: &Estimate,
+        target: &NavTarget,
+        remaining: f64,
+        wp_dist: f64,
+        exit_rest: Option<Arc>,
+        half_tol: f64,
+        config: &NavConfig,
+        dt_s: f64,
+    ) {
+        // Signed along the direction of travel.
+        let travel_speed = est.speed_mps * target.direction.sign();
+        self.travel_speed_mps += (travel_speed - self.travel_speed_mps) * dt_s / (STOP_SPEED_FILTER_S + dt_s);
+        let done = if target.stop {
+            if remaining.abs() < APPROACH_ZONE_M {
+                self.approach_s += dt_s;
+            }
+            (remaining.abs() <= half_tol && self.travel_speed_mps.abs() <= config.speed.approach_gain_per_s * half_tol)
+                || self.approach_s > APPROACH_TIMEOUT_S
+        } else if exit_rest.is_some() {
+            remaining <= 0.0
+        } else {
+            remaining <= 0.0 || wp_dist <= config.wp_radius_m
+        };
+        // A stop is reached once the vehicle rests on it (see `settle`), so
+        // the mission's hold time and a change of direction start from rest.
+        if done && !self.arrived && self.settling.is_none() {
+            if target.stop {
+                self.settling = Some(Settling::default());
+            } else {
+                self.arrived = true;
+                if let Some(rest) = exit_rest {
+                    self.carry = Some(Carry {
+                        corner: target.point,
+                        direction: target.direction,
+                        rest,
+                    });
+                }
+            }
+        }
+    }
+
+    /// Keeps the stop error of the stop just come to rest.
+    fn report_stop(
+        &mut self,
+        target: &NavTarget,
+        est: &Estimate,
+        remaining: f64,
+        crosstrack_m: f64,
+        config: &NavConfig,
+    ) {
+        if let Some(path) = self.leg.as_ref().and_then(|leg| leg.path.as_ref()) {
+            self.stop_report = Some(stop_report(path, target, est, remaining, crosstrack_m, config));
+        }
+    }
+
+    /// The distance and point reported as the destination. On a manoeuvre
+    /// the destination is its goal, by the path still to drive, and it is
+    /// reached only by stopping there.
+    fn destination(&self, target: &NavTarget, remaining: f64, wp_dist: f64) -> (f64, Ned) {
+        match &self.manoeuvre {
+            Some(m) => (
+                remaining.max(0.0) + m.rest.iter().map(Stroke::length_m).sum::<f64>(),
+                m.goal.position,
+            ),
+            None => (wp_dist, target.point),
+        }
+    }
+
+    /// The demand this tick: none while stopping, the wheels turned at
+    /// rest while presteering, otherwise the tracker's steering at the
+    /// scheduled speed.
+    fn demand(&mut self, steer_rad: f64, speed_mps: f64, dt_s: f64) -> NavDemand {
         if self.stopping() {
             return NavDemand::default();
         }
-        if self.presteering(tracker.steer_rad, dt_s) {
+        if self.presteering(steer_rad, dt_s) {
             self.speed.reset();
             return NavDemand {
-                steer_rad: tracker.steer_rad,
+                steer_rad,
                 speed_mps: 0.0,
             };
         }
-        NavDemand {
-            steer_rad: tracker.steer_rad,
-            speed_mps: speed.speed_mps * target.direction.sign(),
-        }
+        NavDemand { steer_rad, speed_mps }
     }
 
     /// Settling onto a stop: once at rest (or out of time), try again if
@@ -653,6 +675,16 @@ fn stop_preview_m(target: &NavTarget, config: &NavConfig, cusp: bool, remaining:
         d * (2.0 - remaining / d).clamp(0.0, 1.0)
     } else {
         0.0
+    }
+}
+
+/// The stop's position tolerance: at a cusp between a manoeuvre's strokes
+/// no tighter than `CUSP_TOL_M`.
+fn stop_tolerance_m(config: &NavConfig, cusp: bool) -> f64 {
+    if cusp {
+        config.stop.position_m.max(CUSP_TOL_M)
+    } else {
+        config.stop.position_m
     }
 }
 

@@ -2,7 +2,7 @@
 //! same `Inbound`/`Outbound` messages the link layer carries.
 #![allow(dead_code)]
 
-pub mod noise;
+pub use test_support::noise;
 
 use std::time::Duration;
 
