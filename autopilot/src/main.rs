@@ -68,6 +68,10 @@ struct SitlArgs {
     /// Vehicle model.
     #[arg(long, value_enum, default_value_t = Model::Ackermann)]
     model: Model,
+    /// No simulated inertial unit (by default a VectorNav-style IMU sends
+    /// `$VNIMU` at 50 Hz): the vehicle then reports no gyro or accelerometer.
+    #[arg(long)]
+    no_imu: bool,
     /// Extra MAVLink endpoint: udp:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT, serial:DEV:BAUD (repeatable).
     #[arg(long, value_parser = parse_endpoint)]
     mavlink: Vec<Endpoint>,
@@ -223,6 +227,7 @@ fn run_sitl(args: SitlArgs) -> Result<(), String> {
             },
             seed: args.seed,
             utc_start_unix_us: utc_now_us(),
+            imu: (!args.no_imu).then(sim::ImuSimConfig::default),
         },
         speedup: args.speedup,
         instance: args.instance,

@@ -2,6 +2,8 @@
 //!
 //! - [`gnss`]: GNSS sample types, the NMEA 0183 stream parser that the real
 //!   receiver and SITL both feed, and the port thread that reads a receiver.
+//! - [`imu`]: inertial samples and the VectorNav ASCII lines that carry
+//!   them (read by the NMEA parser, on a port of their own).
 //! - [`scanner`]: laser scans, the SICK CoLa-A telegrams and the scanner client.
 //! - [`magnetic`], [`magnetic_serial`]: magnetic-tape guide readings and the
 //!   sensor pair's serial framing and reader thread.
@@ -24,6 +26,7 @@ pub mod backoff;
 pub mod clock;
 pub mod device;
 pub mod gnss;
+pub mod imu;
 pub mod magnetic;
 pub mod magnetic_serial;
 pub mod ntrip;

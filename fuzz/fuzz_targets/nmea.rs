@@ -1,6 +1,6 @@
 //! NMEA 0183 from a GNSS receiver (`drivers::gnss::NmeaReader`): line
 //! framing, checksums, the `nmea` crate's sentences and the hand-parsed THS,
-//! HDM and HDG.
+//! HDM and HDG, and an IMU's VectorNav `$VNIMU`/`$VNYMR` lines.
 //!
 //! Input: byte 0 is a chunk size, the rest the stream. Properties: the
 //! samples and counters do not depend on chunking; every sample holds
@@ -32,6 +32,7 @@ fn unstamped(sample: &GnssSample) -> GnssSample {
         GnssSample::Accuracy(a) => a.t = Duration::ZERO,
         GnssSample::Heading(h) => h.t = Duration::ZERO,
         GnssSample::Time(t) => t.t = Duration::ZERO,
+        GnssSample::Imu(i) => i.t = Duration::ZERO,
     }
     s
 }
@@ -66,6 +67,10 @@ fn check(sample: &GnssSample) {
         }
         GnssSample::Heading(h) => assert!(h.heading_deg.is_finite(), "{h:?}"),
         GnssSample::Time(_) => {}
+        GnssSample::Imu(i) => {
+            let values = i.gyro_rad_s.iter().chain(&i.accel_mps2).chain(&i.mag_gauss);
+            assert!(values.into_iter().all(|v| v.is_finite()), "{i:?}");
+        }
     }
 }
 

@@ -1,5 +1,6 @@
 //! The SITL world. Its simulated devices emit what real ones do: the GNSS
-//! receiver writes NMEA bytes for [`drivers::gnss::NmeaReader`]; the laser
+//! receiver writes NMEA bytes for [`drivers::gnss::NmeaReader`], as does
+//! the inertial unit (VectorNav `$VNIMU` lines); the laser
 //! scanners ray-cast the obstacles into [`drivers::scanner::Scan`]s.
 //!
 //! Frames: NED about the home point (`north_m`, `east_m`); yaw 0 = north,
@@ -12,6 +13,7 @@ mod battery;
 mod config;
 mod geo;
 mod gnss_sim;
+mod imu_sim;
 mod magnetic;
 mod nmea_out;
 mod obstacles;
@@ -28,6 +30,7 @@ mod tests;
 use vehicle_types::{ActuatorDemand, BatterySample, GeoPoint};
 
 pub use config::{AckermannConfig, BatterySimConfig, DifferentialConfig, GnssSimConfig, VehicleModel, WorldConfig};
+pub use imu_sim::ImuSimConfig;
 pub use magnetic::{
     MAGNETIC_PROBES, MagneticSensor, MagneticSensorConfig, MagneticTape, TapeBuilder, TapeFix, TapeSegment,
 };

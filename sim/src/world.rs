@@ -8,6 +8,7 @@ use std::time::Duration;
 use super::battery::Battery;
 use super::geo::LocalFrame;
 use super::gnss_sim::GnssSim;
+use super::imu_sim::{ImuSim, ImuSimConfig};
 use super::magnetic::MagneticTape;
 use super::obstacles::{ObstacleWorld, VehicleOutline};
 use super::scanner::{SimScanner, SimScannerConfig, scanner_seed};
@@ -32,6 +33,8 @@ pub struct World {
     truth: VehicleTruth,
     battery: Battery,
     gnss: GnssSim,
+    /// The inertial unit, if one is fitted.
+    imu: Option<ImuSim>,
     /// The magnetic guide tape, if one is laid.
     tape: Option<MagneticTape>,
     /// Seeds the magnetic sensors' edge noise and the scanners' noise
@@ -70,6 +73,7 @@ impl World {
         Self {
             frame: LocalFrame::new(config.home),
             gnss: GnssSim::new(seed, &config.gnss),
+            imu: None,
             config,
             time: Duration::ZERO,
             truth,
@@ -160,6 +164,11 @@ impl World {
             self.emit_due_gnss(start, start_t, demand);
             self.stage_times.gnss_out_ns += now_ns().saturating_sub(started_ns);
         }
+        if self.imu.as_ref().is_some_and(|imu| imu.due(self.time).is_some()) {
+            let started_ns = now_ns();
+            self.emit_due_imu(start, start_t, demand);
+            self.stage_times.gnss_out_ns += now_ns().saturating_sub(started_ns);
+        }
         if self.scanners.iter().any(|s| s.due(self.time).is_some()) {
             let started_ns = now_ns();
             self.emit_due_scans(start, start_t, demand);
@@ -178,6 +187,15 @@ impl World {
                 self.frame,
                 self.config.utc_start_unix_us,
             );
+        }
+    }
+
+    fn emit_due_imu(&mut self, start: &VehicleTruth, start_t: Duration, demand: &ActuatorDemand) {
+        while let Some(sample_t) = self.imu.as_ref().and_then(|imu| imu.due(self.time)) {
+            let state = self.state_at(start, start_t, sample_t, demand);
+            if let Some(imu) = &mut self.imu {
+                imu.emit(sample_t, &state);
+            }
         }
     }
 
@@ -227,6 +245,27 @@ impl World {
     /// Append everything the receiver sent since the last call, then forget it.
     pub fn take_gnss_bytes(&mut self, out: &mut Vec<u8>) {
         self.gnss.take_bytes(out);
+    }
+
+    /// Fit (or remove, with `None`) the inertial unit: its samples start on
+    /// its rate's grid from now, with a power-on bias drawn from the
+    /// world's seed (a stream of its own: the other devices' noise is
+    /// unchanged).
+    pub fn set_imu(&mut self, config: Option<ImuSimConfig>) {
+        self.imu = config.map(|c| ImuSim::new(c, self.seed, self.time));
+    }
+
+    /// Append the `$VNIMU` lines the unit sent since the last call.
+    pub fn take_imu_bytes(&mut self, out: &mut Vec<u8>) {
+        if let Some(imu) = &mut self.imu {
+            imu.take_bytes(out);
+        }
+    }
+
+    /// The unit's gyro bias now (x, y, z), if one is fitted: the truth a
+    /// calibration is judged against.
+    pub fn imu_gyro_bias_rad_s(&self) -> Option<[f64; 3]> {
+        self.imu.as_ref().map(ImuSim::gyro_bias_rad_s)
     }
 
     pub fn truth(&self) -> &VehicleTruth {

@@ -27,7 +27,7 @@ async def health_and_version(tcp_port):
         async for h in drone.telemetry.health():
             health = h
             break
-        if health.is_armable and health.is_home_position_ok:
+        if health.is_armable and health.is_home_position_ok and health.is_gyrometer_calibration_ok:
             break
         await asyncio.sleep(0.5)
     async for ok in drone.telemetry.health_all_ok():
@@ -42,17 +42,16 @@ def test_mavsdk_sees_a_ready_vehicle_and_its_version(start_sitl):
     sitl = start_sitl(speedup="1")
     health, all_ok, version = asyncio.run(asyncio.wait_for(health_and_version(sitl.tcp_port), 60))
     print(health, "health_all_ok", all_ok, version)
-    # What Furrow has, reported ready: heading sensor (magnetometer slot),
-    # GNSS position, home, pre-arm checks passed.
+    # What Furrow has, reported ready: the simulated IMU (VectorNav $VNIMU,
+    # on by default in SITL) as gyro and accelerometer, the heading sensor in
+    # the magnetometer slot, GNSS position, home, pre-arm checks passed.
+    # MAVSDK sets each calibration flag from SYS_STATUS's present and health
+    # bits; health_all_ok() needs all three plus positions and home.
+    assert health.is_gyrometer_calibration_ok and health.is_accelerometer_calibration_ok, health
     assert health.is_magnetometer_calibration_ok, health
     assert health.is_global_position_ok and health.is_local_position_ok, health
     assert health.is_home_position_ok and health.is_armable, health
-    # Furrow has no IMU and does not claim one: its heading unit (dual-antenna
-    # GNSS HDT/THS, or a compass HDM/HDG) reports no rates or accelerations.
-    # MAVSDK sets these from SYS_STATUS's 3D_GYRO/3D_ACCEL bits, so its
-    # health_all_ok() (which requires them) is false.
-    assert not health.is_gyrometer_calibration_ok and not health.is_accelerometer_calibration_ok
-    assert all_ok is False
+    assert all_ok is True
     cargo = tomllib.loads((REPO / "Cargo.toml").read_text())
     major, minor, patch = (int(x) for x in cargo["workspace"]["package"]["version"].split("."))
     assert (version.flight_sw_major, version.flight_sw_minor, version.flight_sw_patch) == (major, minor, patch)
@@ -60,3 +59,13 @@ def test_mavsdk_sees_a_ready_vehicle_and_its_version(start_sitl):
     # MAVSDK renders flight_custom_version PX4's way (hex of bytes 3..8);
     # what matters is that they are the hash's characters, not NULs.
     assert version.flight_sw_git_hash.strip("\x00") != "0000000000"
+
+
+def test_without_an_imu_the_gyro_and_accelerometer_flags_stay_false(start_sitl):
+    sitl = start_sitl(speedup="1", extra_args=["--no-imu"])
+    health, all_ok, _ = asyncio.run(asyncio.wait_for(health_and_version(sitl.tcp_port), 60))
+    print(health, "health_all_ok", all_ok)
+    # No unit, no bits: nothing could back them.
+    assert not health.is_gyrometer_calibration_ok and not health.is_accelerometer_calibration_ok
+    assert health.is_magnetometer_calibration_ok and health.is_armable, health
+    assert all_ok is False

@@ -51,6 +51,8 @@ impl GnssStatus {
                 self.utc_unix_us = Some(t.utc_unix_us);
                 self.utc_t = t.t;
             }
+            // Not the receiver's: the estimator reads the IMU itself.
+            GnssSample::Imu(_) => {}
         }
     }
 

@@ -4,7 +4,9 @@
 //! The [`ekf`] fuses GNSS position (σ from GST, else from the fix quality)
 //! with the antenna lever arm, GNSS velocity and course, and heading (a
 //! dual-antenna receiver's true heading, or a compass plus `COMPASS_DEC`;
-//! without either, the course over ground while driving). The estimator
+//! without either, the course over ground while driving), and an inertial
+//! unit's yaw rate when one is fitted ([`imu`]: bias calibrated at rest,
+//! fused while moving). The estimator
 //! around it owns the local frame (built at the first fix from `GEO_*`),
 //! converts true headings into the frame, watches the fix quality, and
 //! turns what the filter did into events the vehicle reports: a GPS jump
@@ -12,6 +14,7 @@
 
 pub mod ekf;
 mod gnss_status;
+mod imu;
 mod params;
 
 use std::time::Duration;
@@ -22,6 +25,7 @@ use crate::geo::{FrameKind, GeoPoint, LocalFrame, Ned, PlaneTransform, wrap_pi};
 use ekf::{Ekf, EkfConfig, EkfStatus, Fusion};
 
 pub use gnss_status::GnssStatus;
+pub use imu::{GyroBias, IMU_STALE_AFTER, ImuState};
 pub use params::{DegradedFixAction, EkfParams, GnssQualityParams};
 
 /// A GST σ older than this is not trusted for the current fix.
@@ -111,6 +115,11 @@ pub enum EstimatorEvent {
     },
     Initialised,
     Healthy(bool),
+    /// The gyro's bias was first measured (at rest): its yaw rate is used
+    /// from now on.
+    GyroCalibrated {
+        bias_rad_s: f64,
+    },
     /// The frame kind asked for cannot be used at the origin (the haversine
     /// frame near a pole): the frame built is `used`.
     FrameSubstituted {
@@ -137,6 +146,7 @@ pub struct Estimator {
     healthy: bool,
     /// Held still with the GNSS agreeing, as of the last update.
     at_rest: bool,
+    imu: ImuState,
 }
 
 impl Estimator {
@@ -165,6 +175,11 @@ impl Estimator {
     /// Since when the heading sensor has reported exactly the same value.
     pub fn heading_unchanged_since(&self) -> Option<Duration> {
         self.heading_reading.map(|(_, since)| since)
+    }
+
+    /// The inertial unit: its last sample, gyro bias and fusion counts.
+    pub fn imu(&self) -> &ImuState {
+        &self.imu
     }
 
     /// Whether the filter's variances are within bounds (its position is
@@ -316,6 +331,13 @@ impl Estimator {
                 Self::advance(ekf, h.t);
                 let fusion = ekf.update_heading(yaw, config.heading_sigma_rad);
                 self.heading_fusion(fusion);
+            }
+            GnssSample::Imu(imu) => {
+                Self::advance(ekf, imu.t);
+                let can_pivot = config.ekf.pivot_yaw_accel_sigma_radps2 > 0.0;
+                if let Some(bias_rad_s) = self.imu.apply(ekf, imu, self.at_rest, can_pivot) {
+                    self.events.push(EstimatorEvent::GyroCalibrated { bias_rad_s });
+                }
             }
             _ => {}
         }

@@ -132,6 +132,8 @@ pub struct Devices {
     gnss: GnssPort,
     gnss_place: String,
     compass: Option<(GnssPort, String)>,
+    /// The inertial unit: VectorNav lines through an NMEA port of its own.
+    imu: Option<(GnssPort, String)>,
     /// The client, its caster for the status view, the GGA interval and
     /// how long the caster may stay silent.
     ntrip: Option<(NtripClient, String, Duration, Duration)>,
@@ -178,6 +180,16 @@ impl Devices {
             )),
             HeadingSource::Gnss | HeadingSource::None => None,
         };
+        let imu = config.imu.as_ref().map(|line| {
+            let port = GnssPortConfig {
+                stale_after: crate::estimation::IMU_STALE_AFTER,
+                ..GnssPortConfig::new(serial_source(line))
+            };
+            (
+                GnssPort::spawn(port, origin),
+                format!("{}@{}", line.path.display(), line.baud),
+            )
+        });
         let ntrip = config.corrections.ntrip.as_ref().map(|n| {
             let client = NtripClient::spawn(n.clone(), origin, runtime);
             (
@@ -209,6 +221,7 @@ impl Devices {
             gnss,
             gnss_place,
             compass,
+            imu,
             ntrip,
             magnetic,
             scanners,
@@ -235,6 +248,9 @@ impl Devices {
         }
         if let Some((compass, _)) = &self.compass {
             compass.drain_samples(&mut inputs.gnss);
+        }
+        if let Some((imu, _)) = &self.imu {
+            imu.drain_samples(&mut inputs.gnss);
         }
         if let Some(magnetic) = &self.magnetic {
             inputs.magnetic = magnetic.latest();
@@ -311,6 +327,9 @@ impl Devices {
         ));
         if let Some((compass, place)) = &self.compass {
             reports.push(report("Compass", place, &compass.status(), compass.is_stale(now), now));
+        }
+        if let Some((imu, place)) = &self.imu {
+            reports.push(report("IMU", place, &imu.status(), imu.is_stale(now), now));
         }
         if let Some((client, place, _, stale_after)) = &self.ntrip {
             let status = client.status();

@@ -10,7 +10,7 @@ use drivers::magnetic::MagneticSample;
 use drivers::scanner::Scan;
 use drivers::scanner::cola::{ColaFramer, ScanTelegram, encode_lmd_scandata_into, parse_lmd_scandata_into};
 use params::{ParamTable, ParamTableBuilder};
-use sim::{AckermannConfig, DifferentialConfig, VehicleModel, World, WorldConfig, WorldStageTimes};
+use sim::{AckermannConfig, DifferentialConfig, ImuSimConfig, VehicleModel, World, WorldConfig, WorldStageTimes};
 use vehicle_types::{ActuatorDemand, GeoPoint};
 
 use super::faults::Faults;
@@ -40,6 +40,8 @@ pub struct SimulationConfig {
     pub seed: u64,
     /// UTC at simulated time zero (the GNSS clock).
     pub utc_start_unix_us: i64,
+    /// The inertial unit on its own port (`$VNIMU` lines), or none.
+    pub imu: Option<ImuSimConfig>,
 }
 
 impl Default for SimulationConfig {
@@ -51,6 +53,7 @@ impl Default for SimulationConfig {
             model: ModelKind::Ackermann,
             seed: 1,
             utc_start_unix_us: world.utc_start_unix_us,
+            imu: Some(ImuSimConfig::default()),
         }
     }
 }
@@ -110,6 +113,9 @@ impl SimulationParams {
 pub struct Simulation {
     world: World,
     nmea: NmeaReader,
+    /// The inertial unit's port: a reader of its own, as on a vehicle.
+    imu_reader: NmeaReader,
+    imu_bytes: Vec<u8>,
     core: Core,
     sim: SimParams,
     inputs: Inputs,
@@ -220,9 +226,13 @@ impl Simulation {
             ..WorldConfig::default()
         };
         let generation = params.table.generation();
+        let mut world = World::new(world_config, config.seed);
+        world.set_imu(config.imu);
         let mut sim = Simulation {
-            world: World::new(world_config, config.seed),
+            world,
             nmea: NmeaReader::new(),
+            imu_reader: NmeaReader::new(),
+            imu_bytes: Vec::new(),
             core: Core::new(params.table, params.core),
             sim: params.sim,
             inputs: Inputs::default(),
@@ -271,6 +281,9 @@ impl Simulation {
         self.gnss_bytes.clear();
         self.world.take_gnss_bytes(&mut self.gnss_bytes);
         self.nmea.push(now.boot, &self.gnss_bytes, &mut self.inputs.gnss);
+        self.imu_bytes.clear();
+        self.world.take_imu_bytes(&mut self.imu_bytes);
+        self.imu_reader.push(now.boot, &self.imu_bytes, &mut self.inputs.gnss);
         self.stage_times.gnss_in_ns += timer.now_ns().saturating_sub(gnss_in_started_ns);
         let mut battery = self.world.battery();
         let forced_v = f64::from(self.sim.battery_volt.get(self.core.params()));

@@ -130,6 +130,10 @@ impl Core {
                 EstimatorEvent::Healthy(false) => {
                     self.send_text(MavSeverity::MAV_SEVERITY_CRITICAL, "EKF: unhealthy, no position")
                 }
+                EstimatorEvent::GyroCalibrated { bias_rad_s } => self.send_text(
+                    MavSeverity::MAV_SEVERITY_INFO,
+                    &format!("IMU: gyro bias {:.3} deg/s, yaw rate in use", bias_rad_s.to_degrees()),
+                ),
                 // The one substitution there is (STATUSTEXT holds 50 characters).
                 EstimatorEvent::FrameSubstituted { .. } => self.send_text(
                     MavSeverity::MAV_SEVERITY_WARNING,

@@ -51,10 +51,13 @@ pub enum Failsafe {
     Control,
     /// The vehicle does not stop when told to (drive not obeying).
     Runaway,
+    /// The inertial unit went silent: reported only, as the estimator
+    /// goes on without its yaw rate.
+    ImuLost,
 }
 
 impl Failsafe {
-    pub const ALL: [Failsafe; 10] = [
+    pub const ALL: [Failsafe; 11] = [
         Failsafe::Gcs,
         Failsafe::GnssLost,
         Failsafe::HeadingLost,
@@ -65,6 +68,7 @@ impl Failsafe {
         Failsafe::CoreStall,
         Failsafe::Control,
         Failsafe::Runaway,
+        Failsafe::ImuLost,
     ];
 
     pub fn name(self) -> &'static str {
@@ -79,6 +83,7 @@ impl Failsafe {
             Failsafe::CoreStall => "core deadline missed",
             Failsafe::Control => "off the path",
             Failsafe::Runaway => "vehicle does not stop",
+            Failsafe::ImuLost => "IMU lost",
         }
     }
 
@@ -116,7 +121,8 @@ impl Failsafe {
             | Failsafe::BatteryLow
             | Failsafe::BatteryCritical
             | Failsafe::CoreStall
-            | Failsafe::Control => true,
+            | Failsafe::Control
+            | Failsafe::ImuLost => true,
         }
     }
 
@@ -129,6 +135,8 @@ impl Failsafe {
             Failsafe::BatteryLow | Failsafe::BatteryCritical => Some(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY),
             Failsafe::Control => Some(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL),
             Failsafe::Runaway => Some(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS),
+            // The accelerometer's bit too (see `sensors_health`).
+            Failsafe::ImuLost => Some(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO),
             // No SYS_STATUS sensor for a link or the scheduler: HEARTBEAT
             // CRITICAL is what says it.
             Failsafe::Gcs | Failsafe::CoreStall => None,
@@ -304,6 +312,12 @@ impl Core {
             Failsafe::CoreStall => self.failsafes.stall.is_some(),
             Failsafe::Control => self.off_path_cause(),
             Failsafe::Runaway => self.runaway_cause(),
+            // A unit that reported once and fell silent (none fitted: none
+            // to lose).
+            Failsafe::ImuLost => {
+                let imu = self.estimator.imu();
+                imu.last().is_some() && !imu.fresh(now)
+            }
         }
     }
 
@@ -414,6 +428,7 @@ impl Core {
             Failsafe::CoreStall => FailsafeAction::from_param(fs.loop_action.get(t)),
             Failsafe::Control => FailsafeAction::from_param(fs.control_action.get(t)),
             Failsafe::Runaway => FailsafeAction::Disarm,
+            Failsafe::ImuLost => FailsafeAction::Report,
         }
     }
 

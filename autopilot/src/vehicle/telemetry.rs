@@ -201,6 +201,11 @@ impl Core {
         if heading_present {
             present |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG;
         }
+        // An inertial unit once it has reported (as the heading sensor).
+        if self.estimator.imu().last().is_some() {
+            present |=
+                MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL;
+        }
         if obstacles_enabled {
             present |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_PROXIMITY
                 | MavSysStatusSensor::MAV_SYS_STATUS_OBSTACLE_AVOIDANCE;
@@ -242,6 +247,13 @@ impl Core {
         }
         if !heading_healthy {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG);
+        }
+        let imu = self.estimator.imu();
+        if !imu.gyro_healthy(self.now.boot) {
+            health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO);
+        }
+        if !imu.accel_healthy(self.now.boot) || self.failsafe_is_active(Failsafe::ImuLost) {
+            health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL);
         }
         if self.battery_arming_failure().is_some() {
             health.remove(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY);

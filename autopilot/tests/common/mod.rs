@@ -21,12 +21,16 @@ pub struct Harness {
 
 impl Harness {
     pub fn new(seed: u64, model: ModelKind) -> Self {
-        let config = SimulationConfig {
+        Self::with_config(SimulationConfig {
             seed,
             model,
             ..SimulationConfig::default()
-        };
-        let mut sim = Simulation::new(&config, SimulationParams::new(model));
+        })
+    }
+
+    /// A vehicle simulated as `config` says (without an IMU, say).
+    pub fn with_config(config: SimulationConfig) -> Self {
+        let mut sim = Simulation::new(&config, SimulationParams::new(config.model));
         gcs::connect(&mut sim);
         Harness {
             sim,

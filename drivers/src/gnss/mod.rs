@@ -149,6 +149,9 @@ pub enum GnssSample {
     Accuracy(GnssAccuracy),
     Heading(GnssHeading),
     Time(GnssTime),
+    /// An inertial unit's rates and accelerations (VectorNav `$VNIMU` or
+    /// `$VNYMR`, see [`crate::imu`]), on a port of its own.
+    Imu(crate::imu::ImuSample),
 }
 
 /// Counters of a reader. Every non-empty line (a `$` also starts a new line,

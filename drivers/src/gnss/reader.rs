@@ -8,8 +8,9 @@ use super::{GnssSample, NmeaStats};
 
 /// Longest line accepted, from `$` to the checksum inclusive, without the
 /// line end. NMEA 0183 says 82 with CR LF, but real RTK receivers send up to
-/// ~100 (high-precision GGA), so this is the `nmea` crate's limit.
-pub const MAX_SENTENCE_LEN: usize = nmea::SENTENCE_MAX_LEN;
+/// ~100 (high-precision GGA, the `nmea` crate's limit) and an IMU's
+/// `$VNYMR` about 125.
+pub const MAX_SENTENCE_LEN: usize = 160;
 
 /// Incremental NMEA 0183 reader.
 ///

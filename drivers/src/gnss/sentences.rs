@@ -1,7 +1,8 @@
 //! One complete line → samples. Framing and checksum are checked here (so a
 //! bad checksum is told apart from an unknown type), then the consumed types
 //! go to `nmea::parse_str` one sentence at a time, and THS, HDM and HDG,
-//! which the `nmea` crate does not know, are parsed by hand.
+//! which the `nmea` crate does not know, are parsed by hand, as are an
+//! IMU's VectorNav lines (`crate::imu`).
 
 use std::time::Duration;
 
@@ -49,6 +50,15 @@ pub(super) fn parse_line(line: &[u8], t: Duration, out: &mut Vec<GnssSample>) ->
     // anything else (proprietary `$P…`, `!AIVDM`) is not ours to read.
     if address.len() != 5 || !text.starts_with('$') {
         return LineOutcome::Unsupported;
+    }
+    if crate::imu::is_imu_address(address) {
+        return match crate::imu::parse_vectornav_body(body, t) {
+            Ok(sample) => {
+                out.push(GnssSample::Imu(sample));
+                LineOutcome::Parsed
+            }
+            Err(_) => LineOutcome::Malformed,
+        };
     }
     let before = out.len();
     let result = match &address[2..] {

@@ -38,6 +38,7 @@ struct RawConfig {
     #[serde(default)]
     scanner: Vec<RawScanner>,
     magnetic: Option<RawSerial>,
+    imu: Option<RawSerial>,
     pwm: Option<RawPwm>,
     #[serde(default)]
     mavlink: Vec<RawMavlink>,
@@ -182,6 +183,10 @@ impl Checker<'_> {
             .magnetic
             .map(|m| self.serial_line("magnetic", &m.serial, Some(&m.baud), None, &mut claims))
             .transpose()?;
+        let imu = raw
+            .imu
+            .map(|m| self.serial_line("imu", &m.serial, Some(&m.baud), None, &mut claims))
+            .transpose()?;
         let pwm = self.pwm(raw.pwm)?;
         let mut mavlink = Vec::new();
         let mut secure_mavlink = Vec::new();
@@ -201,6 +206,7 @@ impl Checker<'_> {
             corrections,
             scanners,
             magnetic,
+            imu,
             pwm,
             mavlink,
             secure_mavlink,

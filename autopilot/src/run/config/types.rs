@@ -41,6 +41,8 @@ pub struct VehicleConfig {
     pub scanners: Vec<HostPort>,
     /// The magnetic guide sensor's frame reader.
     pub magnetic: Option<SerialLine>,
+    /// An inertial unit sending VectorNav `$VNIMU`/`$VNYMR` lines.
+    pub imu: Option<SerialLine>,
     pub pwm: PwmSettings,
     /// MAVLink endpoints, in file order.
     pub mavlink: Vec<Endpoint>,
@@ -241,6 +243,9 @@ impl VehicleConfig {
         }
         if let Some(line) = &self.magnetic {
             lines.push(format!("magnetic     {line}"));
+        }
+        if let Some(line) = &self.imu {
+            lines.push(format!("imu          VectorNav ASCII on {line}"));
         }
         for output in &self.pwm.outputs {
             lines.push(format!(
