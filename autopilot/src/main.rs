@@ -108,6 +108,12 @@ struct SitlArgs {
     /// VDA 5050 map id: orders on another map are refused.
     #[arg(long, default_value = "local", requires = "vda5050")]
     map_id: String,
+    /// Run N vehicles in this process sharing one world (each sees the others with its scanners): instances I…I+N−1, data in DATA_DIR/vehicle-i, VDA 5050 serial SERIAL-i.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=250))]
+    fleet: Option<u16>,
+    /// Where the fleet's vehicles start: one line per vehicle, `NORTH_M EAST_M HEADING_DEG` from --home (default: side by side, 5 m apart).
+    #[arg(long, value_name = "FILE", requires = "fleet")]
+    fleet_homes: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -189,10 +195,11 @@ fn vda5050_options(args: &SitlArgs) -> Result<Option<(MqttConfig, AgentConfig)>,
         return Ok(None);
     };
     let (host, port) = parse_broker_url(url).map_err(|e| format!("--vda5050 {e}"))?;
-    let serial = args
-        .serial_number
-        .clone()
-        .unwrap_or_else(|| format!("furrow-{}", args.instance));
+    let serial = args.serial_number.clone().unwrap_or_else(|| match args.fleet {
+        // A fleet's vehicles are furrow-0, furrow-1, …
+        Some(_) => "furrow".to_owned(),
+        None => format!("furrow-{}", args.instance),
+    });
     let prefix = TopicPrefix::uagv_v2(&args.manufacturer, &serial).map_err(|e| e.to_string())?;
     if args.map_id.is_empty() {
         return Err("--map-id: a map id cannot be empty".into());
@@ -213,9 +220,10 @@ fn vda5050_options(args: &SitlArgs) -> Result<Option<(MqttConfig, AgentConfig)>,
 
 fn run_sitl(args: SitlArgs) -> Result<(), String> {
     let vda5050 = vda5050_options(&args)?;
-    let data_dir = args.data_dir.unwrap_or_else(|| match args.instance {
-        0 => PathBuf::from("furrow-data"),
-        i => PathBuf::from(format!("furrow-data-{i}")),
+    let data_dir = args.data_dir.unwrap_or_else(|| match (args.fleet, args.instance) {
+        (Some(_), _) => PathBuf::from("furrow-fleet-data"),
+        (None, 0) => PathBuf::from("furrow-data"),
+        (None, i) => PathBuf::from(format!("furrow-data-{i}")),
     });
     runner::run(SitlOptions {
         sim: SimulationConfig {
@@ -240,6 +248,10 @@ fn run_sitl(args: SitlArgs) -> Result<(), String> {
         tape: args.tape.map(|path| (path, args.tape_radius)),
         world: args.world,
         vda5050,
+        fleet: args.fleet.map(|count| runner::FleetOptions {
+            count: usize::from(count),
+            homes: args.fleet_homes,
+        }),
     })
 }
 

@@ -11,6 +11,7 @@
 mod actuator;
 mod battery;
 mod config;
+mod fleet;
 mod geo;
 mod gnss_sim;
 mod imu_sim;
@@ -30,6 +31,7 @@ mod tests;
 use vehicle_types::{ActuatorDemand, BatterySample, GeoPoint};
 
 pub use config::{AckermannConfig, BatterySimConfig, DifferentialConfig, GnssSimConfig, VehicleModel, WorldConfig};
+pub use fleet::FleetOutlines;
 pub use imu_sim::ImuSimConfig;
 pub use magnetic::{
     MAGNETIC_PROBES, MagneticSensor, MagneticSensorConfig, MagneticTape, TapeBuilder, TapeFix, TapeSegment,

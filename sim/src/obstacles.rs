@@ -86,6 +86,16 @@ impl Rectangle {
     pub fn corners(&self) -> [[f64; 2]; 4] {
         oriented_corners(self.center, self.yaw_rad, self.half_length_m, self.half_width_m)
     }
+
+    /// The same rectangle as an obstacle.
+    pub fn to_shape(&self) -> Shape {
+        Shape::Box {
+            center: self.center,
+            length_m: 2.0 * self.half_length_m,
+            width_m: 2.0 * self.half_width_m,
+            yaw_rad: self.yaw_rad,
+        }
+    }
 }
 
 /// The parts of an outline that a ray from a point outside can meet first.
@@ -356,23 +366,36 @@ impl MovingObstacle {
 pub struct ObstacleWorld {
     pub statics: Vec<Shape>,
     pub movers: Vec<MovingObstacle>,
+    /// The other vehicles of a fleet, placed where they are now (their
+    /// outlines as boxes; the fleet moves them before every step).
+    pub vehicles: Vec<Shape>,
 }
 
 impl ObstacleWorld {
     pub fn new(statics: Vec<Shape>, movers: Vec<MovingObstacle>) -> Self {
-        Self { statics, movers }
+        Self {
+            statics,
+            movers,
+            vehicles: Vec::new(),
+        }
     }
 
-    /// Every obstacle present at `t_s`, placed: the statics, then the movers
-    /// that have not vanished.
+    /// Every obstacle present at `t_s`, placed: the statics, the other
+    /// vehicles, then the movers that have not vanished.
     pub fn shapes_at(&self, t_s: f64) -> Vec<Shape> {
         let movers = self.movers.iter().filter_map(|m| m.shape_at(t_s));
-        self.statics.iter().cloned().chain(movers).collect()
+        self.statics
+            .iter()
+            .chain(&self.vehicles)
+            .cloned()
+            .chain(movers)
+            .collect()
     }
 
     /// [`Self::shapes_at`] one by one, without copying the statics.
     pub(crate) fn for_each_shape_at(&self, t_s: f64, mut visit: impl FnMut(&Shape)) {
         self.statics.iter().for_each(&mut visit);
+        self.vehicles.iter().for_each(&mut visit);
         for mover in &self.movers {
             if let Some(shape) = mover.shape_at(t_s) {
                 visit(&shape);

@@ -10,7 +10,7 @@ use super::geo::LocalFrame;
 use super::gnss_sim::GnssSim;
 use super::imu_sim::{ImuSim, ImuSimConfig};
 use super::magnetic::MagneticTape;
-use super::obstacles::{ObstacleWorld, VehicleOutline};
+use super::obstacles::{ObstacleWorld, Rectangle, VehicleOutline};
 use super::scanner::{SimScanner, SimScannerConfig, scanner_seed};
 use super::vehicle::{self, VehicleTruth, wrap_pi};
 use super::{ActuatorDemand, BatterySample, GeoPoint, GnssSimConfig, MagneticSensorConfig, VehicleModel, WorldConfig};
@@ -322,8 +322,43 @@ impl World {
     /// Place (or clear, with `None`) the obstacles. Scanners see them from
     /// their next scan; nothing else in the world depends on them (the
     /// vehicle drives through obstacles: see [`Self::clearance_m`]).
+    /// The other vehicles of a fleet are kept (see [`Self::set_other_vehicles`]).
     pub fn set_obstacles(&mut self, obstacles: Option<ObstacleWorld>) {
+        let vehicles = self
+            .obstacles
+            .as_mut()
+            .map(|o| std::mem::take(&mut o.vehicles))
+            .unwrap_or_default();
         self.obstacles = obstacles;
+        if !vehicles.is_empty() {
+            self.obstacles.get_or_insert_default().vehicles = vehicles;
+        }
+    }
+
+    /// The outlines of the other vehicles sharing this world, where they
+    /// are now: the scanners see them and [`Self::clearance_m`] counts them.
+    /// Their buffer is reused, so moving them every step allocates nothing.
+    pub fn set_other_vehicles(&mut self, outlines: impl Iterator<Item = Rectangle>) {
+        let vehicles = &mut self.obstacles.get_or_insert_default().vehicles;
+        vehicles.clear();
+        vehicles.extend(outlines.map(|r| r.to_shape()));
+    }
+
+    /// Puts the vehicle at (`north_m`, `east_m`) about home, heading
+    /// `yaw_rad`, at rest: a fleet's vehicles share one home (one frame for
+    /// obstacles and each other) and start at places of their own.
+    pub fn place(&mut self, north_m: f64, east_m: f64, yaw_rad: f64) {
+        self.truth = VehicleTruth {
+            north_m,
+            east_m,
+            yaw_rad: wrap_pi(yaw_rad),
+            ..VehicleTruth::default()
+        };
+    }
+
+    /// The vehicle's outline at its true pose now.
+    pub fn outline_now(&self, outline: &VehicleOutline) -> Rectangle {
+        outline.rectangle(self.truth.north_m, self.truth.east_m, self.truth.yaw_rad)
     }
 
     pub fn obstacles(&self) -> Option<&ObstacleWorld> {

@@ -13,8 +13,11 @@
 //! - [`mqtt`]: the VDA 5050 client, when the vehicle is an AGV of a fleet.
 //! - [`shutdown`]: the shutdown future (SIGINT or SIGTERM).
 //! - [`runner`]: the loop.
+//! - [`fleet`]: the loop for several vehicles in one process (a simulated
+//!   fleet sharing one world).
 
 pub mod clock;
+pub mod fleet;
 pub mod mqtt;
 pub mod persistence;
 pub mod runner;

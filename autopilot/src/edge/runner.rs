@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use mavlink::dialects::ardupilotmega::MavMessage;
 use tokio::runtime::{Handle, Runtime};
-use tokio::sync::oneshot;
+use tokio::sync::{mpsc, oneshot};
 
 use super::clock::InstantTimer;
 use super::mqtt::{MqttConfig, MqttLink};
@@ -50,7 +50,7 @@ pub trait Platform {
 
 /// The one tokio runtime of a running furrow and the wall clock's origin.
 pub struct EdgeRunner {
-    runtime: Runtime,
+    pub(super) runtime: Runtime,
     origin: Instant,
     mqtt: Option<MqttConfig>,
 }
@@ -90,53 +90,56 @@ impl EdgeRunner {
         persistence: Persistence,
         shutdown: impl Future<Output = ()> + Send + 'static,
     ) -> Result<(), String> {
-        let core = platform.core();
-        let config = HubConfig {
-            sysid: core.sysid(),
-            signing_dir: Some(persistence.dir().to_path_buf()),
-            sign_require_mask: core.sign_require_mask(),
-        };
-        let (links, channels) =
-            hub::spawn(self.runtime.handle(), sockets, config).map_err(|e| format!("MAVLink links: {e}"))?;
+        let mut edge = Edge::start(&self, Platform::core(platform), sockets, persistence, self.mqtt.clone())?;
+        let stop = self.stop_on(shutdown);
+        self.runtime.block_on(edge.drive(platform, stop));
+        platform.stop(edge.wall(), edge.dropped_to_links);
+        edge.finish(&self.runtime);
+        Ok(())
+    }
+
+    /// A receiver that completes when `shutdown` does.
+    pub(super) fn stop_on(&self, shutdown: impl Future<Output = ()> + Send + 'static) -> oneshot::Receiver<()> {
         let (stop_tx, stop) = oneshot::channel();
         self.runtime.spawn(async move {
             shutdown.await;
             let _ = stop_tx.send(());
         });
-        let ftp = FtpService::start(persistence.dir(), channels.outbound.clone());
-        let logger = Logger::start(persistence.dir(), channels.outbound.clone(), channels.backlog.clone());
-        let mqtt = self.mqtt.map(|config| MqttLink::spawn(self.runtime.handle(), config));
-        let mut edge = Edge {
-            mqtt,
-            origin: self.origin,
-            logger,
-            ftp,
-            links,
-            channels,
-            persistence,
-            links_open: true,
-            replies: Vec::new(),
-            dropped_to_links: 0,
-        };
-        self.runtime.block_on(edge.drive(platform, stop));
-        platform.stop(edge.wall(), edge.dropped_to_links);
-        if let Some(mqtt) = edge.mqtt.take() {
-            if mqtt.dropped() > 0 {
-                tracing::warn!("VDA 5050: {} messages dropped (client queue full)", mqtt.dropped());
-            }
-            self.runtime.block_on(mqtt.stop());
-        }
-        edge.persistence.finish();
-        let Edge { links, logger, .. } = edge;
-        crate::logging::edge::report(logger);
-        // The hub saves the signing timestamp as it stops.
-        drop(links);
-        Ok(())
+        stop
     }
 }
 
-/// The loop's side of the links and the data directory.
-struct Edge {
+/// One vehicle's core as its links see it: what the runner hands link
+/// traffic to between ticks. Every [`Platform`] is one; so is each vehicle
+/// of a fleet.
+pub trait LinkServed {
+    fn core(&self) -> &Core;
+    fn inputs_mut(&mut self) -> &mut Inputs;
+    fn answer_at_edge(&mut self, message: &Inbound, wall: Duration, replies: &mut Vec<Outbound>) -> bool;
+    fn service_links(&mut self, wall: Duration) -> &mut Outputs;
+}
+
+impl<P: Platform> LinkServed for P {
+    fn core(&self) -> &Core {
+        Platform::core(self)
+    }
+
+    fn inputs_mut(&mut self) -> &mut Inputs {
+        Platform::inputs_mut(self)
+    }
+
+    fn answer_at_edge(&mut self, message: &Inbound, wall: Duration, replies: &mut Vec<Outbound>) -> bool {
+        Platform::answer_at_edge(self, message, wall, replies)
+    }
+
+    fn service_links(&mut self, wall: Duration) -> &mut Outputs {
+        Platform::service_links(self, wall)
+    }
+}
+
+/// One vehicle's side of its links, data directory, onboard log and VDA
+/// 5050 client.
+pub(super) struct Edge {
     origin: Instant,
     /// The VDA 5050 client, when configured.
     mqtt: Option<MqttLink>,
@@ -150,12 +153,93 @@ struct Edge {
     /// False once the hub has gone (its channel closed).
     links_open: bool,
     replies: Vec<Outbound>,
-    dropped_to_links: u64,
+    pub(super) dropped_to_links: u64,
 }
 
 impl Edge {
-    fn wall(&self) -> Duration {
+    /// Starts the links on `sockets`, FTP, the onboard log and the MQTT
+    /// client (when configured) for `core`.
+    pub(super) fn start(
+        runner: &EdgeRunner,
+        core: &Core,
+        sockets: LinkSockets,
+        persistence: Persistence,
+        mqtt: Option<MqttConfig>,
+    ) -> Result<Edge, String> {
+        let config = HubConfig {
+            sysid: core.sysid(),
+            signing_dir: Some(persistence.dir().to_path_buf()),
+            sign_require_mask: core.sign_require_mask(),
+        };
+        let handle = runner.runtime.handle();
+        let (links, channels) = hub::spawn(handle, sockets, config).map_err(|e| format!("MAVLink links: {e}"))?;
+        let ftp = FtpService::start(persistence.dir(), channels.outbound.clone());
+        let logger = Logger::start(persistence.dir(), channels.outbound.clone(), channels.backlog.clone());
+        Ok(Edge {
+            mqtt: mqtt.map(|config| MqttLink::spawn(handle, config)),
+            origin: runner.origin,
+            logger,
+            ftp,
+            links,
+            channels,
+            persistence,
+            links_open: true,
+            replies: Vec::new(),
+            dropped_to_links: 0,
+        })
+    }
+
+    /// The clean stop: OFFLINE to the broker, pending saves written, the
+    /// log's summary, the links closed.
+    pub(super) fn finish(mut self, runtime: &Runtime) {
+        if let Some(mqtt) = self.take_mqtt() {
+            runtime.block_on(mqtt.stop());
+        }
+        self.persistence.finish();
+        let Edge { links, logger, .. } = self;
+        crate::logging::edge::report(logger);
+        // The hub saves the signing timestamp as it stops.
+        drop(links);
+    }
+
+    /// The MQTT client, to stop it (a fleet stops all of theirs at once).
+    pub(super) fn take_mqtt(&mut self) -> Option<MqttLink> {
+        let mqtt = self.mqtt.take()?;
+        if mqtt.dropped() > 0 {
+            tracing::warn!("VDA 5050: {} messages dropped (client queue full)", mqtt.dropped());
+        }
+        Some(mqtt)
+    }
+
+    pub(super) fn wall(&self) -> Duration {
         self.origin.elapsed()
+    }
+
+    /// Before a tick: link traffic, broker messages and finished saves into
+    /// the inputs.
+    pub(super) fn gather<P: LinkServed>(&mut self, platform: &mut P) {
+        self.take_link_traffic(platform, None);
+        if let Some(mqtt) = &mut self.mqtt {
+            mqtt.drain_into(platform.inputs_mut());
+        }
+        self.persistence.collect(platform.inputs_mut());
+    }
+
+    /// Between ticks: `first` (and whatever else the links delivered)
+    /// answered at once.
+    pub(super) fn serve<P: LinkServed>(&mut self, platform: &mut P, first: Option<ToCore>) {
+        self.take_link_traffic(platform, first);
+        self.persistence.collect(platform.inputs_mut());
+        let saves = self.send(platform.service_links(self.wall()));
+        self.store(platform.core(), saves);
+    }
+
+    /// Hands the links' inbound queue over (the fleet's loop merges every
+    /// vehicle's into one); this edge then reads an empty, closed queue.
+    pub(super) fn take_inbound(&mut self) -> mpsc::Receiver<ToCore> {
+        let (_, closed) = mpsc::channel(1);
+        self.links_open = false;
+        std::mem::replace(&mut self.channels.inbound, closed)
     }
 
     async fn drive<P: Platform>(&mut self, platform: &mut P, mut stop: oneshot::Receiver<()>) {
@@ -164,13 +248,9 @@ impl Edge {
             if !matches!(stop.try_recv(), Err(oneshot::error::TryRecvError::Empty)) {
                 return;
             }
-            self.take_link_traffic(platform, None);
-            if let Some(mqtt) = &mut self.mqtt {
-                mqtt.drain_into(platform.inputs_mut());
-            }
-            self.persistence.collect(platform.inputs_mut());
+            self.gather(platform);
             let saves = self.send(platform.tick(self.wall(), &mut timer));
-            self.store(platform.core(), saves);
+            self.store(Platform::core(platform), saves);
             let Some(delay) = platform.until_next_tick(self.wall()) else {
                 continue;
             };
@@ -184,22 +264,19 @@ impl Edge {
                         item
                     }
                     done = self.persistence.next_done() => {
-                        platform.inputs_mut().saved.push(done);
+                        Platform::inputs_mut(platform).saved.push(done);
                         None
                     }
                     () = tokio::time::sleep_until(deadline) => break,
                 };
-                self.take_link_traffic(platform, first);
-                self.persistence.collect(platform.inputs_mut());
-                let saves = self.send(platform.service_links(self.wall()));
-                self.store(platform.core(), saves);
+                self.serve(platform, first);
             }
         }
     }
 
     /// Moves what the links delivered into the inputs, except what the
     /// platform answers itself.
-    fn take_link_traffic<P: Platform>(&mut self, platform: &mut P, first: Option<ToCore>) {
+    pub(super) fn take_link_traffic<P: LinkServed>(&mut self, platform: &mut P, first: Option<ToCore>) {
         let wall = self.wall();
         let inbound = &mut self.channels.inbound;
         for item in first.into_iter().chain(std::iter::from_fn(|| inbound.try_recv().ok())) {
@@ -221,7 +298,7 @@ impl Edge {
 
     /// Hands the core's messages to the links; returns the saves it asked
     /// for.
-    fn send(&mut self, outputs: &mut Outputs) -> Vec<SaveRequest> {
+    pub(super) fn send(&mut self, outputs: &mut Outputs) -> Vec<SaveRequest> {
         for out in outputs.mavlink.drain(..) {
             if let MavMessage::STATUSTEXT(t) = &out.message {
                 tracing::info!("STATUSTEXT: {}", t.text.to_str().unwrap_or("?"));
@@ -243,7 +320,7 @@ impl Edge {
         }
     }
 
-    fn store(&mut self, core: &Core, saves: Vec<SaveRequest>) {
+    pub(super) fn store(&mut self, core: &Core, saves: Vec<SaveRequest>) {
         self.persistence.save(saves, core);
         self.links.set_sign_require_mask(core.sign_require_mask());
     }

@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
+use super::fleet_homes::FleetHome;
 use super::simulation::{Simulation, SimulationConfig, SimulationParams};
 use crate::edge::clock::{InstantTimer, Pacer};
 use crate::edge::mqtt::MqttConfig;
@@ -47,12 +48,88 @@ pub struct SitlOptions {
     pub world: Option<PathBuf>,
     /// VDA 5050 over MQTT: the broker, who this vehicle is, its map.
     pub vda5050: Option<(MqttConfig, AgentConfig)>,
+    /// Several vehicles in this process, sharing one world.
+    pub fleet: Option<FleetOptions>,
+}
+
+/// `--fleet N`: N vehicles in one process sharing one world.
+#[derive(Clone, Debug)]
+pub struct FleetOptions {
+    pub count: usize,
+    /// `--fleet-homes`: where each starts (default: side by side).
+    pub homes: Option<PathBuf>,
 }
 
 /// Runs until SIGINT/SIGTERM.
 pub fn run(options: SitlOptions) -> Result<(), String> {
-    let data_dir = DataDir::open(&options.data_dir, Profile::Sitl(options.sim.model))?;
+    if let Some(fleet) = &options.fleet {
+        return super::fleet_runner::run(&options, fleet);
+    }
+    let world_watch = options.world.clone().map(WorldWatch::new);
+    let slot = VehicleSlot {
+        data_dir: options.data_dir.clone(),
+        seed: options.sim.seed,
+        instance: options.instance,
+        tcp_port: options.tcp_port,
+        udp_port: options.udp_port,
+        sysid: None,
+        place: None,
+        vda5050: options.vda5050.clone(),
+    };
+    let prepared = prepare(&options, &slot)?;
+    let mut edge = EdgeRunner::new()?;
+    if let Some((mqtt, _)) = options.vda5050.clone() {
+        edge = edge.with_vda5050(mqtt);
+    }
+    // One line on stdout that scripts and tests parse for the bound ports
+    // (new fields go at the end).
+    println!("furrow sitl ready: {}", prepared.ready);
+    log_start(&options);
+    let mut platform = SimulatedVehicle {
+        sim: prepared.sim,
+        world_watch,
+        pacer: Pacer::default(),
+    };
+    edge.run(
+        &mut platform,
+        prepared.sockets,
+        prepared.persistence,
+        shutdown::signal(),
+    )
+}
+
+/// What differs between the vehicles of a fleet.
+pub(super) struct VehicleSlot {
+    pub data_dir: PathBuf,
+    pub seed: u64,
+    /// Ports move by 10 per instance.
+    pub instance: u16,
+    pub tcp_port: Option<u16>,
+    pub udp_port: Option<u16>,
+    /// `SYSID_THISMAV` unless the data directory keeps one.
+    pub sysid: Option<u8>,
+    /// Where it starts about the home (default: at home).
+    pub place: Option<FleetHome>,
+    pub vda5050: Option<(MqttConfig, AgentConfig)>,
+}
+
+/// One simulated vehicle ready to run.
+pub(super) struct Prepared {
+    pub sim: Simulation,
+    pub persistence: Persistence,
+    pub sockets: LinkSockets,
+    /// What `furrow sitl ready:` says about it.
+    pub ready: String,
+}
+
+/// The vehicle of `slot`: its data directory opened, its simulation
+/// built, its links bound.
+pub(super) fn prepare(options: &SitlOptions, slot: &VehicleSlot) -> Result<Prepared, String> {
+    let data_dir = DataDir::open(&slot.data_dir, Profile::Sitl(options.sim.model))?;
     let mut params = SimulationParams::new(options.sim.model);
+    if let Some(sysid) = slot.sysid {
+        params.apply(&[("SYSID_THISMAV".to_owned(), f64::from(sysid))])?;
+    }
     let mut session = SessionParams::load(data_dir.path(), &mut params.table)?;
     if let Some(speedup) = options.speedup {
         let value = match speedup {
@@ -63,33 +140,22 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
             .set_override(&mut params.table, "SIM_SPEEDUP", value)
             .map_err(|e| format!("--speedup: {e}"))?;
     }
-    let mut sim = Simulation::new(&options.sim, params);
-    if let Some((path, radius_m)) = &options.tape {
-        let tape = super::tape::load(path, sim.world(), *radius_m).map_err(|e| format!("--tape {e}"))?;
-        tracing::info!("magnetic tape laid: {:.1} m from {}", tape.length_m(), path.display());
-        sim.world_mut().set_tape(Some(tape));
-    }
-    let world_watch = match &options.world {
-        Some(path) => {
-            let file = sim::load_world_file(path).map_err(|e| format!("--world {}: {e}", path.display()))?;
-            if file.tape().is_some() && options.tape.is_some() {
-                return Err(format!(
-                    "--world {} lays a tape and so does --tape: give one",
-                    path.display()
-                ));
-            }
-            apply_world(&mut sim, &file);
-            tracing::info!("world loaded from {}", path.display());
-            Some(WorldWatch::new(path.clone()))
-        }
-        None => None,
+    let config = SimulationConfig {
+        seed: slot.seed,
+        ..options.sim.clone()
     };
+    let mut sim = Simulation::new(&config, params);
+    if let Some(home) = slot.place {
+        let (north_m, east_m) = (home.north_m, home.east_m);
+        sim.world_mut().place(north_m, east_m, home.heading_deg.to_radians());
+    }
+    lay_tape_and_world(options, &mut sim)?;
     persistence::restore(&data_dir, &mut session, sim.core_mut());
     let persistence = Persistence::start(&data_dir, session, sim.core_mut());
 
-    let offset = 10 * options.instance;
-    let tcp_port = options.tcp_port.unwrap_or(5760 + offset);
-    let udp_port = options.udp_port.unwrap_or(14550 + offset);
+    let offset = 10 * slot.instance;
+    let tcp_port = slot.tcp_port.unwrap_or(5760 + offset);
+    let udp_port = slot.udp_port.unwrap_or(14550 + offset);
     let sockets = LinkSockets::bind(&LinkEndpoints {
         tcp_server: Some(format!("0.0.0.0:{tcp_port}")),
         udp_out: Some(format!("127.0.0.1:{udp_port}")),
@@ -98,23 +164,50 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
     })
     .map_err(|e| format!("MAVLink links: {e}"))?;
 
-    let mut edge = EdgeRunner::new()?;
     let mut fleet_suffix = String::new();
-    if let Some((mqtt, agent)) = options.vda5050.clone() {
+    if let Some((mqtt, agent)) = slot.vda5050.clone() {
         fleet_suffix = format!(", vda5050 {}", mqtt.prefix.topic(vda5050::Topic::State));
         tracing::info!("VDA 5050: broker {}:{}, map {:?}", mqtt.host, mqtt.port, agent.map_id);
         sim.core_mut().enable_vda5050(agent);
-        edge = edge.with_vda5050(mqtt);
     }
     let tcp = sockets.bound.tcp.map_or("none".into(), |a| a.to_string());
     let udp = sockets.bound.udp_local.map_or("none".into(), |a| a.to_string());
     let listeners = sockets.bound.ready_suffix();
-    // One line on stdout that scripts and tests parse for the bound ports
-    // (new fields go at the end).
-    println!(
-        "furrow sitl ready: tcp {tcp}, udp {udp} to 127.0.0.1:{udp_port}, sysid {}{listeners}{fleet_suffix}",
+    let ready = format!(
+        "tcp {tcp}, udp {udp} to 127.0.0.1:{udp_port}, sysid {}{listeners}{fleet_suffix}",
         sim.core().sysid()
     );
+    Ok(Prepared {
+        sim,
+        persistence,
+        sockets,
+        ready,
+    })
+}
+
+/// `--tape` and `--world` into the simulation (each vehicle of a fleet
+/// gets the same: they share one home frame).
+fn lay_tape_and_world(options: &SitlOptions, sim: &mut Simulation) -> Result<(), String> {
+    if let Some((path, radius_m)) = &options.tape {
+        let tape = super::tape::load(path, sim.world(), *radius_m).map_err(|e| format!("--tape {e}"))?;
+        tracing::info!("magnetic tape laid: {:.1} m from {}", tape.length_m(), path.display());
+        sim.world_mut().set_tape(Some(tape));
+    }
+    if let Some(path) = &options.world {
+        let file = sim::load_world_file(path).map_err(|e| format!("--world {}: {e}", path.display()))?;
+        if file.tape().is_some() && options.tape.is_some() {
+            return Err(format!(
+                "--world {} lays a tape and so does --tape: give one",
+                path.display()
+            ));
+        }
+        apply_world(sim, &file);
+        tracing::info!("world loaded from {}", path.display());
+    }
+    Ok(())
+}
+
+pub(super) fn log_start(options: &SitlOptions) {
     tracing::info!(
         "SITL: home {:.7},{:.7} heading {:.1}°, model {:?}, seed {}, data {}",
         options.sim.home.lat_deg,
@@ -124,12 +217,6 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         options.sim.seed,
         options.data_dir.display()
     );
-    let mut platform = SimulatedVehicle {
-        sim,
-        world_watch,
-        pacer: Pacer::default(),
-    };
-    edge.run(&mut platform, sockets, persistence, shutdown::signal())
 }
 
 /// The simulated world and its devices around the core, on simulated time
@@ -151,7 +238,7 @@ impl Platform for SimulatedVehicle {
 
     fn tick(&mut self, wall: Duration, timer: &mut InstantTimer) -> &mut Outputs {
         if let Some(watch) = &mut self.world_watch {
-            watch.poll(wall, &mut self.sim);
+            watch.poll(wall, std::slice::from_mut(&mut self.sim));
         }
         self.sim.step(wall, timer)
     }
@@ -185,7 +272,7 @@ impl Platform for SimulatedVehicle {
 
 /// Puts a world file's obstacles (and tape, if it has one) into the
 /// simulation.
-fn apply_world(sim: &mut Simulation, file: &sim::WorldFile) {
+pub(super) fn apply_world(sim: &mut Simulation, file: &sim::WorldFile) {
     sim.world_mut().set_obstacles(Some(file.obstacles()));
     if let Some(tape) = file.tape() {
         sim.world_mut().set_tape(Some(tape));
@@ -195,7 +282,7 @@ fn apply_world(sim: &mut Simulation, file: &sim::WorldFile) {
 /// Reloads the world file when its modification time changes (checked
 /// once a wall second). A file that no longer parses keeps the old world
 /// and says why.
-struct WorldWatch {
+pub(super) struct WorldWatch {
     path: PathBuf,
     modified: Option<std::time::SystemTime>,
     next_check: Duration,
@@ -204,7 +291,7 @@ struct WorldWatch {
 impl WorldWatch {
     const EVERY: Duration = Duration::from_secs(1);
 
-    fn new(path: PathBuf) -> Self {
+    pub(super) fn new(path: PathBuf) -> Self {
         let modified = std::fs::metadata(&path).and_then(|m| m.modified()).ok();
         WorldWatch {
             path,
@@ -213,7 +300,8 @@ impl WorldWatch {
         }
     }
 
-    fn poll(&mut self, wall: Duration, sim: &mut Simulation) {
+    /// Every vehicle of a fleet gets the reloaded world.
+    pub(super) fn poll(&mut self, wall: Duration, sims: &mut [Simulation]) {
         if wall < self.next_check {
             return;
         }
@@ -226,17 +314,21 @@ impl WorldWatch {
         use mavlink::dialects::ardupilotmega::MavSeverity;
         match sim::load_world_file(&self.path) {
             Ok(file) => {
-                apply_world(sim, &file);
                 tracing::info!("world reloaded from {}", self.path.display());
-                sim.core_mut()
-                    .announce(MavSeverity::MAV_SEVERITY_INFO, "SIM: world reloaded");
+                for sim in sims {
+                    apply_world(sim, &file);
+                    sim.core_mut()
+                        .announce(MavSeverity::MAV_SEVERITY_INFO, "SIM: world reloaded");
+                }
             }
             Err(e) => {
                 tracing::warn!("world file {}: {e}; keeping the old world", self.path.display());
-                sim.core_mut().announce(
-                    MavSeverity::MAV_SEVERITY_WARNING,
-                    "SIM: world file invalid, kept old world",
-                );
+                for sim in sims {
+                    sim.core_mut().announce(
+                        MavSeverity::MAV_SEVERITY_WARNING,
+                        "SIM: world file invalid, kept old world",
+                    );
+                }
             }
         }
     }

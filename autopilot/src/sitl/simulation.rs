@@ -10,7 +10,7 @@ use drivers::magnetic::MagneticSample;
 use drivers::scanner::Scan;
 use drivers::scanner::cola::{ColaFramer, ScanTelegram, encode_lmd_scandata_into, parse_lmd_scandata_into};
 use params::{ParamTable, ParamTableBuilder};
-use sim::{AckermannConfig, DifferentialConfig, ImuSimConfig, VehicleModel, World, WorldConfig, WorldStageTimes};
+use sim::{AckermannConfig, DifferentialConfig, ImuSimConfig, VehicleModel, VehicleOutline, World, WorldConfig, WorldStageTimes};
 use vehicle_types::{ActuatorDemand, GeoPoint};
 
 use super::faults::Faults;
@@ -483,6 +483,23 @@ impl Simulation {
     /// Simulated time.
     pub fn time(&self) -> Duration {
         self.world.time()
+    }
+
+    /// The simulated vehicle's outline: as big as its parameters say
+    /// (`VEH_LEN_FRONT`, `VEH_LEN_REAR`, `VEH_WIDTH`).
+    pub fn outline(&self) -> VehicleOutline {
+        let footprint = &self.core.param_handles().obstacles.footprint;
+        let p = self.core.params();
+        VehicleOutline {
+            front_m: f64::from(footprint.front_m.get(p)),
+            rear_m: f64::from(footprint.rear_m.get(p)),
+            half_width_m: f64::from(footprint.width_m.get(p)) / 2.0,
+        }
+    }
+
+    /// The outputs of the last step, as the caller left them.
+    pub fn outputs_mut(&mut self) -> &mut Outputs {
+        &mut self.outputs
     }
 
     /// The demand the world received on the last step.
