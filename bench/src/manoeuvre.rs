@@ -4,7 +4,8 @@
 //! back home from there, on both vehicle models. Everything is measured
 //! from the simulator's truth: the final pose against the goal
 //! (`WP_STOP_TOL_MM` / `WP_STOP_TOL_DEG`, the defaults 10 mm and 0.05°),
-//! the changes of direction the wheels really made, failsafes, and
+//! the changes of direction the wheels really made, the turns on the spot
+//! (a differential vehicle's pivots: turning while the centre stands), failsafes, and
 //! "Reached" claims made for a stop the truth has out of tolerance.
 //!
 //! The goal is the one the vehicle was given: a GUIDED target as its
@@ -28,6 +29,9 @@ const DISTANCES_M: [f64; 4] = [1.0, 3.0, 6.0, 10.0];
 const BEARINGS: usize = 8;
 const TOL_M: f64 = 0.010;
 const TOL_DEG: f64 = 0.05;
+/// A turn on the spot: turning faster than this while the centre moves
+/// slower than the direction-change threshold.
+const PIVOT_RATE_RAD_S: f64 = 0.05;
 /// A goal not decided within this long counts as not reached.
 const TIMEOUT_S: f64 = 300.0;
 
@@ -42,6 +46,7 @@ struct Outcome {
     position_mm: f64,
     yaw_deg: f64,
     direction_changes: usize,
+    pivots: usize,
     failsafes: usize,
     duration_s: f64,
     /// The truth's error at the verdict (before the bench's extra second).
@@ -98,12 +103,14 @@ impl Run {
         run
     }
 
-    /// Steps until a text satisfies `done` or `seconds` pass; every text.
-    fn drive_until(&mut self, seconds: f64, mut done: impl FnMut(&str) -> bool) -> (Vec<String>, usize, bool) {
+    /// Steps until a text satisfies `done` or `seconds` pass; every text,
+    /// the changes of direction and the turns on the spot.
+    fn drive_until(&mut self, seconds: f64, mut done: impl FnMut(&str) -> bool) -> (Vec<String>, usize, usize) {
         let end = self.sim.time().as_secs_f64() + seconds;
         let mut texts = Vec::new();
         let mut changes = 0;
         let mut last_sign = 0.0;
+        let (mut pivots, mut pivoting) = (0, false);
         while self.sim.time().as_secs_f64() < end {
             let out = self.sim.step(Duration::ZERO, &mut self.timer);
             // A long text goes out in 50-character chunks, several a step.
@@ -120,11 +127,16 @@ impl Run {
                 }
                 last_sign = speed.signum();
             }
+            let turning = self.sim.world().truth().yaw_rate_rad_s.abs() > PIVOT_RATE_RAD_S;
+            if turning && speed.abs() <= 0.02 && !pivoting {
+                pivots += 1;
+            }
+            pivoting = turning && (pivoting || speed.abs() <= 0.02);
             if texts[before..].iter().any(|t| done(t)) {
-                return (texts, changes, true);
+                break;
             }
         }
-        (texts, changes, false)
+        (texts, changes, pivots)
     }
 
     /// A point the vehicle knows (geodetic) in the simulator's frame.
@@ -160,7 +172,7 @@ impl Run {
                 .iter()
                 .any(|v| t.starts_with(v))
         };
-        let (texts, direction_changes, _) = self.drive_until(TIMEOUT_S, verdict);
+        let (texts, direction_changes, pivots) = self.drive_until(TIMEOUT_S, verdict);
         let (verdict_mm, _) = self.error(&goal);
         let estimate_error_mm = self.estimate_error_mm();
         let sigma_mm = self.sim.core().estimator().estimate().horiz_sigma_m * 1000.0;
@@ -181,6 +193,7 @@ impl Run {
             position_mm,
             yaw_deg,
             direction_changes,
+            pivots,
             failsafes: texts.iter().filter(|t| t.contains("ailsafe")).count(),
             duration_s: self.sim.time().as_secs_f64() - start_s,
             verdict_mm,
@@ -238,9 +251,9 @@ pub fn report(seeds: u64) {
     );
     println!();
     println!(
-        "| model | GNSS | leg | goals | reached within 10 mm & 0.05° | \"Reached\" claimed | false \"Reached\" | stopped, unconfirmed | most direction changes | failsafes | p95 mm | worst mm | worst yaw ° | median s |"
+        "| model | GNSS | leg | goals | reached within 10 mm & 0.05° | \"Reached\" claimed | false \"Reached\" | stopped, unconfirmed | most direction changes | most turns on the spot | failsafes | p95 mm | worst mm | worst yaw ° | median s |"
     );
-    println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     let mut misses = Vec::new();
     for model in [ModelKind::Ackermann, ModelKind::Differential] {
         for (receiver, walk_m) in RECEIVERS {
@@ -308,6 +321,7 @@ fn print_row(model: ModelKind, receiver: &str, leg: &str, outcomes: &[Outcome]) 
     let unconfirmed = outcomes.iter().filter(|o| o.unconfirmed).count();
     let false_claims = outcomes.iter().filter(|o| o.claimed && !o.within).count();
     let changes = outcomes.iter().map(|o| o.direction_changes).max().unwrap_or(0);
+    let pivots = outcomes.iter().map(|o| o.pivots).max().unwrap_or(0);
     let failsafes: usize = outcomes.iter().map(|o| o.failsafes).sum();
     let mut mm: Vec<f64> = outcomes.iter().map(|o| o.position_mm).collect();
     mm.sort_by(f64::total_cmp);
@@ -316,7 +330,7 @@ fn print_row(model: ModelKind, receiver: &str, leg: &str, outcomes: &[Outcome]) 
     let worst_yaw = outcomes.iter().map(|o| o.yaw_deg.abs()).fold(0.0, f64::max);
     let at = |v: &[f64], q: f64| v[((q * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
     println!(
-        "| {model:?} | {receiver} | {leg} | {n} | {within} ({:.0} %) | {claims} | {false_claims} | {unconfirmed} | {changes} | {failsafes} | {:.1} | {:.1} | {worst_yaw:.3} | {:.0} |",
+        "| {model:?} | {receiver} | {leg} | {n} | {within} ({:.0} %) | {claims} | {false_claims} | {unconfirmed} | {changes} | {pivots} | {failsafes} | {:.1} | {:.1} | {worst_yaw:.3} | {:.0} |",
         100.0 * within as f64 / n as f64,
         at(&mm, 0.95),
         mm[n - 1],

@@ -10,6 +10,12 @@
 //!
 //! Cheapest: the length plus `CUSP_COST_M` per change of direction (each is
 //! a stop and a rest), within the limits on length and direction changes.
+//!
+//! A vehicle that can turn on the spot (differential drive, pivots allowed)
+//! also has the pivot plan: turn in place to face the goal (or away from it,
+//! to back in), drive the straight line to it, and turn in place onto its
+//! heading. Each pivot costs `PIVOT_COST_M` (a stop, a turn and a rest),
+//! so the arcs still win where a long approach is cheaper.
 
 use std::f64::consts::PI;
 
@@ -21,6 +27,15 @@ use crate::guidance::tracker::Direction;
 /// What a change of direction costs, in metres of path: a stop, a rest and
 /// a start.
 pub const CUSP_COST_M: f64 = 2.0;
+/// What a turn on the spot costs, in metres of path, as a change of
+/// direction does.
+pub const PIVOT_COST_M: f64 = CUSP_COST_M;
+/// A pivot is planned only for a heading change larger than this: the
+/// tracker takes out a smaller one on the straight.
+pub const PIVOT_MIN_RAD: f64 = 0.1 * PI / 180.0;
+/// A goal this close is reached by turning on the spot alone: a straight
+/// this short has no direction to pivot onto.
+const PIVOT_ONLY_M: f64 = 0.02;
 /// Headings tried for a goal that has none.
 const FREE_HEADINGS: usize = 16;
 
@@ -33,13 +48,19 @@ pub struct ManoeuvreConfig {
     pub approach_m: f64,
     pub max_length_m: f64,
     pub max_direction_changes: usize,
+    /// The vehicle may turn on the spot (differential drive, `MNV_PIVOT`).
+    pub pivots: bool,
 }
 
 /// A planned manoeuvre: strokes of one gear each, stopping between them.
+/// With `pivots`, the vehicle turns on the spot before each stroke onto the
+/// heading it starts with, and after the last onto the goal's heading
+/// (there may then be no stroke at all: a heading change at a stop).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Manoeuvre {
     pub strokes: Vec<Stroke>,
     pub goal: Pose,
+    pub pivots: bool,
 }
 
 impl Manoeuvre {
@@ -47,13 +68,81 @@ impl Manoeuvre {
         self.strokes.iter().map(Stroke::length_m).sum()
     }
 
+    /// Changes between forward and reverse.
     pub fn direction_changes(&self) -> usize {
-        self.strokes.len().saturating_sub(1)
+        self.strokes
+            .windows(2)
+            .filter(|w| w[0].direction != w[1].direction)
+            .count()
     }
 
-    pub fn cost_m(&self) -> f64 {
-        self.length_m() + CUSP_COST_M * self.direction_changes() as f64
+    /// The headings the vehicle turns on the spot to, in order, from
+    /// `start_yaw_rad`.
+    pub fn pivot_headings(&self, start_yaw_rad: f64) -> Vec<f64> {
+        if !self.pivots {
+            return Vec::new();
+        }
+        let mut yaw = start_yaw_rad;
+        let mut out = Vec::new();
+        let starts = self.strokes.iter().map(|s| (stroke_start_yaw(s), s.end.yaw_rad));
+        for (start, end) in starts.chain([(self.goal.yaw_rad, self.goal.yaw_rad)]) {
+            if wrap_pi(start - yaw).abs() > PIVOT_MIN_RAD {
+                out.push(start);
+            }
+            yaw = end;
+        }
+        out
     }
+
+    pub fn cost_m(&self, start_yaw_rad: f64) -> f64 {
+        self.length_m()
+            + CUSP_COST_M * self.direction_changes() as f64
+            + PIVOT_COST_M * self.pivot_headings(start_yaw_rad).len() as f64
+    }
+}
+
+/// The vehicle's heading where a stroke starts.
+pub fn stroke_start_yaw(stroke: &Stroke) -> f64 {
+    let flip = if stroke.direction == Direction::Reverse {
+        PI
+    } else {
+        0.0
+    };
+    wrap_pi(stroke.pieces[0].heading_at(0.0) - flip)
+}
+
+/// The pivot plans to `goal`: turn on the spot, drive the straight line
+/// to it forwards or in reverse, turn onto its heading; or, for a goal
+/// where the vehicle stands, only the turn.
+fn pivot_candidates(start: &Pose, goal: &Pose) -> Vec<Manoeuvre> {
+    let distance = start.position.distance_to(&goal.position);
+    if distance < PIVOT_ONLY_M {
+        return vec![Manoeuvre {
+            strokes: Vec::new(),
+            goal: *goal,
+            pivots: true,
+        }];
+    }
+    let bearing = start.position.bearing_to(&goal.position);
+    [Direction::Forward, Direction::Reverse]
+        .into_iter()
+        .map(|direction| {
+            let flip = if direction == Direction::Reverse { PI } else { 0.0 };
+            let stroke = Stroke {
+                direction,
+                pieces: vec![Piece::Line(Segment::new(start.position, goal.position))],
+                end: Pose {
+                    position: goal.position,
+                    yaw_rad: wrap_pi(bearing - flip),
+                },
+            };
+            Manoeuvre {
+                strokes: vec![stroke],
+                goal: *goal,
+                pivots: true,
+            }
+        })
+        .collect()
 }
 
 /// Why no manoeuvre was planned.
@@ -91,6 +180,7 @@ pub fn candidates(start: &Pose, goal: &Pose, config: &ManoeuvreConfig) -> Vec<Ma
         .map(|word| Manoeuvre {
             strokes: to_strokes(start, &word, config.radius_m),
             goal: *goal,
+            pivots: false,
         })
         .filter(|m| {
             let pieces: Vec<&Piece> = m.strokes.iter().flat_map(|s| &s.pieces).collect();
@@ -128,8 +218,15 @@ pub fn candidates(start: &Pose, goal: &Pose, config: &ManoeuvreConfig) -> Vec<Ma
                     end: *goal,
                 }),
             }
-            out.push(Manoeuvre { strokes, goal: *goal });
+            out.push(Manoeuvre {
+                strokes,
+                goal: *goal,
+                pivots: false,
+            });
         }
+    }
+    if config.pivots {
+        out.extend(pivot_candidates(start, goal));
     }
     out
 }
@@ -173,7 +270,7 @@ pub fn plan(start: &Pose, goal: Ned, yaw_rad: Option<f64>, config: &ManoeuvreCon
     let best = fitting_changes
         .clone()
         .filter(|m| m.length_m() <= config.max_length_m)
-        .min_by(|a, b| a.cost_m().total_cmp(&b.cost_m()));
+        .min_by(|a, b| a.cost_m(start.yaw_rad).total_cmp(&b.cost_m(start.yaw_rad)));
     if let Some(best) = best {
         return Ok(best.clone());
     }
@@ -189,6 +286,7 @@ pub fn plan(start: &Pose, goal: Ned, yaw_rad: Option<f64>, config: &ManoeuvreCon
 mod tests {
     use super::*;
     use proptest::prelude::*;
+    use std::f64::consts::FRAC_PI_2;
 
     fn config() -> ManoeuvreConfig {
         ManoeuvreConfig {
@@ -196,6 +294,7 @@ mod tests {
             approach_m: 3.0,
             max_length_m: 60.0,
             max_direction_changes: 3,
+            pivots: false,
         }
     }
 
@@ -287,7 +386,60 @@ mod tests {
         assert!(plan(&start(), Ned::new(f64::NAN, 0.0), None, &config()).is_err());
     }
 
+    #[test]
+    fn a_vehicle_that_pivots_turns_on_the_spot_for_a_goal_beside() {
+        let cfg = ManoeuvreConfig {
+            pivots: true,
+            ..config()
+        };
+        let m = plan(&start(), Ned::new(0.0, 3.0), Some(0.0), &cfg).unwrap();
+        assert!(m.pivots, "{m:?}");
+        assert_eq!(m.direction_changes(), 0);
+        assert!((m.length_m() - 3.0).abs() < 1e-9, "{}", m.length_m());
+        let pivots = m.pivot_headings(0.0);
+        assert_eq!(pivots.len(), 2, "{pivots:?}");
+        // Facing along the line (east, or west to back in), then north.
+        assert!((wrap_pi(pivots[0]).abs() - FRAC_PI_2).abs() < 1e-9, "{pivots:?}");
+        assert!(pivots[1].abs() < 1e-12);
+        // The same goal without pivots takes arcs and is longer.
+        let arcs = plan(&start(), Ned::new(0.0, 3.0), Some(0.0), &config()).unwrap();
+        assert!(!arcs.pivots && arcs.length_m() > 3.0);
+    }
+
+    #[test]
+    fn a_heading_change_at_a_stop_is_a_pivot_alone() {
+        let cfg = ManoeuvreConfig {
+            pivots: true,
+            ..config()
+        };
+        let m = plan(&start(), Ned::new(0.005, 0.0), Some(2.0), &cfg).unwrap();
+        assert!(m.strokes.is_empty(), "{m:?}");
+        assert_eq!(m.pivot_headings(0.0), vec![2.0]);
+        assert_eq!(m.length_m(), 0.0);
+    }
+
     proptest! {
+        /// With pivots, any goal 1–10 m away is planned within the limits,
+        /// never dearer than turning, driving straight and turning.
+        #[test]
+        fn with_pivots_no_plan_is_dearer_than_the_pivot_plan(
+            distance in 1.0f64..10.0, bearing in -PI..PI, yaw in -PI..PI, start_yaw in -PI..PI,
+        ) {
+            let cfg = ManoeuvreConfig { pivots: true, ..config() };
+            let from = Pose { position: Ned::new(0.0, 0.0), yaw_rad: start_yaw };
+            let goal = Ned::new(distance * bearing.cos(), distance * bearing.sin());
+            let m = plan(&from, goal, Some(yaw), &cfg).map_err(|e| TestCaseError::fail(format!("{e}")))?;
+            prop_assert!(m.direction_changes() <= cfg.max_direction_changes);
+            prop_assert!(m.length_m() <= cfg.max_length_m);
+            let pivot_plan_cost = distance + 2.0 * PIVOT_COST_M;
+            prop_assert!(m.cost_m(start_yaw) <= pivot_plan_cost + 1e-9, "{} > {}", m.cost_m(start_yaw), pivot_plan_cost);
+            if m.pivots {
+                let last = m.strokes.last().unwrap();
+                prop_assert!(last.end.position.distance_to(&goal) < 1e-9);
+                prop_assert!(m.pivot_headings(start_yaw).len() <= 2);
+            }
+        }
+
         /// Any goal 1–10 m away in any direction, with or without a heading:
         /// a manoeuvre within the limits that ends at the goal, the cheapest
         /// of all the candidates that fit.
@@ -306,7 +458,7 @@ mod tests {
                 let goal_pose = Pose { position: goal, yaw_rad: yaw };
                 for other in candidates(&start(), &goal_pose, &cfg) {
                     if other.direction_changes() <= cfg.max_direction_changes && other.length_m() <= cfg.max_length_m {
-                        prop_assert!(m.cost_m() <= other.cost_m() + 1e-9);
+                        prop_assert!(m.cost_m(0.0) <= other.cost_m(0.0) + 1e-9);
                     }
                 }
             }

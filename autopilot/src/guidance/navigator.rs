@@ -8,7 +8,7 @@ use std::collections::VecDeque;
 
 use crate::estimation::Estimate;
 use crate::geo::{Ned, wrap_pi};
-use crate::guidance::manoeuvre::Manoeuvre;
+use crate::guidance::manoeuvre::{Manoeuvre, stroke_start_yaw};
 use crate::guidance::path::{Arc, LegPath, fit_corner};
 use crate::guidance::reeds_shepp::{Pose, Stroke};
 use crate::guidance::speed::{SpeedConfig, SpeedInputs, SpeedState, SpeedStatus, scheduled_speed};
@@ -29,6 +29,12 @@ const REST_TIMEOUT_S: f64 = 5.0;
 /// short or past by more than half the tolerance, the vehicle creeps again,
 /// up to this many times.
 const MAX_REAPPROACHES: u32 = 3;
+/// …but only for an error the estimate can tell from its own wander: more
+/// than this many σ along one axis (the horizontal σ/√2). Below it, the
+/// estimate's movement at rest is the GNSS wander as much as the vehicle's
+/// error, and creeping after it took 3 s a time without bringing the true
+/// stop nearer.
+const REAPPROACH_SIGMAS: f64 = 1.96;
 /// A leg shorter than this has no direction of its own.
 const MIN_LEG_M: f64 = 1e-3;
 /// Past a stop by more than this, the vehicle drives to it again rather
@@ -47,6 +53,20 @@ const PRESTEER_MAX_S: f64 = 4.0;
 /// on RTK fixes) than the final creep, and waiting for one quiet tick took
 /// seconds.
 const STOP_SPEED_FILTER_S: f64 = 0.5;
+/// A turn on the spot commands this yaw rate per radian still to turn (up
+/// to `pivot_rate_rad_s`): slow at the end so the wheels' lag does not
+/// carry it past.
+const PIVOT_GAIN_PER_S: f64 = 1.5;
+/// It is done once within a third of the heading tolerance and turning
+/// slower than this for `PIVOT_STEADY_S`…
+const PIVOT_STILL_RAD_S: f64 = 0.002;
+const PIVOT_STEADY_S: f64 = 0.5;
+/// …or after the time the turn takes at the rate limit plus this.
+const PIVOT_EXTRA_S: f64 = 10.0;
+/// A manoeuvre with no stroke (a heading change at a stop) still has a
+/// leg for reports and the ground station: one this long ending at the
+/// goal on its heading.
+const PIVOT_ONLY_LEG_M: f64 = 1.0;
 
 /// How close a precision stop must end (`WP_STOP_TOL_MM`, `WP_STOP_TOL_DEG`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -77,6 +97,8 @@ pub struct NavConfig {
     pub stop_preview_m: f64,
     /// Caps the speed on a manoeuvre (`MNV_SPEED`).
     pub manoeuvre_speed_mps: f64,
+    /// Fastest turn on the spot (`MNV_PIVOT_RATE`).
+    pub pivot_rate_rad_s: f64,
 }
 
 /// A leg to drive: from `from` to `point`.
@@ -115,6 +137,9 @@ pub struct NavDemand {
     pub steer_rad: f64,
     /// Signed: negative in reverse.
     pub speed_mps: f64,
+    /// Turning on the spot (speed 0): clockwise positive. Only a vehicle
+    /// that can (differential drive) is given a manoeuvre that asks it.
+    pub pivot_rate_rad_s: f64,
 }
 
 /// The navigator's report for NAV_CONTROLLER_OUTPUT.
@@ -200,6 +225,31 @@ struct ManoeuvreRun {
     seq: Option<u16>,
     /// Turning the wheels at rest before the stroke starts.
     presteer: Option<Presteer>,
+    /// Turns on the spot before each stroke and at the end.
+    pivots: bool,
+    /// Turning on the spot now.
+    pivot: Option<Pivot>,
+}
+
+/// A turn on the spot: to which heading, whether it is the manoeuvre's
+/// last (its stop), and how it is going.
+#[derive(Clone, Copy, Debug)]
+struct Pivot {
+    to_yaw_rad: f64,
+    last: bool,
+    elapsed_s: f64,
+    steady_s: f64,
+}
+
+impl Pivot {
+    fn to(to_yaw_rad: f64, last: bool) -> Pivot {
+        Pivot {
+            to_yaw_rad,
+            last,
+            elapsed_s: 0.0,
+            steady_s: 0.0,
+        }
+    }
 }
 
 /// The wheels turning at rest before a stroke: for how long, the last
@@ -249,20 +299,58 @@ impl Navigator {
     /// (and resting) between them, the last a precision stop at the goal.
     pub fn set_manoeuvre(&mut self, manoeuvre: Manoeuvre, speed_mps: Option<f64>, seq: Option<u16>) {
         let mut rest: VecDeque<Stroke> = manoeuvre.strokes.into();
-        let Some(first) = rest.pop_front() else {
+        let goal = manoeuvre.goal;
+        let first = rest.pop_front();
+        if first.is_none() && !manoeuvre.pivots {
             self.clear();
             return;
-        };
+        }
         self.carry = None;
         self.manoeuvre = Some(ManoeuvreRun {
-            goal: manoeuvre.goal,
+            goal,
             rest,
-            stroke_end: first.end,
+            stroke_end: first.as_ref().map_or(goal, |f| f.end),
             speed_mps,
             seq,
             presteer: None,
+            pivots: manoeuvre.pivots,
+            pivot: None,
         });
-        self.start_stroke(first);
+        match first {
+            Some(first) => self.start_stroke(first),
+            None => self.start_final_pivot(),
+        }
+    }
+
+    /// The turn on the spot onto the goal's heading that ends a manoeuvre
+    /// with pivots. Without a stroke before it, the leg is a short one
+    /// ending at the goal on its heading, for reports and the ground
+    /// station, never driven.
+    fn start_final_pivot(&mut self) {
+        let Some(run) = &self.manoeuvre else {
+            return;
+        };
+        let goal = run.goal;
+        let seq = run.seq;
+        if self.leg.is_none() {
+            let from = Ned::new(
+                goal.position.north_m - PIVOT_ONLY_LEG_M * goal.yaw_rad.cos(),
+                goal.position.east_m - PIVOT_ONLY_LEG_M * goal.yaw_rad.sin(),
+            );
+            self.start_leg(
+                from,
+                NavTarget {
+                    seq,
+                    ..NavTarget::stop_at(goal.position)
+                },
+            );
+        }
+        self.settling = None;
+        if let Some(run) = &mut self.manoeuvre {
+            run.stroke_end = goal;
+            run.presteer = None;
+            run.pivot = Some(Pivot::to(goal.yaw_rad, true));
+        }
     }
 
     fn start_stroke(&mut self, stroke: Stroke) {
@@ -271,7 +359,8 @@ impl Navigator {
         };
         run.stroke_end = stroke.end;
         run.presteer = Some(Presteer::default());
-        let last = run.rest.is_empty();
+        run.pivot = run.pivots.then(|| Pivot::to(stroke_start_yaw(&stroke), false));
+        let last = run.rest.is_empty() && !run.pivots;
         let from = stroke.pieces[0].point_at(0.0);
         let target = NavTarget {
             point: stroke.end.position,
@@ -320,6 +409,80 @@ impl Navigator {
         false
     }
 
+    /// Turning on the spot: towards which heading (the swept-path
+    /// protection sweeps the outline round to it).
+    pub fn pivot_target(&self) -> Option<f64> {
+        self.manoeuvre.as_ref().and_then(|m| m.pivot).map(|p| p.to_yaw_rad)
+    }
+
+    /// A tick of turning on the spot: the yaw rate to turn at, and when
+    /// done, the next stroke (or, after the last pivot, the stop report).
+    fn pivot_update(&mut self, est: &Estimate, config: &NavConfig, dt_s: f64) -> NavDemand {
+        let Some(pivot) = self.manoeuvre.as_mut().and_then(|m| m.pivot.as_mut()) else {
+            return NavDemand::default();
+        };
+        let error_rad = wrap_pi(pivot.to_yaw_rad - est.yaw_rad);
+        pivot.elapsed_s += dt_s;
+        let fine = error_rad.abs() <= config.stop.yaw_rad / 3.0;
+        pivot.steady_s = if fine && est.yaw_rate_rad_s.abs() <= PIVOT_STILL_RAD_S {
+            pivot.steady_s + dt_s
+        } else {
+            0.0
+        };
+        let rate_max = config.pivot_rate_rad_s.max(1e-3);
+        let timeout_s = std::f64::consts::PI / rate_max + PIVOT_EXTRA_S;
+        self.status.active = true;
+        self.status.nav_bearing_rad = pivot.to_yaw_rad;
+        self.status.target_bearing_rad = pivot.to_yaw_rad;
+        // A turn that starts within its tolerance is no turn.
+        let done = (fine && pivot.elapsed_s <= dt_s) || pivot.steady_s >= PIVOT_STEADY_S || pivot.elapsed_s > timeout_s;
+        if !done {
+            return NavDemand {
+                pivot_rate_rad_s: (PIVOT_GAIN_PER_S * error_rad).clamp(-rate_max, rate_max),
+                ..NavDemand::default()
+            };
+        }
+        let last = pivot.last;
+        if let Some(run) = &mut self.manoeuvre {
+            run.pivot = None;
+        }
+        self.tracker.reset();
+        self.speed.reset();
+        if last {
+            self.finish_with_pivot(est, config);
+        }
+        NavDemand::default()
+    }
+
+    /// The manoeuvre's last turn on the spot is done: it stopped at the
+    /// goal, and the report says how well, against the goal's pose.
+    fn finish_with_pivot(&mut self, est: &Estimate, config: &NavConfig) {
+        let Some(run) = &self.manoeuvre else {
+            return;
+        };
+        let goal = run.goal;
+        let (dn, de) = (
+            est.position.north_m - goal.position.north_m,
+            est.position.east_m - goal.position.east_m,
+        );
+        let (sin, cos) = goal.yaw_rad.sin_cos();
+        let report = StopReport {
+            seq: run.seq,
+            along_m: -(dn * cos + de * sin),
+            crosstrack_m: -dn * sin + de * cos,
+            yaw_error_rad: wrap_pi(est.yaw_rad - goal.yaw_rad),
+            within_tolerance: false,
+            goal,
+        };
+        self.stop_report = Some(StopReport {
+            within_tolerance: report.position_error_m() <= config.stop.position_m
+                && report.yaw_error_rad.abs() <= config.stop.yaw_rad,
+            ..report
+        });
+        self.arrived = true;
+        self.status.reached = true;
+    }
+
     /// The goal of the manoeuvre being driven.
     pub fn manoeuvre_goal(&self) -> Option<Pose> {
         self.manoeuvre.as_ref().map(|m| m.goal)
@@ -333,7 +496,8 @@ impl Navigator {
     /// The heading the vehicle should have at the current leg's end, when
     /// it has one (a manoeuvre's stroke).
     pub fn target_yaw(&self) -> Option<f64> {
-        self.manoeuvre.as_ref().map(|m| m.stroke_end.yaw_rad)
+        self.pivot_target()
+            .or_else(|| self.manoeuvre.as_ref().map(|m| m.stroke_end.yaw_rad))
     }
 
     fn start_leg(&mut self, from: Ned, target: NavTarget) {
@@ -440,6 +604,16 @@ impl Navigator {
         };
         let target = leg.target;
         Self::ensure_path(leg, est.position, config);
+        if self.pivot_target().is_some() {
+            return self.pivot_update(est, config, dt_s);
+        }
+        if self.arrived && self.manoeuvre.as_ref().is_some_and(|m| m.pivots && m.rest.is_empty()) {
+            // Done after the last turn on the spot: resting on the goal.
+            return NavDemand::default();
+        }
+        let Some(leg) = &mut self.leg else {
+            return NavDemand::default();
+        };
         let Some(path) = &leg.path else {
             return NavDemand::default();
         };
@@ -454,6 +628,9 @@ impl Navigator {
         // law for driving forward along the leg and runs away (found by the
         // mission_flight fuzz target). Drive to the stop again from here.
         let cusp = self.manoeuvre.as_ref().is_some_and(|m| !m.rest.is_empty());
+        // A stroke with a turn on the spot after it (the last of a
+        // manoeuvre with pivots) ends in a precision stop too.
+        let more = cusp || self.manoeuvre.as_ref().is_some_and(|m| m.pivots);
         if target.stop && remaining < -OVERSHOOT_REPLAN_M && self.settling.is_none() && self.manoeuvre.is_none() {
             self.restart_leg(est.position);
             return NavDemand::default();
@@ -503,12 +680,15 @@ impl Navigator {
             speed,
         };
 
-        let settled = self.settle(est.speed_mps, remaining, half_tol, cusp, dt_s);
+        let resolvable_m = REAPPROACH_SIGMAS * est.horiz_sigma_m / std::f64::consts::SQRT_2;
+        let settled = self.settle(est.speed_mps, remaining, half_tol.max(resolvable_m), more, dt_s);
         if settled == Settled::Arrived {
             self.report_stop(&target, est, remaining, projection.crosstrack_m, config);
         }
         if settled == Settled::NextStroke {
-            self.next_stroke();
+            if !self.next_stroke() {
+                self.start_final_pivot();
+            }
             return NavDemand::default();
         }
         self.demand(tracker.steer_rad, speed.speed_mps * target.direction.sign(), dt_s)
@@ -601,15 +781,20 @@ impl Navigator {
             self.speed.reset();
             return NavDemand {
                 steer_rad,
-                speed_mps: 0.0,
+                ..NavDemand::default()
             };
         }
-        NavDemand { steer_rad, speed_mps }
+        NavDemand {
+            steer_rad,
+            speed_mps,
+            pivot_rate_rad_s: 0.0,
+        }
     }
 
     /// Settling onto a stop: once at rest (or out of time), try again if
-    /// short, go on to the next stroke at a cusp, or arrive.
-    fn settle(&mut self, speed_mps: f64, remaining: f64, half_tol: f64, cusp: bool, dt_s: f64) -> Settled {
+    /// short by more than `retry_m`, go on to the next stroke at a cusp, or
+    /// arrive.
+    fn settle(&mut self, speed_mps: f64, remaining: f64, retry_m: f64, cusp: bool, dt_s: f64) -> Settled {
         if let Some(settling) = &mut self.settling {
             settling.elapsed_s += dt_s;
             settling.still_s = if speed_mps.abs() < REST_SPEED_MPS {
@@ -618,7 +803,7 @@ impl Navigator {
                 0.0
             };
             let rested = settling.still_s >= REST_S || settling.elapsed_s >= REST_TIMEOUT_S;
-            let short = remaining.abs() > half_tol
+            let short = remaining.abs() > retry_m
                 && self.reapproaches < MAX_REAPPROACHES
                 && self.approach_s <= APPROACH_TIMEOUT_S;
             if rested && short {
@@ -790,6 +975,7 @@ mod tests {
             },
             stop_preview_m: 4.0,
             manoeuvre_speed_mps: 0.5,
+            pivot_rate_rad_s: 30f64.to_radians(),
         }
     }
 
@@ -816,7 +1002,11 @@ mod tests {
             e.speed_mps += (demand.speed_mps - e.speed_mps) * (dt / 0.3);
             e.position.north_m += e.speed_mps * e.yaw_rad.cos() * dt;
             e.position.east_m += e.speed_mps * e.yaw_rad.sin() * dt;
-            e.yaw_rad = wrap_pi(e.yaw_rad + e.speed_mps * demand.steer_rad.tan() / 2.9 * dt);
+            // A turn on the spot follows its demand with the same lag.
+            let pivot = e.yaw_rate_rad_s - e.speed_mps * demand.steer_rad.tan() / 2.9;
+            let pivot = pivot + (demand.pivot_rate_rad_s - pivot) * (dt / 0.3);
+            e.yaw_rate_rad_s = e.speed_mps * demand.steer_rad.tan() / 2.9 + pivot;
+            e.yaw_rad = wrap_pi(e.yaw_rad + e.yaw_rate_rad_s * dt);
         }
     }
 
@@ -915,6 +1105,17 @@ mod tests {
     /// Drives a manoeuvre to the end on the kinematic bicycle: the stop
     /// report, the final pose and the gear changes seen.
     fn drive_manoeuvre(car: &mut Bicycle, goal: Ned, yaw_deg: Option<f64>) -> (StopReport, usize) {
+        drive_manoeuvre_with(car, goal, yaw_deg, false).0
+    }
+
+    /// As [`drive_manoeuvre`], planned with or without turns on the spot;
+    /// also the manoeuvre driven.
+    fn drive_manoeuvre_with(
+        car: &mut Bicycle,
+        goal: Ned,
+        yaw_deg: Option<f64>,
+        pivots: bool,
+    ) -> ((StopReport, usize), Manoeuvre) {
         use crate::guidance::manoeuvre::{ManoeuvreConfig, plan};
         let cfg = config();
         let start = Pose {
@@ -927,10 +1128,11 @@ mod tests {
             approach_m: 12.0,
             max_length_m: 60.0,
             max_direction_changes: 3,
+            pivots,
         };
         let m = plan(&start, goal, yaw_deg.map(f64::to_radians), &mc).expect("a manoeuvre");
         let mut nav = Navigator::default();
-        nav.set_manoeuvre(m, None, Some(7));
+        nav.set_manoeuvre(m.clone(), None, Some(7));
         let dt = 0.02;
         let mut changes = 0;
         let mut last_sign = 0.0;
@@ -946,7 +1148,7 @@ mod tests {
             }
             if let Some(report) = nav.take_stop_report() {
                 assert!(nav.arrived());
-                return (report, changes);
+                return ((report, changes), m);
             }
         }
         panic!("never stopped: {:?}", car.est);
@@ -974,6 +1176,33 @@ mod tests {
                 assert!(error.abs() < 0.05, "{goal:?}: yaw off by {error}°");
             }
             assert!(changes <= 3, "{goal:?}: {changes} changes");
+        }
+    }
+
+    #[test]
+    fn a_vehicle_that_turns_on_the_spot_reaches_poses_beside_behind_and_in_place() {
+        for (goal, yaw) in [
+            (Ned::new(0.0, 3.0), Some(0.0)),
+            (Ned::new(-5.0, 0.0), Some(90.0)),
+            (Ned::new(1.0, -2.0), Some(180.0)),
+            (Ned::new(0.0, 0.0), Some(-135.0)),
+            (Ned::new(-4.0, 4.0), None),
+        ] {
+            let mut car = Bicycle::new(0.0, 0.0, 0.0);
+            let ((report, changes), m) = drive_manoeuvre_with(&mut car, goal, yaw, true);
+            assert!(m.pivots, "{goal:?}: {m:?}");
+            assert_eq!(report.seq, Some(7));
+            assert!(report.within_tolerance, "{goal:?}: {report:?}");
+            assert!(
+                car.est.position.distance_to(&goal) < 0.01,
+                "{goal:?}: {:?}",
+                car.est.position
+            );
+            if let Some(yaw) = yaw {
+                let error = wrap_pi(car.est.yaw_rad - f64::to_radians(yaw)).to_degrees();
+                assert!(error.abs() < 0.05, "{goal:?}: yaw off by {error}°");
+            }
+            assert_eq!(changes, 0, "{goal:?}: a pivot plan never reverses mid-way");
         }
     }
 

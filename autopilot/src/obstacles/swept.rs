@@ -75,6 +75,11 @@ pub enum PathAhead<'a> {
     /// No planned path (or not yet): carry on at a constant curvature of the
     /// direction of travel (1/m, positive turning right).
     Curvature { curvature: f64, reverse: bool },
+    /// Turning on the spot about the reference point to this heading. The
+    /// distance along it is the arc the outline's farthest corner sweeps
+    /// (`reach`·angle), so the sampling bound holds as on a path; the whole
+    /// turn is sampled, however short the length asked for.
+    Pivot { to_yaw_rad: f64 },
 }
 
 /// One sampled pose of the vehicle: reference point and body heading.
@@ -181,6 +186,11 @@ impl SweptPath {
                 )
             }
             PathAhead::Curvature { curvature, .. } => (curvature.abs(), 0.0, 0.0),
+            PathAhead::Pivot { .. } => (0.0, 0.0, 0.0),
+        };
+        let length_m = match ahead {
+            PathAhead::Pivot { to_yaw_rad } => length_m.max(self.reach_m * wrap_pi(to_yaw_rad - now.yaw_rad).abs()),
+            _ => length_m,
         };
         let curvature = if curvature.is_finite() { curvature } else { 0.0 };
         self.spread = 1.0 + offset_m / BLEND_M + self.reach_m * (curvature + offset_rad / BLEND_M);
@@ -197,16 +207,16 @@ impl SweptPath {
             PathAhead::Leg {
                 path, along_m, reverse, ..
             } => leg_pose(path, *along_m, *reverse),
-            PathAhead::Curvature { .. } => *now,
+            PathAhead::Curvature { .. } | PathAhead::Pivot { .. } => *now,
         };
         let mut bounds = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
         let mut walker = match ahead {
             PathAhead::Leg { path, .. } => Some(LegWalker::new(path)),
-            PathAhead::Curvature { .. } => None,
+            PathAhead::Curvature { .. } | PathAhead::Pivot { .. } => None,
         };
         for i in 0..count {
             let s = i as f64 * self.ds_m;
-            let sample = Sample::of(&pose_at(ahead, walker.as_mut(), now, &start, s));
+            let sample = Sample::of(&pose_at(ahead, walker.as_mut(), now, &start, s, self.reach_m));
             bounds = (
                 bounds.0.min(sample.north_m),
                 bounds.1.max(sample.north_m),
@@ -407,7 +417,8 @@ fn leg_pose(path: &LegPath, along_m: f64, reverse: bool) -> Pose {
 /// The vehicle's pose after `s` metres along the path ahead.
 /// `start`: the path's pose where the vehicle is on it (for a leg), and
 /// `walker` the leg's pieces, asked for increasing `s`.
-fn pose_at(ahead: &PathAhead, walker: Option<&mut LegWalker>, now: &Pose, start: &Pose, s: f64) -> Pose {
+/// `reach_m`: the outline's farthest point from the reference point.
+fn pose_at(ahead: &PathAhead, walker: Option<&mut LegWalker>, now: &Pose, start: &Pose, s: f64, reach_m: f64) -> Pose {
     match (ahead, walker) {
         (
             PathAhead::Leg {
@@ -436,6 +447,15 @@ fn pose_at(ahead: &PathAhead, walker: Option<&mut LegWalker>, now: &Pose, start:
             }
         }
         (PathAhead::Leg { path, along_m, .. }, None) => leg_pose(path, along_m + s, false),
+        (PathAhead::Pivot { to_yaw_rad }, _) => {
+            let turn = wrap_pi(to_yaw_rad - now.yaw_rad);
+            // A body of no size turns at once.
+            let turned = turn.signum() * (s / reach_m.max(1e-6)).min(turn.abs());
+            Pose {
+                position: now.position,
+                yaw_rad: wrap_pi(now.yaw_rad + turned),
+            }
+        }
         (PathAhead::Curvature { curvature, reverse }, _) => {
             let flip = if *reverse { std::f64::consts::PI } else { 0.0 };
             let heading = now.yaw_rad + flip;
@@ -684,6 +704,42 @@ mod tests {
         );
         let beyond = round_right_turn(r, corner_radius + 0.05 + swept.slack_m(), angle);
         assert!(swept.point_entry_m(beyond, 0.0, 10.0).is_none());
+    }
+
+    #[test]
+    fn a_turn_on_the_spot_sweeps_the_circle_of_the_farthest_corner() {
+        // A skid-steer outline 0.5 m ahead and behind, 0.35 m half-width:
+        // its corners sweep a circle of 0.61 m. Turning a quarter right
+        // from north, a point 0.55 m east-north-east is hit; a straight run
+        // north leaves it alone, and so does a small turn to the left.
+        let robot = Footprint {
+            front_m: 0.5,
+            rear_m: 0.5,
+            half_width_m: 0.35,
+        };
+        let reach = 0.5f64.hypot(0.35);
+        let mut swept = SweptPath::default();
+        let pivot = |swept: &mut SweptPath, to_yaw_rad: f64| {
+            swept.build(&PathAhead::Pivot { to_yaw_rad }, &north_at_origin(), &robot, 0.1);
+        };
+        pivot(&mut swept, std::f64::consts::FRAC_PI_2);
+        assert!((swept.length_m() - reach * std::f64::consts::FRAC_PI_2).abs() < swept.step_m);
+        assert!(swept.step_m <= MAX_STEP_M + 1e-12);
+        let angle = 60f64.to_radians();
+        let point = Ned::new(0.55 * angle.cos(), 0.55 * angle.sin());
+        let along = swept.point_entry_m(point, 0.0, 10.0).expect("in the turn's sweep");
+        assert!(along < reach * angle, "{along}");
+        let last = swept.pose(usize::MAX).unwrap();
+        assert!(last.position == Ned::default() && (last.yaw_rad - std::f64::consts::FRAC_PI_2).abs() < 1e-9);
+        // Beyond the corners' circle (with the sampling slack) nothing is hit.
+        let beyond = Ned::new(
+            (reach + 0.02 + swept.slack_m()) * angle.cos(),
+            (reach + 0.02 + swept.slack_m()) * angle.sin(),
+        );
+        assert!(swept.point_entry_m(beyond, 0.0, 10.0).is_none());
+        pivot(&mut swept, -10f64.to_radians());
+        assert!(swept.point_entry_m(point, 0.0, 10.0).is_none());
+        assert!(arc(0.0, false, &robot, 2.0).point_entry_m(point, 0.0, 10.0).is_none());
     }
 
     #[test]

@@ -110,6 +110,7 @@ impl Core {
             min_arc_radius_m: tightest_turn_m * 1.05,
             stop_preview_m: f64::from(pv.stop_dist_m.get(t)),
             manoeuvre_speed_mps: f64::from(self.p.manoeuvre.speed_mps.get(t)),
+            pivot_rate_rad_s: f64::from(self.p.manoeuvre.pivot_rate_deg_s.get(t)).to_radians(),
             stop: self.fleet_stop_tolerance().unwrap_or(StopTolerance {
                 position_m: f64::from(nav.stop_tol_mm.get(t)) / 1000.0,
                 yaw_rad: f64::from(nav.stop_tol_deg.get(t)).to_radians(),
@@ -222,11 +223,16 @@ impl Core {
                 } else {
                     nav.speed_mps
                 };
+                let nav_config = self.speed_control_config();
+                let full_speed = nav_config.cruise_speed_mps / nav_config.cruise_throttle.max(1e-3);
+                if nav.pivot_rate_rad_s != 0.0 {
+                    // Turning on the spot: the wheels in opposite senses,
+                    // each at the rate times half the track.
+                    return nav.pivot_rate_rad_s * track / (2.0 * full_speed);
+                }
                 // The same curvature a bicycle of VEH_WHEELBASE would drive,
                 // as wheel speeds; the mixer adds ±steering to the throttle.
                 let wheels = differential_wheel_speeds(speed, curvature_from_steer(wheelbase, nav.steer_rad), track);
-                let nav_config = self.speed_control_config();
-                let full_speed = nav_config.cruise_speed_mps / nav_config.cruise_throttle.max(1e-3);
                 (wheels.left_mps - wheels.right_mps) / (2.0 * full_speed)
             }
         }

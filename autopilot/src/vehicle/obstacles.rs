@@ -650,8 +650,8 @@ impl Core {
             .extend(tracks.iter().filter(|t| t.status != TrackStatus::Tentative).copied());
     }
 
-    /// Samples the path the vehicle is about to drive: the navigator's leg
-    /// from where the vehicle is on it, or, without one (MAGNETIC, a leg not
+    /// Samples the path the vehicle is about to drive: its turn on the spot,
+    /// the navigator's leg from where the vehicle is on it, or, without one (MAGNETIC, a leg not
     /// yet started) or far from it (turning onto a new leg), the curvature
     /// it is turning at now.
     fn sweep_path_ahead(&mut self, pose: &Pose, footprint: &Footprint, reverse: bool, length_m: f64) {
@@ -669,14 +669,17 @@ impl Core {
                 let heading_off = wrap_pi(pose.yaw_rad - path.heading_at(along_m) - flip).abs();
                 path.point_at(along_m).distance_to(&pose.position) <= ON_PATH_M && heading_off <= ON_PATH_RAD
             });
-        let ahead = match leg {
-            Some((path, target)) => PathAhead::Leg {
+        let pivot = self.navigator.pivot_target().filter(|_| self.mode != Mode::Magnetic);
+        let ahead = match (pivot, leg) {
+            // Turning on the spot: the outline swept round to the heading.
+            (Some(to_yaw_rad), _) => PathAhead::Pivot { to_yaw_rad },
+            (None, Some((path, target))) => PathAhead::Leg {
                 path,
                 along_m,
                 stop_at_m: target.stop.then(|| path.end_m()),
                 reverse: target.direction == Direction::Reverse,
             },
-            None => {
+            (None, None) => {
                 // Turning rate over speed; too slow to tell, straight on.
                 let curvature = if estimate.speed_mps.abs() > CURVATURE_MIN_SPEED_MPS {
                     estimate.yaw_rate_rad_s / estimate.speed_mps.abs()

@@ -169,6 +169,14 @@ declare_params! {
             default: 0.5, range: 0.05, 5.0, unit: "m/s",
             desc: "Speed limit on a manoeuvre",
         },
+        pivot: bool = "MNV_PIVOT" => {
+            default: false, range: 0, 1, unit: "",
+            desc: "1: a differential-drive vehicle may turn on the spot in a manoeuvre (face the goal, drive straight, turn onto its heading); 0: arcs only. Ignored for Ackermann",
+        },
+        pivot_rate_deg_s: f32 = "MNV_PIVOT_RATE" => {
+            default: 30.0, range: 1.0, 180.0, unit: "deg/s",
+            desc: "Fastest turn on the spot",
+        },
         mission_yaw: bool = "MNV_WP_YAW" => {
             default: false, range: 0, 1, unit: "",
             desc: "1: a mission stop's NAV_WAYPOINT param 4 is the heading to stop facing (NaN none); 0 ignores it as ArduPilot Rover does",

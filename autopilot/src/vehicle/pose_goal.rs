@@ -12,6 +12,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
 use super::Core;
+use crate::control::mixer::DriveTrain;
 use crate::geo::{GeoPoint, Ned, wrap_pi};
 use crate::guidance::manoeuvre::{ManoeuvreConfig, plan};
 use crate::guidance::navigator::{NavTarget, StopReport};
@@ -89,6 +90,7 @@ impl Core {
             approach_m: f64::from(m.approach_m.get(t)),
             max_length_m: f64::from(m.length_max_m.get(t)),
             max_direction_changes: m.direction_changes_max.get(t).max(0) as usize,
+            pivots: m.pivot.get(t) && self.drive_train == DriveTrain::Differential,
         }
     }
 
@@ -176,11 +178,12 @@ impl Core {
         }
         match plan(&start, goal.point, goal.yaw_rad, &self.manoeuvre_config()) {
             Ok(manoeuvre) => {
-                if manoeuvre.direction_changes() > 0 || manoeuvre_only {
+                let pivots = manoeuvre.pivot_headings(start.yaw_rad).len();
+                if manoeuvre.direction_changes() > 0 || manoeuvre_only || pivots > 0 {
                     self.send_text(
                         MavSeverity::MAV_SEVERITY_INFO,
                         &format!(
-                            "Manoeuvre: {:.1} m, {} direction changes",
+                            "Manoeuvre: {:.1} m, {} reversals, {pivots} pivots",
                             manoeuvre.length_m(),
                             manoeuvre.direction_changes()
                         ),

@@ -125,6 +125,7 @@ impl Core {
         Some(NavDemand {
             steer_rad: status.steer_rad,
             speed_mps: status.speed_mps,
+            pivot_rate_rad_s: 0.0,
         })
     }
 }
