@@ -91,7 +91,10 @@ pub struct Track {
     /// last left one (infinite: they never have since the track was born;
     /// 0 without an outline). A standing object's centroid walks as the view
     /// of it changes (a box's corner as the vehicle drives past); its
-    /// returns stay on its outline.
+    /// returns stay on its outline. Or, if longer, how long its centroid
+    /// has stayed within the object's extent of one place (its view
+    /// turning, as in a turn round it, moves the centroid only within the
+    /// object).
     pub still_s: f64,
 }
 
