@@ -37,7 +37,7 @@ use std::f64::consts::FRAC_PI_4;
 
 use drivers::scanner::Scan;
 
-use super::outline::Outline;
+use super::outline::{FitScratch, Outline};
 use super::{Pose, ScannerMount};
 use crate::geo::{Ned, wrap_pi};
 
@@ -196,13 +196,13 @@ pub struct Cluster {
 /// the estimated radius: half of (the visible extent plus one beam
 /// spacing), since the true edges lie on average half a beam spacing
 /// beyond the outermost returns.
-pub fn cluster_points(points: &[ScanPoint], config: &ClusterConfig, out: &mut Vec<Cluster>) {
+pub fn cluster_points(points: &[ScanPoint], config: &ClusterConfig, fit: &mut FitScratch, out: &mut Vec<Cluster>) {
     out.clear();
     let mut start: usize = 0;
     for i in 1..=points.len() {
         if i == points.len() || splits(&points[i - 1], &points[i], config) {
             let before = start.checked_sub(1).and_then(|j| points.get(j));
-            if let Some(mut cluster) = make_cluster(&points[start..i], config) {
+            if let Some(mut cluster) = make_cluster(&points[start..i], config, fit) {
                 cluster.occluded = hides(before, &points[start]) || hides(points.get(i), &points[i - 1]);
                 out.push(cluster);
             }
@@ -228,7 +228,12 @@ fn splits(a: &ScanPoint, b: &ScanPoint, config: &ClusterConfig) -> bool {
     let range_m = a.range_m.min(b.range_m);
     let gap_m = steps * config.gap_m.max(config.gap_per_m * range_m);
     // A NaN distance splits.
-    !at_most(a.position.distance_to(&b.position), gap_m)
+    !at_most(squared_distance(&a.position, &b.position), gap_m * gap_m)
+}
+
+fn squared_distance(a: &Ned, b: &Ned) -> f64 {
+    let (dn, de) = (b.north_m - a.north_m, b.east_m - a.east_m);
+    dn * dn + de * de
 }
 
 /// `value ≤ limit`, false when either is NaN.
@@ -242,7 +247,7 @@ fn hides(neighbour: Option<&ScanPoint>, edge: &ScanPoint) -> bool {
     neighbour.is_some_and(|n| n.beam.abs_diff(edge.beam) == 1 && n.range_m < edge.range_m)
 }
 
-fn make_cluster(points: &[ScanPoint], config: &ClusterConfig) -> Option<Cluster> {
+fn make_cluster(points: &[ScanPoint], config: &ClusterConfig, fit: &mut FitScratch) -> Option<Cluster> {
     let (first, last) = (points.first()?, points.last()?);
     if points.len() < config.min_points {
         return None;
@@ -256,7 +261,9 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig) -> Option<Cluster>
     );
     let (mut sum_n, mut sum_e, mut sum_range) = (0.0, 0.0, 0.0);
     let mut nearest = first;
-    let mut extent_m: f64 = 0.0;
+    // The farthest (return, edge) pair by squared distance, one root at the
+    // end: a root per return was a good share of the scan's cost.
+    let (mut farthest_sq, mut farthest) = (0.0, (first, first));
     for p in points {
         sum_n += p.position.north_m;
         sum_e += p.position.east_m;
@@ -265,10 +272,14 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig) -> Option<Cluster>
             nearest = p;
         }
         // Both edges: an L-shaped return (a corner) is longer than its chord.
-        extent_m = extent_m
-            .max(p.position.distance_to(&first.position))
-            .max(p.position.distance_to(&last.position));
+        for edge in [first, last] {
+            let d_sq = squared_distance(&p.position, &edge.position);
+            if d_sq > farthest_sq {
+                (farthest_sq, farthest) = (d_sq, (p, edge));
+            }
+        }
     }
+    let extent_m = farthest.0.position.distance_to(&farthest.1.position);
     let mean = Ned::new(sum_n / n, sum_e / n);
     let beams = (last.beam - first.beam) as f64;
     let beam_spacing_m = if beams > 0.0 {
@@ -312,7 +323,9 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig) -> Option<Cluster>
             None
         } else {
             let (sin_m, cos_m) = sensor.bearing_to(&mean).sin_cos();
-            Outline::fit(centroid, points, (extent_m * cos_m, extent_m * sin_m), |p| p.position)
+            Outline::fit(fit, centroid, points, (extent_m * cos_m, extent_m * sin_m), |p| {
+                p.position
+            })
         },
         occluded: false,
     })
@@ -412,7 +425,12 @@ mod tests {
         let mut points = Vec::new();
         scan_points(scan, &Pose::default(), &ScannerMount::default(), 20.0, &mut points);
         let mut clusters = Vec::new();
-        cluster_points(&points, &ClusterConfig::default(), &mut clusters);
+        cluster_points(
+            &points,
+            &ClusterConfig::default(),
+            &mut FitScratch::default(),
+            &mut clusters,
+        );
         clusters
     }
 
@@ -609,12 +627,18 @@ mod tests {
         cluster_points(
             &along(&[3.0, 3.06, 3.12], STEP_RAD),
             &ClusterConfig::default(),
+            &mut FitScratch::default(),
             &mut out,
         );
         assert_eq!(out.len(), 1);
         assert!(out[0].is_structure, "{out:?}");
         // Returns spread across the beam (a body's near side) are not.
-        cluster_points(&along(&[3.0, 2.98, 3.0], 0.04), &ClusterConfig::default(), &mut out);
+        cluster_points(
+            &along(&[3.0, 2.98, 3.0], 0.04),
+            &ClusterConfig::default(),
+            &mut FitScratch::default(),
+            &mut out,
+        );
         assert_eq!(out.len(), 1);
         assert!(!out[0].is_structure, "{out:?}");
     }
@@ -671,7 +695,7 @@ mod tests {
         let clusters = clusters_of(&scan);
         assert_eq!(clusters.len(), 2, "two missing beams are a gap: {clusters:?}");
         let mut out = vec![];
-        cluster_points(&[], &ClusterConfig::default(), &mut out);
+        cluster_points(&[], &ClusterConfig::default(), &mut FitScratch::default(), &mut out);
         assert!(out.is_empty());
     }
 }

@@ -323,6 +323,17 @@ impl CvKalman {
         })
     }
 
+    /// Whether `z` is surely outside the gate `mahalanobis_sq ≤ gate`,
+    /// without inverting anything: d² = rᵀS⁻¹r ≥ |r|²/λ_max(S) and λ_max(S)
+    /// ≤ trace(S) for a positive definite S, so |r|² > gate·trace(S) is
+    /// outside (a factor 2 keeps rounding from ever deciding it). `false`
+    /// says nothing: compute the distance.
+    pub fn surely_outside_gate(&self, z: Ned, r: &Matrix2<f64>, gate: f64) -> bool {
+        let (dn, de) = (z.north_m - self.x[NORTH], z.east_m - self.x[EAST]);
+        let trace = self.p[(NORTH, NORTH)] + self.p[(EAST, EAST)] + r[(0, 0)] + r[(1, 1)];
+        dn * dn + de * de > 2.0 * gate * trace
+    }
+
     /// Squared Mahalanobis distance of `z`, +∞ when it cannot be computed (so
     /// a bad input never passes a gate).
     pub fn mahalanobis_sq(&self, z: Ned, r: &Matrix2<f64>) -> f64 {

@@ -21,6 +21,24 @@ pub const MAX_VERTICES: usize = 12;
 /// by beam, which keeps its ends (its faces' extremes are what matter).
 const MAX_POINTS: usize = 64;
 
+/// The working buffers of [`Outline::fit`], kept by its caller between
+/// fits: a fit then neither allocates nor clears two arrays sized for the
+/// largest cluster (4 kB) for the few returns a person gives.
+#[derive(Clone, Debug)]
+pub struct FitScratch {
+    points: Vec<(f64, f64)>,
+    hull: Vec<(f64, f64)>,
+}
+
+impl Default for FitScratch {
+    fn default() -> Self {
+        FitScratch {
+            points: Vec::with_capacity(2 * MAX_POINTS + 2),
+            hull: Vec::with_capacity(2 * MAX_POINTS + 4),
+        }
+    }
+}
+
 /// A convex polygon, counter-clockwise in (north, east), as offsets from
 /// the object's centre.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -33,13 +51,19 @@ impl Outline {
     /// Fits the outline of `points` about `centre`, extended by `away`
     /// (north, east, m: the direction from the scanner times the depth).
     /// `None` without points or with a non-finite one.
-    pub fn fit<T>(centre: Ned, points: &[T], away: (f64, f64), position: impl Fn(&T) -> Ned) -> Option<Outline> {
+    pub fn fit<T>(
+        scratch: &mut FitScratch,
+        centre: Ned,
+        points: &[T],
+        away: (f64, f64),
+        position: impl Fn(&T) -> Ned,
+    ) -> Option<Outline> {
         if points.is_empty() {
             return None;
         }
         let stride = points.len().div_ceil(MAX_POINTS);
-        let mut buffer = [(0.0, 0.0); 2 * MAX_POINTS + 2];
-        let mut n = 0;
+        let FitScratch { points: buffer, hull } = scratch;
+        buffer.clear();
         let last = points.len() - 1;
         for (i, p) in points.iter().enumerate() {
             if i % stride != 0 && i != last {
@@ -50,12 +74,13 @@ impl Outline {
             if !(offset.0.is_finite() && offset.1.is_finite()) {
                 return None;
             }
-            buffer[n] = offset;
-            buffer[n + 1] = (offset.0 + away.0, offset.1 + away.1);
-            n += 2;
+            buffer.push(offset);
+            buffer.push((offset.0 + away.0, offset.1 + away.1));
         }
-        let mut hull = [(0.0, 0.0); 2 * MAX_POINTS + 4];
-        let hull_len = convex_hull(&mut buffer[..n], &mut hull);
+        // The monotone chain writes at most one more corner than it is given.
+        hull.clear();
+        hull.resize(buffer.len() + 2, (0.0, 0.0));
+        let hull_len = convex_hull(buffer, hull);
         let simplified = hull_len > MAX_VERTICES;
         let mut outline = simplify(&mut hull[..hull_len]);
         if stride > 1 || simplified {
@@ -220,7 +245,14 @@ mod tests {
             points.push(Ned::new(0.05 * f64::from(i), 0.0));
             points.push(Ned::new(0.0, 0.05 * f64::from(i)));
         }
-        let outline = Outline::fit(Ned::new(0.4, 0.4), &points, (0.8, 0.8), |p| *p).expect("outline");
+        let outline = Outline::fit(
+            &mut FitScratch::default(),
+            Ned::new(0.4, 0.4),
+            &points,
+            (0.8, 0.8),
+            |p| *p,
+        )
+        .expect("outline");
         let v = outline.vertices();
         let least = |f: fn(&(f64, f64)) -> f64| v.iter().map(f).fold(f64::INFINITY, f64::min);
         // The seen faces (south and west) are exactly where they are.
@@ -240,7 +272,8 @@ mod tests {
                 Ned::new(r * a.sin() - 0.0, r * a.cos())
             })
             .collect();
-        let outline = Outline::fit(Ned::default(), &points, (0.0, 0.0), |p| *p).expect("outline");
+        let outline =
+            Outline::fit(&mut FitScratch::default(), Ned::default(), &points, (0.0, 0.0), |p| *p).expect("outline");
         assert!(outline.vertices().len() <= MAX_VERTICES);
         for p in &points {
             assert!(contains(&outline, (p.north_m, p.east_m)), "{p:?} outside");
@@ -256,7 +289,8 @@ mod tests {
             Ned::new(0.5, 0.5),
             Ned::new(-0.5, 0.5),
         ];
-        let outline = Outline::fit(Ned::default(), &square, (0.0, 0.0), |p| *p).expect("outline");
+        let outline =
+            Outline::fit(&mut FitScratch::default(), Ned::default(), &square, (0.0, 0.0), |p| *p).expect("outline");
         assert_eq!(outline.distance_outside_m((0.2, -0.3)), 0.0);
         assert_eq!(outline.distance_outside_m((0.5, 0.0)), 0.0);
         assert!((outline.distance_outside_m((0.8, 0.1)) - 0.3).abs() < 1e-12);
@@ -266,7 +300,25 @@ mod tests {
 
     #[test]
     fn non_finite_points_fit_nothing() {
-        assert!(Outline::fit(Ned::default(), &[Ned::new(f64::NAN, 0.0)], (0.0, 0.0), |p| *p).is_none());
-        assert!(Outline::fit(Ned::default(), &[], (0.0, 0.0), |p: &Ned| *p).is_none());
+        assert!(
+            Outline::fit(
+                &mut FitScratch::default(),
+                Ned::default(),
+                &[Ned::new(f64::NAN, 0.0)],
+                (0.0, 0.0),
+                |p| *p
+            )
+            .is_none()
+        );
+        assert!(
+            Outline::fit(
+                &mut FitScratch::default(),
+                Ned::default(),
+                &[],
+                (0.0, 0.0),
+                |p: &Ned| *p
+            )
+            .is_none()
+        );
     }
 }

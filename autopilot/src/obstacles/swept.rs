@@ -264,14 +264,15 @@ impl SweptPath {
         rect_gap(self.front_m, self.rear_m, self.half_width_m, x, y)
     }
 
-    /// The gap between the shape and the outline at sample `i`, or a lower
-    /// bound of it above `exact_below` (enough to advance by).
-    fn shape_gap(&self, i: usize, shape: &Shape, shift: (f64, f64), exact_below: f64) -> f64 {
+    /// The gap between the shape (reaching `extent_m` from its centre) and
+    /// the outline at sample `i`, or a lower bound of it above
+    /// `exact_below` (enough to advance by).
+    fn shape_gap(&self, i: usize, shape: &Shape, extent_m: f64, shift: (f64, f64), exact_below: f64) -> f64 {
         let sample = &self.samples[i];
         let centre = shape.centre();
         let (cn, ce) = (centre.north_m + shift.0, centre.east_m + shift.1);
         let (x, y) = sample.body(cn, ce);
-        let disc_gap = (rect_gap(self.front_m, self.rear_m, self.half_width_m, x, y) - shape.extent_m()).max(0.0);
+        let disc_gap = (rect_gap(self.front_m, self.rear_m, self.half_width_m, x, y) - extent_m).max(0.0);
         match shape {
             Shape::Disc { .. } => disc_gap,
             Shape::Polygon { .. } if disc_gap > exact_below => disc_gap,
@@ -357,15 +358,17 @@ impl SweptPath {
         let rate = speed * self.spread + obstacle_mps;
         let threshold = margin_m.max(0.0) + self.slack_m() + 0.5 * MAX_STEP_M;
         let min_dt = if rate > 0.0 { MAX_STEP_M / rate } else { f64::INFINITY };
-        let gap_now = self.shape_gap(0, shape, (0.0, 0.0), f64::INFINITY);
+        // Once per query: a polygon's extent is a dozen square roots.
+        let extent_m = shape.extent_m();
+        let gap_now = self.shape_gap(0, shape, extent_m, (0.0, 0.0), f64::INFINITY);
         let mut t = 0.0;
         loop {
             let index = self.index_at(speed * t);
             let shift = (velocity.0 * t, velocity.1 * t);
             let sample = &self.samples[index];
-            let gap = self.shape_gap(index, shape, shift, threshold);
+            let gap = self.shape_gap(index, shape, extent_m, shift, threshold);
             if gap <= threshold {
-                let closing = t > 0.0 || self.closing_now(shape, velocity, speed, gap_now);
+                let closing = t > 0.0 || self.closing_now(shape, extent_m, velocity, speed, gap_now);
                 return Some(Contact {
                     time_s: t,
                     along_m: index as f64 * self.ds_m,
@@ -385,7 +388,7 @@ impl SweptPath {
     }
 
     /// Whether the gap shrinks over the next stretch of motion.
-    fn closing_now(&self, shape: &Shape, velocity: (f64, f64), speed: f64, gap_now: f64) -> bool {
+    fn closing_now(&self, shape: &Shape, extent_m: f64, velocity: (f64, f64), speed: f64, gap_now: f64) -> bool {
         let rate = speed * self.spread + velocity.0.hypot(velocity.1);
         if rate <= 0.0 {
             return false;
@@ -393,7 +396,13 @@ impl SweptPath {
         // Long enough to move on by a couple of samples.
         let dt = (2.0 * self.ds_m.max(MAX_STEP_M) / rate).max(0.05);
         let index = self.index_at(speed * dt);
-        self.shape_gap(index, shape, (velocity.0 * dt, velocity.1 * dt), f64::INFINITY) < gap_now
+        self.shape_gap(
+            index,
+            shape,
+            extent_m,
+            (velocity.0 * dt, velocity.1 * dt),
+            f64::INFINITY,
+        ) < gap_now
     }
 
     fn index_at(&self, along_m: f64) -> usize {

@@ -25,6 +25,8 @@ use nalgebra::Matrix2;
 
 use super::cluster::Cluster;
 use super::kalman::{CvKalman, chi2_gate_2dof, polar_measurement_covariance};
+#[cfg(test)]
+use super::outline::FitScratch;
 use super::outline::Outline;
 use super::{Track, TrackStatus};
 use crate::geo::Ned;
@@ -301,10 +303,13 @@ impl ObstacleTracker {
         pairs.clear();
         for (i, entry) in self.entries.iter().enumerate() {
             for (m, meas) in measurements.iter().enumerate() {
-                let d2 = entry.kf.mahalanobis_sq(
-                    clusters[meas.cluster].centroid,
-                    &measurement_r(entry, meas, false, clusters),
-                );
+                let centroid = clusters[meas.cluster].centroid;
+                let r = measurement_r(entry, meas, false, clusters);
+                // Most pairs are far apart: skip them before the inverse.
+                if entry.kf.surely_outside_gate(centroid, &r, gate) {
+                    continue;
+                }
+                let d2 = entry.kf.mahalanobis_sq(centroid, &r);
                 if d2 <= gate {
                     pairs.push((d2, i, m));
                 }
@@ -981,7 +986,13 @@ mod tests {
         let (first, last) = (points[0], points[points.len() - 1]);
         let extent_m = first.distance_to(&last);
         let (sin_b, cos_b) = sensor.bearing_to(&centroid).sin_cos();
-        let outline = Outline::fit(centroid, points, (extent_m * cos_b, extent_m * sin_b), |p| *p);
+        let outline = Outline::fit(
+            &mut FitScratch::default(),
+            centroid,
+            points,
+            (extent_m * cos_b, extent_m * sin_b),
+            |p| *p,
+        );
         Cluster {
             centroid,
             nearest,

@@ -18,6 +18,7 @@ use crate::modes::Mode;
 use crate::obstacles::cluster::{Cluster, ClusterConfig, ScanPoint, cluster_points, scan_points};
 use crate::obstacles::detour::{DetourConfig, DetourRefusal, plan_detour};
 use crate::obstacles::field::{FieldConfig, FieldStatus, Fields, check_swept_fields, fields, warning_speed_limit};
+use crate::obstacles::outline::FitScratch;
 use crate::obstacles::policy::{
     ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, PolicyStatus, StopCause, Verdict,
 };
@@ -144,6 +145,7 @@ pub(super) struct ObstacleState {
     views: [ScannerView; SCANNERS],
     points: Vec<ScanPoint>,
     clusters: Vec<Cluster>,
+    fit_scratch: FitScratch,
     /// The outline swept along the path ahead, rebuilt every tick.
     swept: SweptPath,
     /// Last tick's acted-on tracks, to notice which were lost.
@@ -298,7 +300,7 @@ impl Core {
             }
             view.covered = covered_sectors(&input.scan, mount.yaw_rad);
             if located {
-                cluster_points(&obs.points, &cluster_config, &mut obs.clusters);
+                cluster_points(&obs.points, &cluster_config, &mut obs.fit_scratch, &mut obs.clusters);
                 obs.tracker.update(input.scan.t, sensor, &obs.clusters, &tracking);
             }
         }

@@ -244,6 +244,7 @@ pub fn drive_with(
         let clearance_m = world.clearance_m(&rect, t_world);
         if setup.trace && (pose.t_s * 50.0).round() as i64 % 10 == 0 {
             print_trace(&pose, clearance_m, sim.core().obstacle_status().stopped);
+            print_trace_objects(&world, t_world, sim.core().obstacle_tracks());
         }
         let moving = pose.speed_mps.abs() > MOVING_MPS;
         if moving {
@@ -346,6 +347,36 @@ fn print_trace(pose: &Pose, clearance_m: f64, obstacle_stop: bool) {
         clearance_m,
         if obstacle_stop { " (obstacle stop)" } else { "" }
     );
+}
+
+/// The people's true places and velocities, then the core's acted-on
+/// tracks, under a `--trace` line.
+fn print_trace_objects(world: &ObstacleWorld, t_s: f64, tracks: &[autopilot::obstacles::Track]) {
+    let mut line = String::from("    truth:");
+    for (i, mover) in world.movers.iter().enumerate() {
+        if let Some((at, v)) = mover.state_at(t_s) {
+            line += &format!(" [{i}] {:.2},{:.2} v {:.2},{:.2}", at[0], at[1], v[0], v[1]);
+        }
+    }
+    line += "; tracks:";
+    for t in tracks
+        .iter()
+        .filter(|t| t.status != autopilot::obstacles::TrackStatus::Tentative)
+    {
+        line += &format!(
+            " #{} {:?} {:.2},{:.2} v {:.2},{:.2} σv {:.2} r {:.2} still {:.1}",
+            t.id,
+            t.status,
+            t.position.north_m,
+            t.position.east_m,
+            t.vel_north_mps,
+            t.vel_east_mps,
+            t.velocity_sigma_mps,
+            t.radius_m,
+            t.still_s
+        );
+    }
+    println!("{line}");
 }
 
 /// A collision starts: counted, and whether it was unavoidable.
