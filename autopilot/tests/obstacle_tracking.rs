@@ -9,6 +9,7 @@ use std::time::Duration;
 
 use autopilot::geo::Ned;
 use autopilot::obstacles::cluster::{Cluster, ClusterConfig, ScanPoint, cluster_points, scan_points};
+use autopilot::obstacles::outline::FitScratch;
 use autopilot::obstacles::tracking::{ObstacleTracker, TrackingConfig, TrackingStatus};
 use autopilot::obstacles::{Pose, ScannerMount, Track, TrackStatus};
 use common::noise::Noise;
@@ -115,12 +116,18 @@ struct Pipeline {
     tracker: ObstacleTracker,
     points: Vec<ScanPoint>,
     clusters: Vec<Cluster>,
+    fit: FitScratch,
 }
 
 impl Pipeline {
     fn scan(&mut self, scan: &Scan, pose: &Pose, mount: &ScannerMount) -> TrackingStatus {
         let sensor = scan_points(scan, pose, mount, MAX_RANGE_M, &mut self.points);
-        cluster_points(&self.points, &ClusterConfig::default(), &mut self.clusters);
+        cluster_points(
+            &self.points,
+            &ClusterConfig::default(),
+            &mut self.fit,
+            &mut self.clusters,
+        );
         self.tracker
             .update(scan.t, sensor, &self.clusters, &TrackingConfig::default())
     }

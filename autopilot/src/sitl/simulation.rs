@@ -10,7 +10,10 @@ use drivers::magnetic::MagneticSample;
 use drivers::scanner::Scan;
 use drivers::scanner::cola::{ColaFramer, ScanTelegram, encode_lmd_scandata_into, parse_lmd_scandata_into};
 use params::{ParamTable, ParamTableBuilder};
-use sim::{AckermannConfig, DifferentialConfig, ImuSimConfig, VehicleModel, VehicleOutline, World, WorldConfig, WorldStageTimes};
+use sim::{
+    AckermannConfig, DifferentialConfig, ImuSimConfig, VehicleModel, VehicleOutline, World, WorldConfig,
+    WorldStageTimes,
+};
 use vehicle_types::{ActuatorDemand, GeoPoint};
 
 use super::faults::Faults;

@@ -1,6 +1,6 @@
 //! A ground station inside the test: talks to a [`Simulation`] through the
 //! same `Inbound`/`Outbound` messages the link layer carries.
-#![allow(dead_code)]
+#![allow(dead_code, unused_imports)]
 
 pub use test_support::noise;
 
