@@ -137,9 +137,8 @@ impl ImuState {
             return self.bias.filter(|_| first).map(|b| b.z_rad_s);
         }
         self.rest = RestSums::default();
-        let Some(bias) = self.bias else {
-            return None;
-        };
+        // Not calibrated yet: its turn-on bias is unknown.
+        let bias = self.bias?;
         let moving = ekf.is_initialised() && ekf.state().speed_mps.abs() >= MIN_FUSE_SPEED_MPS;
         if !(moving || can_pivot) {
             return None;
