@@ -77,6 +77,8 @@ fn ackermann_example_loads_with_every_device() {
     assert_eq!(agv.scanners.len(), 2);
     assert!(agv.scanners.iter().all(|s| s.port == 2111));
     assert!(agv.magnetic.is_some());
+    let imu = agv.imu.as_ref().unwrap_or_else(|| panic!("no imu"));
+    assert_eq!((imu.path.to_str(), imu.baud), (Some("/dev/ttyUSB3"), 115_200));
     // Steering, throttle, four wheels, an aux servo and a relay.
     let servos: Vec<u8> = agv.pwm.outputs.iter().map(|o| o.servo).collect();
     assert_eq!(servos, [1, 3, 5, 6, 7, 8, 9, 10]);
@@ -90,8 +92,8 @@ fn ackermann_example_loads_with_every_device() {
         !summary.contains("change-me"),
         "the summary shows the NTRIP password:\n{summary}"
     );
-    // One line per device: vehicle, gnss, heading, corrections, ntrip, 2 scanners, magnetic, 8 outputs, 2 links.
-    assert_eq!(summary.lines().count(), 18, "{summary}");
+    // One line per device: vehicle, gnss, heading, corrections, ntrip, 2 scanners, magnetic, imu, 8 outputs, 2 links.
+    assert_eq!(summary.lines().count(), 19, "{summary}");
 }
 
 #[test]

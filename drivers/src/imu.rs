@@ -1,10 +1,10 @@
 //! Inertial samples and the VectorNav ASCII output that carries them.
 //!
 //! VectorNav's VN-100/VN-200/VN-300 (and units that copy their protocol)
-//! stream "asynchronous ASCII outputs": NMEA-0183-style lines (`$`, the
-//! address, comma-separated fields, `*`, checksum, CR LF). Two of them carry the
-//! rates and accelerations Furrow reads (VN-100 user manual, registers 27
-//! and 54; `VNASY`/`VNYMR` is the factory default output, at 40 Hz):
+//! stream "asynchronous ASCII outputs": NMEA-0183-style lines of `$`, an
+//! address, comma-separated fields, `*`, a checksum and CR LF. Two of them
+//! carry the rates and accelerations Furrow reads (VN-100 user manual,
+//! registers 27 and 54; `$VNYMR` at 40 Hz is the factory default output):
 //!
 //! | sentence | fields after the address                                        |
 //! |----------|-----------------------------------------------------------------|

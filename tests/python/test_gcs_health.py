@@ -36,7 +36,8 @@ def test_a_ready_vehicle_reports_its_sensors_present_enabled_and_healthy(start_s
     m = start_sitl().tcp()
     status = ready_status(m)
     assert status is not None, "never ready"
-    have = S.MAV_SYS_STATUS_SENSOR_GPS | S.MAV_SYS_STATUS_SENSOR_3D_MAG | S.MAV_SYS_STATUS_AHRS
+    have = (S.MAV_SYS_STATUS_SENSOR_GPS | S.MAV_SYS_STATUS_SENSOR_3D_MAG | S.MAV_SYS_STATUS_AHRS
+            | S.MAV_SYS_STATUS_SENSOR_3D_GYRO | S.MAV_SYS_STATUS_SENSOR_3D_ACCEL)
     for field in ("present", "enabled", "health"):
         bits = getattr(status, f"onboard_control_sensors_{field}")
         assert bits & have == have, f"{field}: {bits:#x}"
@@ -46,9 +47,20 @@ def test_a_ready_vehicle_reports_its_sensors_present_enabled_and_healthy(start_s
     flags = mavsdk_health(status, home_seen)
     assert flags["mag"] and flags["global_position"] and flags["local_position"] and flags["home"] \
         and flags["armable"], flags
-    # No IMU: MAVSDK never sets these two, so its health_all_ok() stays
-    # false on Furrow (reported, not faked).
+    # The simulated IMU backs the gyro and accelerometer bits, so every
+    # flag health_all_ok() needs is true.
+    assert flags["gyro"] and flags["accel"], flags
+
+
+def test_without_an_imu_the_gyro_and_accelerometer_are_not_claimed(start_sitl):
+    m = start_sitl(extra_args=["--no-imu"]).tcp()
+    status = ready_status(m)
+    assert status is not None, "never ready"
+    flags = mavsdk_health(status, True)
+    # MAVSDK never sets these two, so its health_all_ok() stays false
+    # (reported, not faked).
     assert flags["gyro"] is None and flags["accel"] is None, flags
+    assert flags["mag"] and flags["armable"], flags
 
 
 def test_a_silent_heading_sensor_turns_the_magnetometer_bit_unhealthy(start_sitl):

@@ -109,12 +109,14 @@ impl ImuState {
         self.last.is_some_and(|s| now.saturating_sub(s.t) <= IMU_STALE_AFTER)
     }
 
-    /// Fresh, and its rates and specific force are what a vehicle on the
-    /// ground can produce.
+    /// The gyro: reporting (any rate a unit sends within its range is one
+    /// a vehicle can turn at).
     pub fn gyro_healthy(&self, now: Duration) -> bool {
         self.fresh(now)
     }
 
+    /// The accelerometer: reporting, and a specific force a vehicle on the
+    /// ground can feel (within g/2 of g).
     pub fn accel_healthy(&self, now: Duration) -> bool {
         let plausible = self.last.is_some_and(|s| {
             let [x, y, z] = s.accel_mps2;
@@ -137,6 +139,7 @@ impl ImuState {
             return self.bias.filter(|_| first).map(|b| b.z_rad_s);
         }
         self.rest = RestSums::default();
+        // Not calibrated yet: its turn-on bias is unknown.
         let bias = self.bias?;
         let moving = ekf.is_initialised() && ekf.state().speed_mps.abs() >= MIN_FUSE_SPEED_MPS;
         if !(moving || can_pivot) {

@@ -727,6 +727,9 @@ impl Hub {
     fn deliver_to_core(&mut self, link: LinkId, frame: ReceivedFrame) {
         match frame.message {
             Ok(message) => {
+                if matches!(message, MavMessage::PARAM_REQUEST_LIST(_)) {
+                    self.restart_param_list(link);
+                }
                 let inbound = Inbound {
                     link,
                     header: frame.header,
@@ -739,6 +742,20 @@ impl Hub {
             }
             Err(_) => self.answer_undecodable(link, &frame),
         }
+    }
+
+    /// A new PARAM_REQUEST_LIST restarts the list rather than queueing a
+    /// second one behind the first: the PARAM_VALUEs still waiting in the
+    /// link's backlog are dropped, as the core sends every value again, as
+    /// it is now (so an echo of a set that was waiting is in the new list).
+    /// Those already in the link's queue (or framed for it) still go out.
+    fn restart_param_list(&mut self, link: LinkId) {
+        if let Some(entry) = self.links.get_mut(&link) {
+            entry
+                .backlog
+                .retain(|(_, message)| !matches!(**message, MavMessage::PARAM_VALUE(_)));
+        }
+        self.publish_backlog();
     }
 
     /// A frame whose payload does not decode: a mission item the core must
@@ -1614,6 +1631,59 @@ mod tests {
         );
         assert_eq!(bare.hub.backlog.waiting(), 0);
         assert_eq!((bare.entry().dropped_out, bare.entry().bulk_dropped), (0, 0));
+    }
+
+    #[tokio::test]
+    async fn a_new_parameter_list_request_restarts_the_list_instead_of_queueing_a_second() {
+        let mut bare = BareHub::open(8, SigningState::start(None, 0, wall_clock()), 0).await;
+        let n = 3 * LINK_QUEUE;
+        for k in 0..n {
+            bare.hub.on_outbound(Outbound {
+                dest: Destination::Link(LINK),
+                message: param_value(k as u16),
+            });
+        }
+        // Something else bulk waits behind the list: it is kept.
+        bare.hub.on_outbound(Outbound {
+            dest: Destination::Link(LINK),
+            message: MavMessage::MISSION_ACK(Default::default()),
+        });
+        // Admitted to the queue, or framed and waiting for room: these go out.
+        let admitted = bare.link_queue.len() + usize::from(bare.entry().ready.is_some());
+        assert_eq!(bare.hub.backlog.waiting(), n + 1 - bare.link_queue.len());
+        let request = MavMessage::PARAM_REQUEST_LIST(mavlink::dialects::ardupilotmega::PARAM_REQUEST_LIST_DATA {
+            target_system: 1,
+            target_component: 1,
+        });
+        bare.frame(&frame_of(&request, 0));
+        assert_eq!(bare.core_items(), 1, "the request reaches the core");
+        assert_eq!(
+            bare.hub.backlog.waiting(),
+            1 + admitted - bare.link_queue.len(),
+            "only the mission ACK (and the framed reply) still wait"
+        );
+        // The core's new list then queues once.
+        for k in 0..n {
+            bare.hub.on_outbound(Outbound {
+                dest: Destination::Link(LINK),
+                message: param_value(k as u16),
+            });
+        }
+        let mut indices = Vec::new();
+        for _ in 0..100 {
+            while let Ok(frame) = bare.link_queue.try_recv() {
+                if let MavMessage::PARAM_VALUE(p) = decoded(&frame) {
+                    indices.push(p.param_index);
+                }
+            }
+            bare.hub.pump_all();
+        }
+        assert_eq!(
+            indices.len(),
+            admitted + n,
+            "the first list's queued part, then one whole list"
+        );
+        assert_eq!(indices[admitted..], (0..n as u16).collect::<Vec<_>>()[..]);
     }
 
     /// Drains the link queue as a writer would; returns the frames' bytes.
