@@ -13,6 +13,8 @@ pub mod tracking;
 use std::alloc::System;
 use std::path::PathBuf;
 
+use autopilot::vehicle::Outputs;
+use mavlink::dialects::ardupilotmega::MavMessage;
 use stats_alloc::{INSTRUMENTED_SYSTEM, StatsAlloc};
 
 /// Counts the benchmarks' allocations (`furrow-bench sitl` reports them per
@@ -29,6 +31,19 @@ pub fn scratch_dir(prefix: &str) -> Result<tempfile::TempDir, String> {
         .prefix(prefix)
         .tempdir()
         .map_err(|e| format!("scratch directory {prefix}*: {e}"))
+}
+
+/// The STATUSTEXTs an in-process simulation step sent, as text (the rest
+/// of its MAVLink output is dropped).
+pub fn status_texts(outputs: &mut Outputs) -> Vec<String> {
+    outputs
+        .mavlink
+        .drain(..)
+        .filter_map(|o| match o.message {
+            MavMessage::STATUSTEXT(t) => t.text.to_str().ok().map(str::to_string),
+            _ => None,
+        })
+        .collect()
 }
 
 /// The `furrow` binary the process benchmarks start: `FURROW_BIN` if set

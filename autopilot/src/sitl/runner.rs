@@ -63,27 +63,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
             .set_override(&mut params.table, "SIM_SPEEDUP", value)
             .map_err(|e| format!("--speedup: {e}"))?;
     }
-    let mut sim = Simulation::new(&options.sim, params);
-    if let Some((path, radius_m)) = &options.tape {
-        let tape = super::tape::load(path, sim.world(), *radius_m).map_err(|e| format!("--tape {e}"))?;
-        tracing::info!("magnetic tape laid: {:.1} m from {}", tape.length_m(), path.display());
-        sim.world_mut().set_tape(Some(tape));
-    }
-    let world_watch = match &options.world {
-        Some(path) => {
-            let file = sim::load_world_file(path).map_err(|e| format!("--world {}: {e}", path.display()))?;
-            if file.tape().is_some() && options.tape.is_some() {
-                return Err(format!(
-                    "--world {} lays a tape and so does --tape: give one",
-                    path.display()
-                ));
-            }
-            apply_world(&mut sim, &file);
-            tracing::info!("world loaded from {}", path.display());
-            Some(WorldWatch::new(path.clone()))
-        }
-        None => None,
-    };
+    let (mut sim, world_watch) = simulation(&options, params)?;
     persistence::restore(&data_dir, &mut session, sim.core_mut());
     let persistence = Persistence::start(&data_dir, session, sim.core_mut());
 
@@ -130,6 +110,33 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         pacer: Pacer::default(),
     };
     edge.run(&mut platform, sockets, persistence, shutdown::signal())
+}
+
+/// The simulation with the tape and world file the options give (a world
+/// file is watched for changes).
+fn simulation(options: &SitlOptions, params: SimulationParams) -> Result<(Simulation, Option<WorldWatch>), String> {
+    let mut sim = Simulation::new(&options.sim, params);
+    if let Some((path, radius_m)) = &options.tape {
+        let tape = super::tape::load(path, sim.world(), *radius_m).map_err(|e| format!("--tape {e}"))?;
+        tracing::info!("magnetic tape laid: {:.1} m from {}", tape.length_m(), path.display());
+        sim.world_mut().set_tape(Some(tape));
+    }
+    let world_watch = match &options.world {
+        Some(path) => {
+            let file = sim::load_world_file(path).map_err(|e| format!("--world {}: {e}", path.display()))?;
+            if file.tape().is_some() && options.tape.is_some() {
+                return Err(format!(
+                    "--world {} lays a tape and so does --tape: give one",
+                    path.display()
+                ));
+            }
+            apply_world(&mut sim, &file);
+            tracing::info!("world loaded from {}", path.display());
+            Some(WorldWatch::new(path.clone()))
+        }
+        None => None,
+    };
+    Ok((sim, world_watch))
 }
 
 /// The simulated world and its devices around the core, on simulated time
