@@ -173,13 +173,8 @@ fn armed_in_guided(logging: bool) -> (Simulation, InstantTimer) {
     let backend = if logging { 1.0 } else { 0.0 };
     let set = sim.core_mut().params_mut().set_by_name("LOG_BACKEND_TYPE", backend);
     set.expect("LOG_BACKEND_TYPE is declared");
-    gcs::connect(&mut sim);
     let mut timer = InstantTimer::default();
-    while sim.time().as_secs_f64() < 2.0 {
-        sim.step(Duration::ZERO, &mut timer).mavlink.clear();
-    }
-    gcs::send(&mut sim, gcs::set_mode(15));
-    gcs::send(&mut sim, gcs::arm());
+    crate::warm_up_and_arm(&mut sim, &mut timer, 2.0, 15);
     (sim, timer)
 }
 

@@ -20,7 +20,6 @@ use autopilot::guidance::navigator::NavTarget;
 use autopilot::guidance::path::{LegPath, PathProjection, Piece};
 use autopilot::guidance::tracker::Direction;
 use autopilot::offline::plot::{self, PlotData};
-use autopilot::sitl::gcs;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
 /// The reference courses, built in so the benchmark runs from anywhere.
@@ -584,13 +583,8 @@ fn start_course(
         MissionType::Mission,
         Plan::new(MissionType::Mission, course.items.clone()),
     );
-    gcs::connect(&mut sim);
     let mut timer = InstantTimer::default();
-    while sim.time().as_secs_f64() < 5.0 {
-        sim.step(Duration::ZERO, &mut timer).mavlink.clear();
-    }
-    gcs::send(&mut sim, gcs::set_mode(10));
-    gcs::send(&mut sim, gcs::arm());
+    crate::warm_up_and_arm(&mut sim, &mut timer, 5.0, 10);
     (sim, timer)
 }
 

@@ -12,7 +12,6 @@ use super::truth::{Judge, Limits, MOVING_MPS, Pose, STALL_S, TruthLog, on_its_li
 use autopilot::edge::clock::InstantTimer;
 use autopilot::geo::{LocalFrame, Ned};
 use autopilot::obstacles::TrackStatus;
-use autopilot::sitl::gcs;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
 /// The simulator warms up (fix, filter) this long before arming.
@@ -188,13 +187,7 @@ fn course_length_m(course: &Course) -> f64 {
 
 /// Warms up, switches to AUTO and arms; returns the simulation time then.
 pub(super) fn arm(sim: &mut Simulation) -> f64 {
-    gcs::connect(sim);
-    let mut timer = InstantTimer::default();
-    while sim.time().as_secs_f64() < WARM_UP_S {
-        sim.step(Duration::ZERO, &mut timer).mavlink.clear();
-    }
-    gcs::send(sim, gcs::set_mode(10));
-    gcs::send(sim, gcs::arm());
+    crate::warm_up_and_arm(sim, &mut InstantTimer::default(), WARM_UP_S, 10);
     sim.time().as_secs_f64()
 }
 
