@@ -19,11 +19,14 @@
 //! - [`modes`]: ArduPilot Rover's mode numbers, names and properties (what
 //!   each mode does each tick is in `vehicle/modes/`, one file per mode).
 //! - [`fence`]: the geofence geometry.
+//! - [`fleet`]: the VDA 5050 agent: orders, actions and the messages a
+//!   master control reads, stepped with time.
 //! - [`telemetry`]: identity, STATUSTEXT and the per-link stream rates.
 //!
 //! The edges:
 //! - [`edge`]: the runner `furrow sitl` and `furrow run` share: one tokio
-//!   runtime, the links, the data directory, the loop and its clocks.
+//!   runtime, the links, the data directory, the loop and its clocks, the
+//!   VDA 5050 MQTT client.
 //! - [`link`]: sockets, serial ports, framing, signing, routing, tlog.
 //! - [`ftp`]: MAVLink FTP (the protocol pure, its file I/O on a worker
 //!   thread at the edge).
@@ -35,7 +38,8 @@
 //! - [`storage`]: the data directory and atomic persistence.
 //! - [`stderr_log`]: the diagnostic log every binary writes to stderr.
 //! - [`offline`]: tools on a data directory (`furrow params …`,
-//!   `furrow mission …`) and `furrow config check`.
+//!   `furrow mission …`, `furrow logs …` with its SVG plot) and
+//!   `furrow config check`.
 
 pub mod control;
 pub mod edge;

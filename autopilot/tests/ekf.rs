@@ -13,8 +13,7 @@ use autopilot::estimation::ekf;
 use autopilot::estimation::ekf::{Ekf, EkfConfig, EkfSigmas, EkfState, Fusion, InputError, StateCovariance, wrap_pi};
 use nalgebra::{SMatrix, SVector};
 
-mod common;
-use common::noise::Noise;
+use test_support::noise::Noise;
 
 const WHEELBASE_M: f64 = 2.9;
 const MAX_STEER_RAD: f64 = 30.0 * std::f64::consts::PI / 180.0;

@@ -2,8 +2,6 @@
 //! (radius 0.25 m) and walls ray-cast by a 270°, 0.5° scanner at 50 Hz with
 //! 10 mm of range noise.
 
-mod common;
-
 use std::f64::consts::PI;
 use std::time::Duration;
 
@@ -12,8 +10,8 @@ use autopilot::obstacles::cluster::{Cluster, ClusterConfig, ScanPoint, cluster_p
 use autopilot::obstacles::outline::FitScratch;
 use autopilot::obstacles::tracking::{ObstacleTracker, TrackingConfig, TrackingStatus};
 use autopilot::obstacles::{Pose, ScannerMount, Track, TrackStatus};
-use common::noise::Noise;
 use drivers::scanner::Scan;
+use test_support::noise::Noise;
 
 const STEP_RAD: f64 = 0.5 * PI / 180.0;
 const SCAN_PERIOD_MS: u64 = 20;

@@ -12,7 +12,13 @@ pub mod tracking;
 
 use std::alloc::System;
 use std::path::PathBuf;
+use std::time::Duration;
 
+use autopilot::edge::clock::InstantTimer;
+use autopilot::sitl::gcs;
+use autopilot::sitl::simulation::Simulation;
+use autopilot::vehicle::Outputs;
+use mavlink::dialects::ardupilotmega::MavMessage;
 use stats_alloc::{INSTRUMENTED_SYSTEM, StatsAlloc};
 
 /// Counts the benchmarks' allocations (`furrow-bench sitl` reports them per
@@ -29,6 +35,31 @@ pub fn scratch_dir(prefix: &str) -> Result<tempfile::TempDir, String> {
         .prefix(prefix)
         .tempdir()
         .map_err(|e| format!("scratch directory {prefix}*: {e}"))
+}
+
+/// Connects a ground station, steps until `warm_up_s` of simulated time
+/// (the first fixes, as an operator would wait), then selects `mode` and
+/// arms.
+pub fn warm_up_and_arm(sim: &mut Simulation, timer: &mut InstantTimer, warm_up_s: f64, mode: u32) {
+    gcs::connect(sim);
+    while sim.time().as_secs_f64() < warm_up_s {
+        sim.step(Duration::ZERO, timer).mavlink.clear();
+    }
+    gcs::send(sim, gcs::set_mode(mode));
+    gcs::send(sim, gcs::arm());
+}
+
+/// The STATUSTEXTs an in-process simulation step sent, as text (the rest
+/// of its MAVLink output is dropped).
+pub fn status_texts(outputs: &mut Outputs) -> Vec<String> {
+    outputs
+        .mavlink
+        .drain(..)
+        .filter_map(|o| match o.message {
+            MavMessage::STATUSTEXT(t) => t.text.to_str().ok().map(str::to_string),
+            _ => None,
+        })
+        .collect()
 }
 
 /// The `furrow` binary the process benchmarks start: `FURROW_BIN` if set

@@ -17,9 +17,7 @@
 //! in-process the core encodes the records, the process also writes them),
 //! so the logger's cost shows (`--log` picks one).
 
-use std::io::{BufRead, BufReader};
 use std::net::TcpStream;
-use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use mavlink::MavlinkReader;
@@ -29,6 +27,8 @@ use autopilot::edge::clock::InstantTimer;
 use autopilot::sitl::gcs;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams, StageTimes};
 use autopilot::time::TaskTimer;
+
+use crate::safety::gcs_client::SitlProcess;
 use sim::WorldStageTimes;
 use stats_alloc::Region;
 
@@ -95,23 +95,8 @@ pub fn run(args: &SitlBenchArgs) -> Result<(), String> {
 /// Drives a 40 m GUIDED square over and over, so the tick includes
 /// estimation, tracking and control, not an idle HOLD.
 fn in_process(seconds: f64, logging: bool) {
-    let config = SimulationConfig {
-        model: ModelKind::Ackermann,
-        ..SimulationConfig::default()
-    };
-    let mut sim = Simulation::new(&config, SimulationParams::new(config.model));
-    let backend = if logging { 1.0 } else { 0.0 };
-    let set = sim.core_mut().params_mut().set_by_name("LOG_BACKEND_TYPE", backend);
-    set.expect("LOG_BACKEND_TYPE is declared");
+    let (mut sim, mut timer) = armed_in_guided(logging);
     let mut log_bytes = 0usize;
-    gcs::connect(&mut sim);
-    let mut timer = InstantTimer::default();
-    // Wait for the first fixes, as an operator would.
-    while sim.time().as_secs_f64() < 2.0 {
-        sim.step(Duration::ZERO, &mut timer).mavlink.clear();
-    }
-    gcs::send(&mut sim, gcs::set_mode(15));
-    gcs::send(&mut sim, gcs::arm());
     let corners = [(40.0, 0.0), (40.0, 40.0), (0.0, 40.0), (0.0, 0.0)];
     let mut corner = 0;
     let start = Instant::now();
@@ -175,6 +160,22 @@ fn in_process(seconds: f64, logging: bool) {
         Some(ekf) => crate::ekf_cost::print(ekf),
         None => println!("EKF cost: the filter never started"),
     }
+}
+
+/// The Ackermann simulation with the onboard log on or off, past its
+/// first fixes (as an operator would wait), in GUIDED and armed.
+fn armed_in_guided(logging: bool) -> (Simulation, InstantTimer) {
+    let config = SimulationConfig {
+        model: ModelKind::Ackermann,
+        ..SimulationConfig::default()
+    };
+    let mut sim = Simulation::new(&config, SimulationParams::new(config.model));
+    let backend = if logging { 1.0 } else { 0.0 };
+    let set = sim.core_mut().params_mut().set_by_name("LOG_BACKEND_TYPE", backend);
+    set.expect("LOG_BACKEND_TYPE is declared");
+    let mut timer = InstantTimer::default();
+    crate::warm_up_and_arm(&mut sim, &mut timer, 2.0, 15);
+    (sim, timer)
 }
 
 /// The ground station's link as the process would drive it: each message
@@ -288,28 +289,17 @@ fn log_records_bytes(commands: &[autopilot::logging::LogCommand]) -> usize {
 fn real_process(seconds: f64, logging: bool) -> Result<(), String> {
     let exe = crate::furrow_exe()?;
     let scratch = crate::scratch_dir("furrow-bench-sitl-")?;
-    let data = scratch.path();
-    let mut child = Command::new(exe)
-        .args([
-            "sitl",
-            "--speedup",
-            "max",
-            "--tcp-port",
-            "0",
-            "--udp-port",
-            "9",
-            "--data-dir",
-        ])
-        .arg(data)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .map_err(|e| format!("starting furrow sitl: {e}"))?;
-    let result = watch(&mut child, seconds, logging);
-    // SIGINT so it prints its tick report, then collect stderr.
-    let _ = Command::new("kill").args(["-INT", &child.id().to_string()]).status();
-    let output = child.wait_with_output().map_err(|e| format!("furrow sitl: {e}"))?;
-    let logs = autopilot::logging::store::LogStore::new(data).list();
+    let data = scratch.path().to_path_buf();
+    let args = ["--speedup", "max", "--tcp-port", "0", "--udp-port", "9", "--data-dir"]
+        .map(String::from)
+        .into_iter()
+        .chain([data.display().to_string()])
+        .collect::<Vec<_>>();
+    let sitl = SitlProcess::start(&exe, &args, &scratch.path().join("stderr.log"))?;
+    let result = watch(&sitl, seconds, logging);
+    // SIGINT so it prints its tick report.
+    let stopped = sitl.interrupt(Duration::from_secs(10));
+    let logs = autopilot::logging::store::LogStore::new(&data).list();
     let log_bytes: u64 = logs.iter().map(|l| l.size_bytes).sum();
     let (sim_ratio, rss_kb, peak_kb, rss_breakdown) = result?;
     println!(
@@ -330,7 +320,7 @@ fn real_process(seconds: f64, logging: bool) -> Result<(), String> {
         peak_kb as f64 / 1024.0
     );
     println!("  {rss_breakdown}");
-    let stderr = String::from_utf8_lossy(&output.stderr);
+    let stderr = sitl.stderr();
     if let Some(line) = stderr.lines().find(|l| l.contains("SITL stopped after")) {
         let report = line.split("SITL stopped after").nth(1).unwrap_or("");
         println!("  exit report: SITL stopped after{report}");
@@ -338,7 +328,7 @@ fn real_process(seconds: f64, logging: bool) -> Result<(), String> {
     if let Some(line) = stderr.lines().find(|l| l.contains("onboard log:")) {
         println!("  {}", line.split("onboard log:").nth(1).map_or("", str::trim));
     }
-    Ok(())
+    stopped
 }
 
 /// Sets a parameter over the bench's connection (no reply awaited: the
@@ -357,19 +347,8 @@ fn param_set(stream: &mut TcpStream, name: &str, value: f32) -> Result<(), Strin
 
 /// Connects, sets the log on or off, measures simulated time over `seconds`
 /// of wall time, reads RSS.
-fn watch(child: &mut std::process::Child, seconds: f64, logging: bool) -> Result<(f64, u64, u64, String), String> {
-    let stdout = child.stdout.take().ok_or("no stdout")?;
-    let mut line = String::new();
-    BufReader::new(stdout)
-        .read_line(&mut line)
-        .map_err(|e| format!("reading ready line: {e}"))?;
-    let port = line
-        .split("tcp ")
-        .nth(1)
-        .and_then(|rest| rest.split(',').next())
-        .and_then(|addr| addr.rsplit(':').next())
-        .and_then(|p| p.parse::<u16>().ok())
-        .ok_or_else(|| format!("unexpected ready line {line:?}"))?;
+fn watch(sitl: &SitlProcess, seconds: f64, logging: bool) -> Result<(f64, u64, u64, String), String> {
+    let port = sitl.tcp_port;
     let stream = TcpStream::connect(("127.0.0.1", port)).map_err(|e| format!("connect: {e}"))?;
     stream
         .set_read_timeout(Some(Duration::from_secs(5)))
@@ -395,7 +374,7 @@ fn watch(child: &mut std::process::Child, seconds: f64, logging: bool) -> Result
     let (t0, b0) = latest(Instant::now() + Duration::from_secs(1))?;
     let (t1, b1) = latest(t0 + autopilot::time::duration_from_secs(seconds))?;
     let ratio = f64::from(b1.wrapping_sub(b0)) / 1000.0 / (t1 - t0).as_secs_f64();
-    let status = std::fs::read_to_string(format!("/proc/{}/status", child.id())).unwrap_or_default();
+    let status = std::fs::read_to_string(format!("/proc/{}/status", sitl.pid())).unwrap_or_default();
     let field = |name: &str| {
         status
             .lines()
@@ -404,7 +383,7 @@ fn watch(child: &mut std::process::Child, seconds: f64, logging: bool) -> Result
             .and_then(|v| v.parse::<u64>().ok())
             .unwrap_or(0)
     };
-    let breakdown = rss_breakdown(child.id());
+    let breakdown = rss_breakdown(sitl.pid());
     Ok((ratio, field("VmRSS:"), field("VmHWM:"), breakdown))
 }
 

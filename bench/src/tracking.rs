@@ -12,15 +12,14 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use mavlink::dialects::ardupilotmega::MavMessage;
 use mission::{ExecState, MissionType, Plan};
 
 use autopilot::edge::clock::InstantTimer;
 use autopilot::geo::{GeoPoint, LocalFrame, Ned, wrap_pi};
-use autopilot::guidance::path::Piece;
+use autopilot::guidance::navigator::NavTarget;
+use autopilot::guidance::path::{LegPath, PathProjection, Piece};
 use autopilot::guidance::tracker::Direction;
 use autopilot::offline::plot::{self, PlotData};
-use autopilot::sitl::gcs;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
 /// The reference courses, built in so the benchmark runs from anywhere.
@@ -341,38 +340,84 @@ struct RunOptions<'a> {
     params: &'a [(String, f64)],
 }
 
+/// Where a run is on its course, by the truth: the leg and path piece
+/// being driven, the distance driven, where the last turn ended, and the
+/// current stop's settling.
+#[derive(Default)]
+struct CourseProgress {
+    leg: Option<LegKey>,
+    piece: usize,
+    last_pos: Option<Ned>,
+    odometer_m: f64,
+    turn_end_odometer_m: f64,
+    last_heading: Option<f64>,
+    settle: SettleWatch,
+}
+
+impl CourseProgress {
+    fn drive_to(&mut self, position: Ned) {
+        if let Some(last) = self.last_pos {
+            self.odometer_m += last.distance_to(&position);
+        }
+        self.last_pos = Some(position);
+    }
+
+    /// Starts on the leg `key` if it is a new one; true if it is.
+    fn enter_leg(&mut self, key: LegKey, path: &LegPath) -> bool {
+        if self.leg == Some(key) {
+            return false;
+        }
+        self.leg = Some(key);
+        self.piece = 0;
+        self.settle = SettleWatch::default();
+        // A leg that starts with a change of heading and no arc is a
+        // turn too (a corner too tight for an arc).
+        let start_heading = path.heading_at(0.0);
+        if self
+            .last_heading
+            .is_some_and(|h| wrap_pi(h - start_heading).abs() > 1f64.to_radians())
+            && !matches!(path.pieces()[0], Piece::Arc(_))
+        {
+            self.turn_end_odometer_m = self.odometer_m;
+        }
+        true
+    }
+
+    /// The true position projected onto the leg's path, and whether it is
+    /// on an arc (where a turn's end moves on).
+    fn project(&mut self, path: &LegPath, position: Ned) -> (PathProjection, bool) {
+        let projection = path.project(&position, self.piece);
+        self.piece = projection.piece;
+        self.last_heading = Some(path.heading_at(path.end_m()));
+        let on_arc = matches!(path.pieces()[self.piece], Piece::Arc(_));
+        if on_arc {
+            self.turn_end_odometer_m = self.odometer_m;
+        }
+        (projection, on_arc)
+    }
+}
+
+/// What one tick saw of the leg being driven, by the truth.
+struct LegSample<'a> {
+    target: NavTarget,
+    path: &'a LegPath,
+    piece: usize,
+    position: Ned,
+    yaw_rad: f64,
+    along_m: f64,
+    crosstrack_m: f64,
+}
+
 fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
-    let RunOptions {
-        seed,
-        model,
-        heading_deg,
-        timeout_s,
-        keep_plot,
-        trace,
-        params,
-    } = *options;
-    let (mut sim, mut timer) = start_course(course, seed, model, heading_deg, params);
+    let (mut sim, mut timer) = start_course(course, options.seed, options.model, options.heading_deg, options.params);
+    let (keep_plot, trace) = (options.keep_plot, options.trace);
     let start_s = sim.time().as_secs_f64();
 
     let mut record = RunRecord::default();
-    let mut leg: Option<LegKey> = None;
-    let mut piece = 0usize;
-    let mut last_pos: Option<Ned> = None;
-    let mut odometer_m = 0.0;
-    let mut turn_end_odometer_m = 0.0;
-    let mut last_heading: Option<f64> = None;
-    let mut settle = SettleWatch::default();
+    let mut progress = CourseProgress::default();
     let mut ticks = 0u64;
-    while sim.time().as_secs_f64() - start_s < timeout_s {
-        let outputs = sim.step(Duration::ZERO, &mut timer);
-        let texts: Vec<String> = outputs
-            .mavlink
-            .drain(..)
-            .filter_map(|o| match o.message {
-                MavMessage::STATUSTEXT(t) => t.text.to_str().ok().map(str::to_string),
-                _ => None,
-            })
-            .collect();
+    while sim.time().as_secs_f64() - start_s < options.timeout_s {
+        let texts = crate::status_texts(sim.step(Duration::ZERO, &mut timer));
         ticks += 1;
         let core = sim.core();
         let Some(frame) = core.estimator().frame().copied() else {
@@ -381,10 +426,7 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
         let truth = *sim.world().truth();
         let position = true_local(&sim, &frame, truth.north_m, truth.east_m);
         let yaw = wrap_pi(truth.yaw_rad + frame_rotation(&sim, &frame));
-        if let Some(last) = last_pos {
-            odometer_m += last.distance_to(&position);
-        }
-        last_pos = Some(position);
+        progress.drive_to(position);
 
         let nav = core.navigator();
         let (Some(target), Some(path)) = (nav.target().copied(), nav.path()) else {
@@ -399,92 +441,40 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
             from: nav.leg_start(),
             point: target.point,
         };
-        if leg != Some(key) {
-            leg = Some(key);
-            piece = 0;
-            settle = SettleWatch::default();
-            // A leg that starts with a change of heading and no arc is a
-            // turn too (a corner too tight for an arc).
-            let start_heading = path.heading_at(0.0);
-            if last_heading.is_some_and(|h| wrap_pi(h - start_heading).abs() > 1f64.to_radians())
-                && !matches!(path.pieces()[0], Piece::Arc(_))
-            {
-                turn_end_odometer_m = odometer_m;
-            }
-            if keep_plot {
-                record.plot.add_leg(path);
-            }
+        if progress.enter_leg(key, path) && keep_plot {
+            record.plot.add_leg(path);
         }
-        let projection = path.project(&position, piece);
-        piece = projection.piece;
-        last_heading = Some(path.heading_at(path.end_m()));
+        let (projection, on_arc) = progress.project(path, position);
         let error = projection.crosstrack_m;
-        let on_arc = matches!(path.pieces()[piece], Piece::Arc(_));
-        if on_arc {
-            turn_end_odometer_m = odometer_m;
-        }
         // Only while the vehicle drives the leg (not resting at a stop).
         let moving = truth.speed_mps.abs() > 0.01;
         let reverse = target.direction == Direction::Reverse;
-        let after_turn = odometer_m - turn_end_odometer_m >= AFTER_TURN_M;
+        let after_turn = progress.odometer_m - progress.turn_end_odometer_m >= AFTER_TURN_M;
         let class = classify_error(&mut record, moving, on_arc, after_turn, reverse, error);
+        let sample = LegSample {
+            target,
+            path,
+            piece: progress.piece,
+            position,
+            yaw_rad: yaw,
+            along_m: projection.along_m,
+            crosstrack_m: error,
+        };
         if trace {
-            let st = nav.status();
-            let est = core.estimator().estimate().position;
-            let along_true = path.project(&position, piece).along_m;
-            let along_est = path.project(&est, piece).along_m;
-            record.trace.push(format!(
-                "{:.2},{},{},{:?},{:.1},{:.1},{:.1},{:.3},{:.3},{:.1},{:.4},{:.3},{:.3},{:.3},{},{:.4},{:.1}",
-                sim.time().as_secs_f64(),
-                target.seq.unwrap_or(0),
-                piece,
-                class,
-                error * 1000.0,
-                st.crosstrack_m * 1000.0,
-                (along_est - along_true) * 1000.0,
-                st.tracker.steer_rad.to_degrees(),
-                st.tracker.feedforward_rad.to_degrees(),
-                st.tracker.lateral_error_m * 1000.0,
-                st.tracker.yaw_error_rad.to_degrees(),
-                st.speed.speed_mps,
-                truth.speed_mps,
-                truth.steer_rad.to_degrees(),
-                st.tracker.capturing as u8,
-                core.estimator().estimate().speed_mps,
-                (path.end_m() - along_true) * 1000.0,
-            ));
+            record.trace.push(trace_row(&sim, &sample, class));
         }
         if keep_plot && ticks.is_multiple_of(5) {
-            record.plot.add_sample(position, odometer_m, error, class);
+            record.plot.add_sample(position, progress.odometer_m, error, class);
         }
 
         let to_go_m = (path.end_m() - projection.along_m).hypot(error);
         if target.stop {
-            settle.update(sim.time().as_secs_f64(), to_go_m, truth.speed_mps);
+            progress
+                .settle
+                .update(sim.time().as_secs_f64(), to_go_m, truth.speed_mps);
         }
         for text in texts.iter().filter(|t| t.starts_with("Stop")) {
-            let (reported_mm, reported_yaw_deg) = parse_reported(text).unwrap_or((f64::NAN, f64::NAN));
-            let flip = if target.direction == Direction::Reverse {
-                std::f64::consts::PI
-            } else {
-                0.0
-            };
-            let along = path.end_m() - projection.along_m;
-            record.stops.push(StopRecord {
-                seq: target.seq.unwrap_or(0),
-                position_m: along.hypot(error),
-                along_m: along,
-                crosstrack_m: error,
-                yaw_rad: wrap_pi(yaw - path.heading_at(path.end_m()) - flip),
-                reported_mm,
-                reported_yaw_deg,
-                estimate_error_m: core.estimator().estimate().position.distance_to(&position),
-                estimate_yaw_error_rad: wrap_pi(core.estimator().estimate().yaw_rad - yaw),
-                settle_s: settle.within_since_s.map(|t| sim.time().as_secs_f64() - t),
-                creep_s: settle.within_since_s.zip(settle.first_rest_s).map(|(a, b)| b - a),
-                restarts: settle.restarts,
-                direction: target.direction,
-            });
+            record.stops.push(stop_record(&sim, &sample, text, &progress.settle));
         }
         if core.mission_state() == ExecState::Complete && core.navigator().target().is_none() {
             record.completion_s = Some(sim.time().as_secs_f64() - start_s);
@@ -493,6 +483,81 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
     }
     record.core_tick_overruns = sim.core().scheduler().tick_stats().overruns;
     record
+}
+
+/// One row of the tick-by-tick trace ([`TRACE_HEADER`]).
+fn trace_row(sim: &Simulation, sample: &LegSample<'_>, class: plot::Class) -> String {
+    let LegSample {
+        target,
+        path,
+        piece,
+        position,
+        crosstrack_m: error,
+        ..
+    } = *sample;
+    let core = sim.core();
+    let truth = sim.world().truth();
+    let st = core.navigator().status();
+    let est = core.estimator().estimate().position;
+    let along_true = path.project(&position, piece).along_m;
+    let along_est = path.project(&est, piece).along_m;
+    format!(
+        "{:.2},{},{},{:?},{:.1},{:.1},{:.1},{:.3},{:.3},{:.1},{:.4},{:.3},{:.3},{:.3},{},{:.4},{:.1}",
+        sim.time().as_secs_f64(),
+        target.seq.unwrap_or(0),
+        piece,
+        class,
+        error * 1000.0,
+        st.crosstrack_m * 1000.0,
+        (along_est - along_true) * 1000.0,
+        st.tracker.steer_rad.to_degrees(),
+        st.tracker.feedforward_rad.to_degrees(),
+        st.tracker.lateral_error_m * 1000.0,
+        st.tracker.yaw_error_rad.to_degrees(),
+        st.speed.speed_mps,
+        truth.speed_mps,
+        truth.steer_rad.to_degrees(),
+        st.tracker.capturing as u8,
+        core.estimator().estimate().speed_mps,
+        (path.end_m() - along_true) * 1000.0,
+    )
+}
+
+/// A stop, by the truth, when the autopilot reported it (`text`, whose
+/// figures are kept beside the truth's).
+fn stop_record(sim: &Simulation, sample: &LegSample<'_>, text: &str, settle: &SettleWatch) -> StopRecord {
+    let LegSample {
+        target,
+        path,
+        position,
+        yaw_rad: yaw,
+        along_m,
+        crosstrack_m: error,
+        ..
+    } = *sample;
+    let core = sim.core();
+    let (reported_mm, reported_yaw_deg) = parse_reported(text).unwrap_or((f64::NAN, f64::NAN));
+    let flip = if target.direction == Direction::Reverse {
+        std::f64::consts::PI
+    } else {
+        0.0
+    };
+    let along = path.end_m() - along_m;
+    StopRecord {
+        seq: target.seq.unwrap_or(0),
+        position_m: along.hypot(error),
+        along_m: along,
+        crosstrack_m: error,
+        yaw_rad: wrap_pi(yaw - path.heading_at(path.end_m()) - flip),
+        reported_mm,
+        reported_yaw_deg,
+        estimate_error_m: core.estimator().estimate().position.distance_to(&position),
+        estimate_yaw_error_rad: wrap_pi(core.estimator().estimate().yaw_rad - yaw),
+        settle_s: settle.within_since_s.map(|t| sim.time().as_secs_f64() - t),
+        creep_s: settle.within_since_s.zip(settle.first_rest_s).map(|(a, b)| b - a),
+        restarts: settle.restarts,
+        direction: target.direction,
+    }
 }
 
 /// The simulation for one run, the plan loaded, settled for 5 s on its
@@ -518,13 +583,8 @@ fn start_course(
         MissionType::Mission,
         Plan::new(MissionType::Mission, course.items.clone()),
     );
-    gcs::connect(&mut sim);
     let mut timer = InstantTimer::default();
-    while sim.time().as_secs_f64() < 5.0 {
-        sim.step(Duration::ZERO, &mut timer).mavlink.clear();
-    }
-    gcs::send(&mut sim, gcs::set_mode(10));
-    gcs::send(&mut sim, gcs::arm());
+    crate::warm_up_and_arm(&mut sim, &mut timer, 5.0, 10);
     (sim, timer)
 }
 

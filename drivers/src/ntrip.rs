@@ -648,38 +648,12 @@ fn deadline_after(after: Duration) -> tokio::time::Instant {
 }
 
 async fn session(config: &NtripConfig, shared: &Shared, gga: &mut watch::Receiver<Option<String>>) -> SessionEnd {
-    let fail = |error: NtripError| SessionEnd {
-        error,
-        delivered: false,
-    };
     let address = format!("{}:{}", config.host, config.port);
-    let mut stream = match connect_and_request(config, shared, &address).await {
-        Ok(stream) => stream,
-        Err(e) => return fail(e),
-    };
     let mut buf = vec![0u8; 4096];
-    let (head, start, head_len) = match read_response_head(&mut stream, config, shared, &address, &mut buf).await {
-        Ok(parsed) => parsed,
-        Err(e) => return fail(e),
+    let (mut stream, mut body) = match open_stream(config, shared, &address, &mut buf).await {
+        Ok(opened) => opened,
+        Err(end) => return end,
     };
-    let StreamStart::Stream { chunked } = start;
-    tracing::info!(%address, mountpoint = mount_name(config), chunked, "ntrip stream started");
-    update(&shared.status, |s| {
-        s.connected = true;
-        s.connects += 1;
-    });
-
-    let mut body = Body {
-        chunked: chunked.then(ChunkedDecoder::new),
-        frames: Rtcm3FrameCounter::new(),
-        delivered: false,
-    };
-    if let Err(error) = body.take(&head[head_len..], shared) {
-        return SessionEnd {
-            error,
-            delivered: body.delivered,
-        };
-    }
 
     let mut gga_enabled = !config.gga_interval.is_zero();
     // Due now: a VRS caster waits for the position before it streams.
@@ -734,6 +708,44 @@ async fn session(config: &NtripConfig, shared: &Shared, gga: &mut watch::Receive
             }
         }
     }
+}
+
+/// Connects, sends the request, reads the caster's answer and takes the
+/// body bytes that came with it: the stream and its body, or how the
+/// session ended.
+async fn open_stream(
+    config: &NtripConfig,
+    shared: &Shared,
+    address: &str,
+    buf: &mut [u8],
+) -> Result<(TcpStream, Body), SessionEnd> {
+    let fail = |error: NtripError| SessionEnd {
+        error,
+        delivered: false,
+    };
+    let mut stream = connect_and_request(config, shared, address).await.map_err(fail)?;
+    let (head, start, head_len) = read_response_head(&mut stream, config, shared, address, buf)
+        .await
+        .map_err(fail)?;
+    let StreamStart::Stream { chunked } = start;
+    tracing::info!(%address, mountpoint = mount_name(config), chunked, "ntrip stream started");
+    update(&shared.status, |s| {
+        s.connected = true;
+        s.connects += 1;
+    });
+
+    let mut body = Body {
+        chunked: chunked.then(ChunkedDecoder::new),
+        frames: Rtcm3FrameCounter::new(),
+        delivered: false,
+    };
+    if let Err(error) = body.take(&head[head_len..], shared) {
+        return Err(SessionEnd {
+            error,
+            delivered: body.delivered,
+        });
+    }
+    Ok((stream, body))
 }
 
 /// Connects to the caster and sends the NTRIP request.

@@ -42,6 +42,8 @@ class Sitl:
             self.stop()
             raise RuntimeError(f"furrow sitl did not start: {line!r}\n{self.log()}")
         self.tcp_port = int(match.group(2))
+        # The whole ready line: listeners bound to port 0 say their port there.
+        self.ready = line
         self.connections = []
 
     def tcp(self, source_system=255, wait=True):

@@ -2,6 +2,7 @@
 connects late."""
 
 import os
+import re
 import select
 import socket
 import threading
@@ -19,10 +20,13 @@ mavlink = mavutil.mavlink
 MAX_HEARTBEAT_GAP_S = 1.1
 
 
-def free_udp_port():
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+def discard_pending(sock):
+    """Throws away every datagram already queued on a non-blocking socket."""
+    while True:
+        try:
+            sock.recv(65535)
+        except BlockingIOError:
+            return
 
 
 def sitl_udp_address(m):
@@ -123,14 +127,16 @@ def is_params_notice(t):
 
 
 def test_a_gcs_that_first_speaks_after_boot_on_udp_gets_the_damaged_params_notice(tmp_path):
-    # Nobody listens on the UDP link's port at boot; a GCS binds it later,
-    # hears telemetry and speaks.
-    port = free_udp_port()
-    s = Sitl(tmp_path, udp_port=port, data_dir=corrupt_params(tmp_path))
+    # Nobody reads the UDP link's port at boot: the ground station's socket
+    # takes the port from the OS first (so no other process can), and what
+    # arrived before it speaks is thrown away unread. Then it hears
+    # telemetry and speaks.
+    m = mavutil.mavlink_connection("udpin:127.0.0.1:0", source_system=255)
+    s = Sitl(tmp_path, udp_port=udp_port(m), data_dir=corrupt_params(tmp_path))
+    s.connections.append(m)
     try:
         time.sleep(2)
-        m = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255)
-        s.connections.append(m)
+        discard_pending(m.port)
         assert m.wait_heartbeat(timeout=10)
         m.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
         assert recv(m, "STATUSTEXT", 5, is_params_notice) is not None, "the late GCS was never told"
@@ -139,8 +145,9 @@ def test_a_gcs_that_first_speaks_after_boot_on_udp_gets_the_damaged_params_notic
 
 
 def test_a_gcs_on_a_udpin_endpoint_gets_the_notice_when_it_first_speaks(tmp_path):
-    port = free_udp_port()
-    s = Sitl(tmp_path, data_dir=corrupt_params(tmp_path), extra_args=["--mavlink", f"udpin:127.0.0.1:{port}"])
+    # Port 0: the OS picks it, and the ready line says which.
+    s = Sitl(tmp_path, data_dir=corrupt_params(tmp_path), extra_args=["--mavlink", "udpin:127.0.0.1:0"])
+    port = int(re.search(r", listening udpin:127\.0\.0\.1:(\d+)", s.ready).group(1))
     try:
         time.sleep(1)
         m = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=255)

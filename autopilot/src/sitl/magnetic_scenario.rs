@@ -144,6 +144,21 @@ pub struct MagneticProfile {
 }
 
 impl MagneticProfile {
+    /// A profile whose guide is `guide` fitted to the vehicle and sensors.
+    fn new(
+        name: &'static str,
+        vehicle: AckermannConfig,
+        sensors: MagneticSensorConfig,
+        guide: MagneticGuideConfig,
+    ) -> Self {
+        Self {
+            name,
+            vehicle,
+            sensors,
+            guide: Self::fitted(guide, &vehicle, &sensors),
+        }
+    }
+
     /// The bench vehicle (2.9 m wheelbase, 30°/s steering) with the sensors
     /// ±1 m about the rear axle and the `MAG_*` defaults: what MAGNETIC mode
     /// runs in `furrow sitl`.
@@ -153,12 +168,7 @@ impl MagneticProfile {
             edge_noise_m: 0.002,
             ..MagneticSensorConfig::default()
         };
-        Self {
-            name: "bench AGV",
-            vehicle,
-            sensors,
-            guide: Self::fitted(MagneticGuideConfig::default(), &vehicle, &sensors),
-        }
+        Self::new("bench AGV", vehicle, sensors, MagneticGuideConfig::default())
     }
 
     /// The fruit-picking robot of "Path tracking of a wheeled AGV with
@@ -182,12 +192,7 @@ impl MagneticProfile {
             edge_noise_m: 0.002,
             ..MagneticSensorConfig::default()
         };
-        Self {
-            name: "double-guide robot",
-            vehicle,
-            sensors,
-            guide: Self::fitted(Self::robot_guide(), &vehicle, &sensors),
-        }
+        Self::new("double-guide robot", vehicle, sensors, Self::robot_guide())
     }
 
     /// The paper's dual PID on its robot, as the paper has it: PD steering

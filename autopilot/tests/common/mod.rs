@@ -2,8 +2,6 @@
 //! same `Inbound`/`Outbound` messages the link layer carries.
 #![allow(dead_code, unused_imports)]
 
-pub use test_support::noise;
-
 use std::time::Duration;
 
 use autopilot::sitl::gcs;

@@ -5,7 +5,6 @@
 
 use std::time::Duration;
 
-use mavlink::dialects::ardupilotmega::MavMessage;
 use mission::{ExecState, MissionType, Plan};
 use sim::{ObstacleWorld, VehicleOutline};
 
@@ -13,7 +12,6 @@ use super::truth::{Judge, Limits, MOVING_MPS, Pose, STALL_S, TruthLog, on_its_li
 use autopilot::edge::clock::InstantTimer;
 use autopilot::geo::{LocalFrame, Ned};
 use autopilot::obstacles::TrackStatus;
-use autopilot::sitl::gcs;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
 /// The simulator warms up (fix, filter) this long before arming.
@@ -189,13 +187,7 @@ fn course_length_m(course: &Course) -> f64 {
 
 /// Warms up, switches to AUTO and arms; returns the simulation time then.
 pub(super) fn arm(sim: &mut Simulation) -> f64 {
-    gcs::connect(sim);
-    let mut timer = InstantTimer::default();
-    while sim.time().as_secs_f64() < WARM_UP_S {
-        sim.step(Duration::ZERO, &mut timer).mavlink.clear();
-    }
-    gcs::send(sim, gcs::set_mode(10));
-    gcs::send(sim, gcs::arm());
+    crate::warm_up_and_arm(sim, &mut InstantTimer::default(), WARM_UP_S, 10);
     sim.time().as_secs_f64()
 }
 
@@ -228,7 +220,7 @@ pub fn drive_with(
     let mut speeds: Vec<(f64, f64)> = Vec::new();
     let timeout_s = course_log.completion_s.unwrap_or(120.0) + OVERTIME_S;
     loop {
-        let texts = statustexts(sim.step(Duration::ZERO, &mut timer));
+        let texts = crate::status_texts(sim.step(Duration::ZERO, &mut timer));
         let pose = true_pose(&sim);
         let t_world = pose.t_s;
         speeds.push((t_world, pose.speed_mps));
@@ -255,13 +247,8 @@ pub fn drive_with(
             record_collision(&world, &rect, &speeds, &limits, &pose, &mut result);
         }
         in_contact = contact;
-        if let Some((from, done)) = &mut braking
-            && !*done
-            && !moving
-        {
-            *done = true;
-            result.braking_m.push(from.distance_to(pose.north_m, pose.east_m));
-            result.rest_clearance_m.push(clearance_m);
+        if !moving {
+            finish_braking(&mut braking, &pose, clearance_m, &mut result);
         }
         if apply_yields(setup, &mut yielded, &mut world, &rect, t_world) {
             sim.world_mut().set_obstacles(Some(world.clone()));
@@ -273,16 +260,9 @@ pub fn drive_with(
             result.completion_s = Some(t_world - start_s);
             break;
         }
-        match rest.update(&pose, moving || complete, || judge.way_blocked(&world, t_world, &pose)) {
-            RestVerdict::Stall => {
-                result.stalls += 1;
-                result
-                    .events
-                    .push(format!("t {:.1} STALL: at rest 30 s with the way clear", pose.t_s));
-                break;
-            }
-            RestVerdict::Blocked(at_rest_s) if setup.blocked_by_design && at_rest_s > BLOCKED_WATCH_S => break,
-            _ => {}
+        let verdict = rest.update(&pose, moving || complete, || judge.way_blocked(&world, t_world, &pose));
+        if rest_ends_run(verdict, setup, &pose, &mut result) {
+            break;
         }
     }
     result.time_lost_s = result
@@ -291,6 +271,34 @@ pub fn drive_with(
         .map(|(with, without)| with - without);
     result.malformed_scans = sim.malformed_scans();
     Ok(result)
+}
+
+/// The vehicle has come to rest: the braking an obstacle stop began, if
+/// not yet measured, ends here.
+fn finish_braking(braking: &mut Option<(Pose, bool)>, pose: &Pose, clearance_m: f64, result: &mut RunResult) {
+    if let Some((from, done)) = braking
+        && !*done
+    {
+        *done = true;
+        result.braking_m.push(from.distance_to(pose.north_m, pose.east_m));
+        result.rest_clearance_m.push(clearance_m);
+    }
+}
+
+/// Whether being at rest ends the run: a stall (at rest with the way
+/// clear), or a blockage the scenario intends, watched long enough.
+fn rest_ends_run(verdict: RestVerdict, setup: &Setup, pose: &Pose, result: &mut RunResult) -> bool {
+    match verdict {
+        RestVerdict::Stall => {
+            result.stalls += 1;
+            result
+                .events
+                .push(format!("t {:.1} STALL: at rest 30 s with the way clear", pose.t_s));
+            true
+        }
+        RestVerdict::Blocked(at_rest_s) => setup.blocked_by_design && at_rest_s > BLOCKED_WATCH_S,
+        _ => false,
+    }
 }
 
 /// Files the obstacle STATUSTEXTs of one tick as events, judging each
@@ -475,17 +483,6 @@ impl RestWatch {
             _ => RestVerdict::Blocked(pose.t_s - since_s),
         }
     }
-}
-
-fn statustexts(outputs: &mut autopilot::vehicle::Outputs) -> Vec<String> {
-    outputs
-        .mavlink
-        .drain(..)
-        .filter_map(|o| match o.message {
-            MavMessage::STATUSTEXT(t) => t.text.to_str().ok().map(str::to_string),
-            _ => None,
-        })
-        .collect()
 }
 
 /// Yielding movers step aside when the vehicle comes close; true when the

@@ -86,6 +86,11 @@ impl SitlProcess {
         }
     }
 
+    /// The process id (for /proc).
+    pub fn pid(&self) -> u32 {
+        self.pid
+    }
+
     /// Something another thread can SIGKILL the process with.
     pub fn killer(&self) -> Killer {
         Killer(self.child.clone())

@@ -84,7 +84,37 @@ pub fn render(plans: &Plans, home: Option<HomeItem>) -> String {
         })
     });
     let planned_home = home.map_or_else(|| json!([0, 0, 0]), |h| coordinate(h.lat_e7, h.lon_e7, Some(h.alt_m)));
-    let items: Vec<Value> = mission_items
+    let items = mission_json(mission_items);
+    let geo_fence = fence_json(plans.fence.items());
+    let points: Vec<Value> = plans
+        .rally
+        .items()
+        .iter()
+        .map(|it| coordinate(it.x, it.y, Some(it.z)))
+        .collect();
+
+    let file = json!({
+        "fileType": "Plan",
+        "version": 1,
+        "groundStation": "Furrow",
+        "mission": {
+            "version": 2,
+            "firmwareType": FIRMWARE_TYPE,
+            "vehicleType": VEHICLE_TYPE,
+            "plannedHomePosition": planned_home,
+            "items": items,
+        },
+        "geoFence": geo_fence,
+        "rallyPoints": { "version": 2, "points": points },
+    });
+    let mut text = pretty(&file);
+    text.push('\n');
+    text
+}
+
+/// The mission's items after home, as QGroundControl's `SimpleItem`s.
+fn mission_json(mission_items: &[MissionItem]) -> Vec<Value> {
+    mission_items
         .iter()
         .skip(1)
         .map(|it| {
@@ -101,12 +131,15 @@ pub fn render(plans: &Plans, home: Option<HomeItem>) -> String {
                 "doJumpId": it.seq,
             })
         })
-        .collect();
+        .collect()
+}
 
+/// The fence items as QGroundControl's `geoFence`: polygons (a run of
+/// vertices of one kind), circles and the breach return point.
+fn fence_json(fence: &[MissionItem]) -> Value {
     let mut polygons = Vec::new();
     let mut circles = Vec::new();
     let mut breach_return = None;
-    let fence = plans.fence.items();
     let mut i = 0;
     while i < fence.len() {
         let it = &fence[i];
@@ -140,30 +173,7 @@ pub fn render(plans: &Plans, home: Option<HomeItem>) -> String {
     if let Some(b) = breach_return {
         geo_fence["breachReturn"] = b;
     }
-    let points: Vec<Value> = plans
-        .rally
-        .items()
-        .iter()
-        .map(|it| coordinate(it.x, it.y, Some(it.z)))
-        .collect();
-
-    let file = json!({
-        "fileType": "Plan",
-        "version": 1,
-        "groundStation": "Furrow",
-        "mission": {
-            "version": 2,
-            "firmwareType": FIRMWARE_TYPE,
-            "vehicleType": VEHICLE_TYPE,
-            "plannedHomePosition": planned_home,
-            "items": items,
-        },
-        "geoFence": geo_fence,
-        "rallyPoints": { "version": 2, "points": points },
-    });
-    let mut text = pretty(&file);
-    text.push('\n');
-    text
+    geo_fence
 }
 
 /// Four-space indentation, as QGroundControl writes.
