@@ -4,6 +4,7 @@
 
 pub mod ekf_cost;
 pub mod magnetic;
+pub mod magnetic_bound;
 pub mod manoeuvre;
 pub mod obstacles;
 pub mod safety;

@@ -393,7 +393,7 @@ impl Default for MagneticGuideConfig {
     /// offset; dead reckoning for 1.5 s, so no correction limit below full
     /// lock (the geometric one, 12.3° here, applies only without it) and
     /// approaches up to 8°. `furrow-bench magnetic` measures it: back
-    /// within 2.4 s from 0.1 m and 5° towards the tape at 1.5 m/s on a
+    /// within 1.4 s from 0.1 m and 5° towards the tape (3.7 s away from it) at 1.5 m/s on a
     /// straight and on 25, 15 and 10 m arcs, never off a tape running into
     /// arcs of 10 m and more.
     fn default() -> Self {
@@ -871,6 +871,30 @@ impl MagneticGuide {
             }
         };
         let settle_s = RATE_SETTLE_TIME_CONSTANTS / (std::f64::consts::TAU * config.sensor_rate_filter_hz);
+        // The other sensor from this one at `x_m` reading `e_m`, `towards`
+        // it (+1 forwards): along this sensor's local tape direction (from
+        // its rate), the tape bending by k·d²/2 on the way (y'' = k either
+        // way). While the rate settles its filter leans on 0, which says
+        // "the vehicle follows the tape": k is then the vehicle's own
+        // curvature ω/v, which keeps that prior whole (with the sensors
+        // symmetric about the rear axle, the other sensor reads the same);
+        // once settled, the tape's (the integral's). Found in SITL: with the
+        // unsettled rate and no bend, on a 10 m arc the other sensor was
+        // placed 0.2 m off on the wrong side and the vehicle steered away
+        // from the tape.
+        let own_curvature_per_m = if speed_mps.abs() > MIN_RATE_SPEED_MPS {
+            yaw_rate / speed_mps
+        } else {
+            0.0
+        };
+        let other_m = |track: &SensorTrack, x_m: f64, e_m: f64, towards: f64| {
+            let k = if track.on_tape_s >= settle_s {
+                curvature_per_m
+            } else {
+                own_curvature_per_m
+            };
+            e_m + towards * spacing_m * tan_alpha(track, x_m) + 0.5 * k * spacing_m.powi(2)
+        };
         let (e1, e2, fresh) = match (weak(front_m, pf), weak(rear_m, pr)) {
             (Some(f), Some(r)) => (
                 f,
@@ -882,7 +906,7 @@ impl MagneticGuide {
             // from the estimate while there is one.
             (Some(f), None) => {
                 let settled = self.front.on_tape_s >= settle_s && trusted(f);
-                let from_rate_m = f - spacing_m * tan_alpha(&self.front, config.front_x_m);
+                let from_rate_m = other_m(&self.front, config.front_x_m, f, -1.0);
                 let estimate_m = pr.filter(|_| !settled).unwrap_or(from_rate_m);
                 let informed = predicted.is_some() || settled;
                 (
@@ -893,7 +917,7 @@ impl MagneticGuide {
             }
             (None, Some(r)) => {
                 let settled = self.rear.on_tape_s >= settle_s && trusted(r);
-                let from_rate_m = r + spacing_m * tan_alpha(&self.rear, config.rear_x_m);
+                let from_rate_m = other_m(&self.rear, config.rear_x_m, r, 1.0);
                 let estimate_m = pf.filter(|_| !settled).unwrap_or(from_rate_m);
                 let informed = predicted.is_some() || settled;
                 (

@@ -261,6 +261,8 @@ pub struct ScenarioSample {
     /// Commanded and actual centre steering angle, positive = right.
     pub steer_cmd_rad: f64,
     pub steer_rad: f64,
+    /// The steering PID's integral: what the guide takes the curve to need.
+    pub steer_integral_rad: f64,
     pub speed_cmd_mps: f64,
     pub speed_mps: f64,
     /// Both sensors off the tape.
@@ -360,6 +362,7 @@ pub fn run(scenario: &MagneticScenario) -> ScenarioResult {
             angle_rad: status.angle_rad,
             steer_cmd_rad: status.steer_rad,
             steer_rad: truth.steer_rad,
+            steer_integral_rad: status.steer.i,
             speed_cmd_mps: status.speed_mps,
             speed_mps: truth.speed_mps,
             lost: status.lost,

@@ -311,7 +311,7 @@ declare_params! {
         },
         lost_hold_s: f32 = "MAG_LOST_HOLD" => {
             default: 0.3, range: 0.0, 5.0, unit: "s",
-            desc: "After losing the tape, keep the last demand this long before searching",
+            desc: "Both sensors off the tape: first 1.5 s steering on the deviation carried forward from speed and yaw rate (dead reckoning), then the last demand this long, then the search",
         },
         lost_stop_s: f32 = "MAG_LOST_STOP" => {
             default: 10.0, range: 0.0, 600.0, unit: "s",
