@@ -29,6 +29,13 @@ const REST_TIMEOUT_S: f64 = 5.0;
 /// short or past by more than half the tolerance, the vehicle creeps again,
 /// up to this many times.
 const MAX_REAPPROACHES: u32 = 3;
+/// After the first, a re-approach is made only for an error the estimate
+/// can tell from its own wander at rest: more than this many σ along one
+/// axis (the horizontal σ/√2). Measured on the bench's course (8 seeds):
+/// with this rule for every re-approach, the stops within 10 mm fell from
+/// 92.5 % to 85–87.5 % (the first re-approach does bring the true stop
+/// nearer); the second and third took the settling tail to 10–12 s.
+const REAPPROACH_SIGMAS: f64 = 1.96;
 /// A leg shorter than this has no direction of its own.
 const MIN_LEG_M: f64 = 1e-3;
 /// Past a stop by more than this, the vehicle drives to it again rather
@@ -748,7 +755,13 @@ impl Navigator {
             speed,
         };
 
-        let settled = self.settle(est.speed_mps, remaining, half_tol, more, dt_s);
+        let resolvable_m = REAPPROACH_SIGMAS * est.horiz_sigma_m / std::f64::consts::SQRT_2;
+        let retry_m = if self.reapproaches == 0 {
+            half_tol
+        } else {
+            half_tol.max(resolvable_m)
+        };
+        let settled = self.settle(est.speed_mps, remaining, retry_m, more, dt_s);
         if settled == Settled::Arrived
             && let Some(path) = self.leg.as_ref().and_then(|leg| leg.path.as_ref())
         {
