@@ -210,3 +210,27 @@ fn a_mission_stop_with_a_heading_is_reached_facing_it() {
         assert_eq!(manoeuvres > 0, honour, "{texts:?}");
     }
 }
+
+/// A differential-drive vehicle turns on the spot (`MNV_PIVOT` 1 is its
+/// default): beside, behind and a
+/// heading change where it stands are a turn, a straight and a turn, with
+/// no change of direction, each stop in tolerance by the truth's 3 cm and
+/// 0.1° (the GNSS wander's share), and the turns shown in the manoeuvre
+/// text.
+#[test]
+fn a_differential_vehicle_turns_on_the_spot() {
+    for (north, east, yaw) in [(0.0, 3.0, 0.0), (-4.0, 0.0, 90.0), (0.0, 0.0, -120.0)] {
+        let mut h = guided(ModelKind::Differential, 4);
+        let target = gcs::local_pose_target(&h.sim, north, east, yaw);
+        h.send(target);
+        let verdict = wait_for_verdict(&mut h, 120.0);
+        check_reached(&h, &verdict, north, east, Some(yaw));
+        let texts = h.texts();
+        let plan = direction_changes(&texts);
+        assert!(
+            plan.first()
+                .is_some_and(|t| t.contains(" 0 reversals") && !t.contains(" 0 pivots")),
+            "{texts:?}"
+        );
+    }
+}

@@ -35,7 +35,7 @@ pub const PIVOT_COST_M: f64 = CUSP_COST_M;
 pub const PIVOT_MIN_RAD: f64 = 0.1 * PI / 180.0;
 /// A goal this close is reached by turning on the spot alone: a straight
 /// this short has no direction to pivot onto.
-const PIVOT_ONLY_M: f64 = 0.02;
+const PIVOT_ONLY_M: f64 = 0.002;
 /// Headings tried for a goal that has none.
 const FREE_HEADINGS: usize = 16;
 
@@ -412,7 +412,7 @@ mod tests {
             pivots: true,
             ..config()
         };
-        let m = plan(&start(), Ned::new(0.005, 0.0), Some(2.0), &cfg).unwrap();
+        let m = plan(&start(), Ned::new(0.001, 0.0), Some(2.0), &cfg).unwrap();
         assert!(m.strokes.is_empty(), "{m:?}");
         assert_eq!(m.pivot_headings(0.0), vec![2.0]);
         assert_eq!(m.length_m(), 0.0);

@@ -29,11 +29,12 @@ const REST_TIMEOUT_S: f64 = 5.0;
 /// short or past by more than half the tolerance, the vehicle creeps again,
 /// up to this many times.
 const MAX_REAPPROACHES: u32 = 3;
-/// …but only for an error the estimate can tell from its own wander: more
-/// than this many σ along one axis (the horizontal σ/√2). Below it, the
-/// estimate's movement at rest is the GNSS wander as much as the vehicle's
-/// error, and creeping after it took 3 s a time without bringing the true
-/// stop nearer.
+/// After the first, a re-approach is made only for an error the estimate
+/// can tell from its own wander at rest: more than this many σ along one
+/// axis (the horizontal σ/√2). Measured on the bench's course (8 seeds):
+/// with this rule for every re-approach, the stops within 10 mm fell from
+/// 92.5 % to 85–87.5 % (the first re-approach does bring the true stop
+/// nearer); the second and third took the settling tail to 10–12 s.
 const REAPPROACH_SIGMAS: f64 = 1.96;
 /// A leg shorter than this has no direction of its own.
 const MIN_LEG_M: f64 = 1e-3;
@@ -57,12 +58,15 @@ const STOP_SPEED_FILTER_S: f64 = 0.5;
 /// to `pivot_rate_rad_s`): slow at the end so the wheels' lag does not
 /// carry it past.
 const PIVOT_GAIN_PER_S: f64 = 1.5;
-/// It is done once within a third of the heading tolerance and turning
-/// slower than this for `PIVOT_STEADY_S`…
-const PIVOT_STILL_RAD_S: f64 = 0.002;
+/// The turn is done once within a third of the heading tolerance for this
+/// long (the estimate's yaw rate at rest is too noisy to wait on)…
 const PIVOT_STEADY_S: f64 = 0.5;
 /// …or after the time the turn takes at the rate limit plus this.
 const PIVOT_EXTRA_S: f64 = 10.0;
+/// The last turn of a manoeuvre is its stop: it rests this long (the
+/// heading estimate settles after turning), and turns again, as a stop
+/// creeps again, when more than half the tolerance off.
+const PIVOT_REST_S: f64 = 2.0;
 /// A manoeuvre with no stroke (a heading change at a stop) still has a
 /// leg for reports and the ground station: one this long ending at the
 /// goal on its heading.
@@ -239,6 +243,10 @@ struct Pivot {
     last: bool,
     elapsed_s: f64,
     steady_s: f64,
+    /// Resting after the turn (the last one only), for this long.
+    resting_s: Option<f64>,
+    /// Turns again after resting.
+    returns: u32,
 }
 
 impl Pivot {
@@ -248,6 +256,8 @@ impl Pivot {
             last,
             elapsed_s: 0.0,
             steady_s: 0.0,
+            resting_s: None,
+            returns: 0,
         }
     }
 }
@@ -424,23 +434,41 @@ impl Navigator {
         let error_rad = wrap_pi(pivot.to_yaw_rad - est.yaw_rad);
         pivot.elapsed_s += dt_s;
         let fine = error_rad.abs() <= config.stop.yaw_rad / 3.0;
-        pivot.steady_s = if fine && est.yaw_rate_rad_s.abs() <= PIVOT_STILL_RAD_S {
-            pivot.steady_s + dt_s
-        } else {
-            0.0
-        };
+        pivot.steady_s = if fine { pivot.steady_s + dt_s } else { 0.0 };
         let rate_max = config.pivot_rate_rad_s.max(1e-3);
         let timeout_s = std::f64::consts::PI / rate_max + PIVOT_EXTRA_S;
         self.status.active = true;
         self.status.nav_bearing_rad = pivot.to_yaw_rad;
         self.status.target_bearing_rad = pivot.to_yaw_rad;
-        // A turn that starts within its tolerance is no turn.
-        let done = (fine && pivot.elapsed_s <= dt_s) || pivot.steady_s >= PIVOT_STEADY_S || pivot.elapsed_s > timeout_s;
-        if !done {
-            return NavDemand {
-                pivot_rate_rad_s: (PIVOT_GAIN_PER_S * error_rad).clamp(-rate_max, rate_max),
-                ..NavDemand::default()
-            };
+        if let Some(rested_s) = &mut pivot.resting_s {
+            *rested_s += dt_s;
+            if *rested_s < PIVOT_REST_S {
+                return NavDemand::default();
+            }
+            if error_rad.abs() > config.stop.yaw_rad / 2.0
+                && pivot.returns < MAX_REAPPROACHES
+                && pivot.elapsed_s <= timeout_s
+            {
+                pivot.returns += 1;
+                pivot.resting_s = None;
+                pivot.steady_s = 0.0;
+                return NavDemand::default();
+            }
+        } else {
+            // A turn that starts within its tolerance is no turn.
+            let turned = (fine && pivot.elapsed_s <= dt_s && pivot.returns == 0)
+                || pivot.steady_s >= PIVOT_STEADY_S
+                || pivot.elapsed_s > timeout_s;
+            if !turned {
+                return NavDemand {
+                    pivot_rate_rad_s: (PIVOT_GAIN_PER_S * error_rad).clamp(-rate_max, rate_max),
+                    ..NavDemand::default()
+                };
+            }
+            if pivot.last {
+                pivot.resting_s = Some(0.0);
+                return NavDemand::default();
+            }
         }
         let last = pivot.last;
         if let Some(run) = &mut self.manoeuvre {
@@ -681,7 +709,12 @@ impl Navigator {
         };
 
         let resolvable_m = REAPPROACH_SIGMAS * est.horiz_sigma_m / std::f64::consts::SQRT_2;
-        let settled = self.settle(est.speed_mps, remaining, half_tol.max(resolvable_m), more, dt_s);
+        let retry_m = if self.reapproaches == 0 {
+            half_tol
+        } else {
+            half_tol.max(resolvable_m)
+        };
+        let settled = self.settle(est.speed_mps, remaining, retry_m, more, dt_s);
         if settled == Settled::Arrived {
             self.report_stop(&target, est, remaining, projection.crosstrack_m, config);
         }

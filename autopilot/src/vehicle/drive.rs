@@ -183,6 +183,12 @@ impl Core {
                 self.speed_control.reset(measured.unwrap_or(0.0));
                 (steering, throttle)
             }
+            Demand::Navigate(nav) if nav.pivot_rate_rad_s != 0.0 => {
+                // Turning on the spot: no speed to hold, so no throttle
+                // for the estimate's speed noise to drive the centre off.
+                self.speed_control.reset(0.0);
+                (self.steering_for(nav, 0.0), 0.0)
+            }
             Demand::Navigate(nav) => {
                 let config = self.speed_control_config();
                 let throttle = self.speed_control.update(&config, nav.speed_mps, measured, dt_s);
