@@ -5,8 +5,7 @@
 //! clear must pass without a stop. Both speeds, forwards and in reverse,
 //! left and right, seeds 1 and 2 (arcs of 6 and 15 m).
 //!
-//! The tests marked `needs swept-path protection` fail on the
-//! core before that protection; they are to be un-ignored with it.
+//! An ignored test says in its attribute what still fails it.
 
 use furrow_bench::obstacles::random::{self, RUNS_PER_COURSE};
 use furrow_bench::obstacles::{self, Family, Outcome, Scenario};
@@ -87,13 +86,13 @@ fn person_beside_the_arc_is_passed() {
 }
 
 #[test]
-#[ignore = "needs swept-path protection"]
+#[ignore = "a standing person's second track, born beside a coasting one, gets a birth velocity of 0.7 m/s within 0.2 s and is stopped for at 2 m/s (1-2 false stops)"]
 fn person_beside_the_arc_entry_is_passed() {
     check(|f| *f == Family::BesideEntry);
 }
 
 #[test]
-#[ignore = "needs swept-path protection"]
+#[ignore = "a standing person's second track, born beside a coasting one, gets a birth velocity of 0.7 m/s within 0.2 s and is stopped for at 2 m/s (1-2 false stops)"]
 fn person_beside_the_arc_exit_is_passed() {
     check(|f| *f == Family::BesideExit);
 }
@@ -104,7 +103,7 @@ fn person_under_the_overhang_swing() {
 }
 
 #[test]
-#[ignore = "needs swept-path protection"]
+#[ignore = "at 2 m/s in reverse the walker's estimated heading brings it within OA_MARGIN at the 3 s horizon where its true line passes 0.40-0.44 m clear (2 false stops)"]
 fn person_walking_across_the_arc() {
     check(|f| *f == Family::CrossingArc);
 }
@@ -120,31 +119,26 @@ fn s_bend_person_inside_the_second_bend() {
 }
 
 #[test]
-#[ignore = "needs swept-path protection"]
 fn s_bend_person_beside_the_first_bend_is_passed() {
     check(|f| *f == Family::SBendBeside);
 }
 
 #[test]
-#[ignore = "needs swept-path protection"]
 fn boxes_beside_a_straight_lane() {
     neighbours(Object::Box, Where::Straight);
 }
 
 #[test]
-#[ignore = "needs swept-path protection"]
 fn boxes_inside_an_arc() {
     neighbours(Object::Box, Where::ArcInside);
 }
 
 #[test]
-#[ignore = "needs swept-path protection"]
 fn boxes_outside_an_arc() {
     neighbours(Object::Box, Where::ArcOutside);
 }
 
 #[test]
-#[ignore = "needs swept-path protection"]
 fn posts_beside_a_straight_lane() {
     neighbours(Object::Post, Where::Straight);
 }
@@ -160,19 +154,19 @@ fn posts_outside_an_arc() {
 }
 
 #[test]
-#[ignore = "needs swept-path protection"]
+#[ignore = "a parked car OA_MARGIN (0.3 m) beside is not always stopped for (seed 1: 5 of 8 beside a straight lane, 0 of 8 inside an arc): a car is too long to be tracked, and the fields reach only OA_FIELD_SIDE (0.15 m) beside the outline"]
 fn parked_cars_beside_a_straight_lane() {
     neighbours(Object::ParkedCar, Where::Straight);
 }
 
 #[test]
-#[ignore = "needs swept-path protection"]
+#[ignore = "a parked car OA_MARGIN (0.3 m) beside is not always stopped for (seed 1: 5 of 8 beside a straight lane, 0 of 8 inside an arc): a car is too long to be tracked, and the fields reach only OA_FIELD_SIDE (0.15 m) beside the outline"]
 fn parked_cars_inside_an_arc() {
     neighbours(Object::ParkedCar, Where::ArcInside);
 }
 
 #[test]
-#[ignore = "needs swept-path protection"]
+#[ignore = "a parked car OA_MARGIN (0.3 m) beside is not always stopped for (seed 1: 5 of 8 beside a straight lane, 0 of 8 inside an arc): a car is too long to be tracked, and the fields reach only OA_FIELD_SIDE (0.15 m) beside the outline"]
 fn parked_cars_outside_an_arc() {
     neighbours(Object::ParkedCar, Where::ArcOutside);
 }
@@ -181,7 +175,7 @@ fn parked_cars_outside_an_arc() {
 /// collision the vehicle could have stopped for (judged from the truth),
 /// no false stop, no stall; each run replays identically from its seed.
 #[test]
-#[ignore = "needs swept-path protection"]
+#[ignore = "avoidable collisions at start and resume and false stops remain in the randomized runs (furrow-bench obstacles --random)"]
 fn randomized_runs() {
     let outcomes = random::run_many(4 * RUNS_PER_COURSE, &[], 2).expect("the runs run");
     let mut failures = Vec::new();

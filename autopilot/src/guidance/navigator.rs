@@ -855,6 +855,18 @@ impl Navigator {
         Settled::No
     }
 
+    /// The current leg's path and where `position` is along it, for what
+    /// looks along the path ahead (obstacle protection). The path is built
+    /// here if no update has built it yet: a leg that starts while an
+    /// obstacle holds the vehicle is not driven, yet the way it would be
+    /// driven decides whether it may start.
+    pub fn path_ahead(&mut self, position: Ned, config: &NavConfig) -> Option<(&LegPath, f64)> {
+        let leg = self.leg.as_mut()?;
+        Self::ensure_path(leg, position, config);
+        let path = leg.path.as_ref()?;
+        Some((path, path.project(&position, leg.piece).along_m))
+    }
+
     /// Builds the leg's path on its first update. A leg that ends where it
     /// starts (a waypoint repeated) has no direction to drive along: drive
     /// it from where the vehicle is (found by the mission_flight fuzz

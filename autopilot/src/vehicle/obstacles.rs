@@ -658,24 +658,25 @@ impl Core {
     /// it is turning at now.
     fn sweep_path_ahead(&mut self, pose: &Pose, footprint: &Footprint, reverse: bool, length_m: f64) {
         let estimate = self.estimator.estimate();
-        let along_m = self.navigator.status().along_m;
+        let nav_config = self.nav_config();
+        let target = self.navigator.target().copied();
         let leg = (self.mode != Mode::Magnetic)
-            .then(|| self.navigator.path().zip(self.navigator.target()))
+            .then(|| self.navigator.path_ahead(pose.position, &nav_config).zip(target))
             .flatten()
-            .filter(|(path, target)| {
+            .filter(|((path, along_m), target)| {
                 let flip = if target.direction == Direction::Reverse {
                     std::f64::consts::PI
                 } else {
                     0.0
                 };
-                let heading_off = wrap_pi(pose.yaw_rad - path.heading_at(along_m) - flip).abs();
-                path.point_at(along_m).distance_to(&pose.position) <= ON_PATH_M && heading_off <= ON_PATH_RAD
+                let heading_off = wrap_pi(pose.yaw_rad - path.heading_at(*along_m) - flip).abs();
+                path.point_at(*along_m).distance_to(&pose.position) <= ON_PATH_M && heading_off <= ON_PATH_RAD
             });
         let pivot = self.navigator.pivot_target().filter(|_| self.mode != Mode::Magnetic);
         let ahead = match (pivot, leg) {
             // Turning on the spot: the outline swept round to the heading.
             (Some(to_yaw_rad), _) => PathAhead::Pivot { to_yaw_rad },
-            (None, Some((path, target))) => PathAhead::Leg {
+            (None, Some(((path, along_m), target))) => PathAhead::Leg {
                 path,
                 along_m,
                 stop_at_m: target.stop.then(|| path.end_m()),
