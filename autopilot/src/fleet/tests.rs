@@ -3,7 +3,7 @@
 
 use serde_json::{Value, json};
 use vda5050::Topic;
-use vda5050::state::{ActionStatus, OperatingMode};
+use vda5050::state::{ActionStatus, EStop, OperatingMode};
 
 use super::agent::{Agent, AgentConfig, Command, Publish, VehicleView};
 use super::map::MapPose;
@@ -88,6 +88,7 @@ fn view(t: f64) -> VehicleView {
         arrived_at: None,
         driving: false,
         operating_mode: OperatingMode::Automatic,
+        e_stop: EStop::None,
     }
 }
 
