@@ -442,7 +442,7 @@ fn every_message_published_validates_and_a_factsheet_tells_what_the_vehicle_does
 }
 
 #[test]
-fn a_ground_station_disarming_mid_order_is_a_remote_estop() {
+fn a_ground_station_disarming_mid_order_is_a_remote_estop_until_armed_again() {
     let mut f = Fleet::new();
     let nodes = [N("a", 0.0, 0.0, true, None), N("b", 0.0, 30.0, true, None)];
     f.send_order("job8", 0, 0, &nodes, &[]);
@@ -460,4 +460,19 @@ fn a_ground_station_disarming_mid_order_is_a_remote_estop() {
     f.run_for_seconds(5.0);
     assert!(f.speed() < 0.05, "disarmed, yet moving");
     assert_eq!(f.last().safety_state.e_stop, EStop::Remote, "latched while disarmed");
+    f.h.arm();
+    assert!(
+        f.run_until(5.0, |f| f.last().safety_state.e_stop == EStop::None),
+        "{:?}\n{:?}",
+        f.last(),
+        f.h.texts()
+    );
+    let done = f.run_until(60.0, |f| f.idle() && f.last().last_node_id == "b");
+    assert!(done, "the order did not go on after arming");
+
+    // A disarm with no order is not an e-stop.
+    f.h.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, [0.0; 7]);
+    f.send(Topic::InstantActions, &instant("s9", "stateRequest"));
+    f.run_for_seconds(2.0);
+    assert_eq!(f.last().safety_state.e_stop, EStop::None);
 }
