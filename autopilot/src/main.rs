@@ -4,6 +4,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use autopilot::edge::mqtt::{MqttConfig, parse_broker_url};
+use autopilot::edge::mqtt_tls::{TlsFile, TlsFiles};
 use autopilot::fleet::AgentConfig;
 use autopilot::link::endpoint::Endpoint;
 use autopilot::sitl::runner::{self, SitlOptions, Speedup};
@@ -96,9 +97,24 @@ struct SitlArgs {
     /// UDP destination port instead of 14550+10·I.
     #[arg(long)]
     udp_port: Option<u16>,
-    /// Be a VDA 5050 2.1 AGV on this MQTT broker: mqtt://HOST:PORT.
+    /// Be a VDA 5050 2.1 AGV on this MQTT broker: mqtt://HOST:PORT, or mqtts://HOST:PORT for TLS.
     #[arg(long, value_name = "URL")]
     vda5050: Option<String>,
+    /// mqtts://: the CA that signed the broker's certificate (PEM; default: the system's trust store).
+    #[arg(long, value_name = "FILE", requires = "vda5050")]
+    vda5050_ca: Option<PathBuf>,
+    /// mqtts://: this vehicle's client certificate (PEM), with --vda5050-key.
+    #[arg(long, value_name = "FILE", requires = "vda5050_key")]
+    vda5050_cert: Option<PathBuf>,
+    /// mqtts://: the client certificate's private key (PEM).
+    #[arg(long, value_name = "FILE", requires = "vda5050_cert")]
+    vda5050_key: Option<PathBuf>,
+    /// The broker's user name, with --vda5050-password-file.
+    #[arg(long, value_name = "NAME", requires = "vda5050_password_file")]
+    vda5050_user: Option<String>,
+    /// A file holding the broker password (its first line; kept off the command line).
+    #[arg(long, value_name = "FILE", requires = "vda5050_user")]
+    vda5050_password_file: Option<PathBuf>,
     /// VDA 5050 serial number (topic level; default furrow-I for instance I).
     #[arg(long, requires = "vda5050")]
     serial_number: Option<String>,
@@ -194,7 +210,7 @@ fn vda5050_options(args: &SitlArgs) -> Result<Option<(MqttConfig, AgentConfig)>,
     let Some(url) = &args.vda5050 else {
         return Ok(None);
     };
-    let (host, port) = parse_broker_url(url).map_err(|e| format!("--vda5050 {e}"))?;
+    let broker = parse_broker_url(url).map_err(|e| format!("--vda5050 {e}"))?;
     let serial = args.serial_number.clone().unwrap_or_else(|| match args.fleet {
         // A fleet's vehicles are furrow-0, furrow-1, …
         Some(_) => "furrow".to_owned(),
@@ -204,18 +220,45 @@ fn vda5050_options(args: &SitlArgs) -> Result<Option<(MqttConfig, AgentConfig)>,
     if args.map_id.is_empty() {
         return Err("--map-id: a map id cannot be empty".into());
     }
-    let mqtt = MqttConfig {
-        host,
-        port,
-        client_id: format!("{}-{}", args.manufacturer, serial),
-        prefix,
-        credentials: None,
+    let tls_given = args.vda5050_ca.is_some() || args.vda5050_cert.is_some();
+    if tls_given && !broker.tls {
+        return Err(format!(
+            "--vda5050-ca/--vda5050-cert need an mqtts:// broker, not {url}"
+        ));
+    }
+    let tls = TlsFiles {
+        ca_file: args.vda5050_ca.clone(),
+        client_auth: args.vda5050_cert.clone().zip(args.vda5050_key.clone()),
     };
+    let credentials = match (&args.vda5050_user, &args.vda5050_password_file) {
+        (Some(user), Some(file)) => Some((user.clone(), read_password(file)?)),
+        _ => None,
+    };
+    let client_id = format!("{}-{}", args.manufacturer, serial);
+    let mqtt = MqttConfig::new(&broker, &tls, prefix, client_id, credentials).map_err(|e| {
+        let flag = match e.file {
+            TlsFile::Ca => "--vda5050-ca",
+            TlsFile::ClientCert => "--vda5050-cert",
+            TlsFile::ClientKey => "--vda5050-key",
+        };
+        format!("{flag}: {e}")
+    })?;
     let agent = AgentConfig {
         map_id: args.map_id.clone(),
         ..AgentConfig::default()
     };
     Ok(Some((mqtt, agent)))
+}
+
+/// The first line of a password file, without its line end.
+fn read_password(file: &std::path::Path) -> Result<String, String> {
+    let text = std::fs::read_to_string(file)
+        .map_err(|e| format!("--vda5050-password-file: cannot read {}: {e}", file.display()))?;
+    let password = text.lines().next().unwrap_or_default();
+    if password.is_empty() {
+        return Err(format!("--vda5050-password-file: {} is empty", file.display()));
+    }
+    Ok(password.to_owned())
 }
 
 fn run_sitl(args: SitlArgs) -> Result<(), String> {

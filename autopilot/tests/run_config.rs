@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use autopilot::fleet::AgentConfig;
 use autopilot::link::endpoint::Endpoint;
 use autopilot::run::config::{
     self, BAUD_RATES, ConfigError, Frame, GnssLink, HeadingSource, HostPort, PwmOutputSetting, SerialLine,
@@ -92,8 +93,23 @@ fn ackermann_example_loads_with_every_device() {
         !summary.contains("change-me"),
         "the summary shows the NTRIP password:\n{summary}"
     );
-    // One line per device: vehicle, gnss, heading, corrections, ntrip, 2 scanners, magnetic, imu, 8 outputs, 2 links.
-    assert_eq!(summary.lines().count(), 19, "{summary}");
+    assert!(
+        !summary.contains("change-me-too"),
+        "the summary shows the broker password:\n{summary}"
+    );
+    // One line per device: vehicle, gnss, heading, corrections, ntrip, 2 scanners, magnetic, imu, 8 outputs, 2 links;
+    // VDA 5050: the broker, its user, 3 actions.
+    assert_eq!(summary.lines().count(), 24, "{summary}");
+    let fleet = agv.vda5050.as_ref().unwrap_or_else(|| panic!("no [vda5050]"));
+    assert_eq!(fleet.broker.to_string(), "mqtt://fleet.example.net:1883");
+    assert_eq!(fleet.prefix.topic(vda5050::Topic::State), "uagv/v2/Furrow/agv07/state");
+    assert_eq!(
+        (fleet.agent.map_id.as_str(), fleet.agent.map_version.as_str()),
+        ("yard-2", "2026-11")
+    );
+    let types: Vec<&str> = fleet.agent.mappings.iter().map(|m| m.action_type.as_str()).collect();
+    assert_eq!(types, ["pick", "drop", "beaconOn"]);
+    assert!(fleet.mqtt().is_ok_and(|m| m.tls.is_none() && m.credentials.is_some()));
 }
 
 #[test]
@@ -553,4 +569,184 @@ proptest! {
             (Err(e), None) => prop_assert!(false, "rejected: {}", e),
         }
     }
+}
+
+const VDA: &str = "[vda5050]\nbroker = \"mqtt://127.0.0.1:1883\"\nserial_number = \"agv1\"\n";
+
+#[test]
+fn a_minimal_vda5050_section_gets_the_documented_defaults() {
+    let c = parse(&format!("{HEAD}{GNSS}{VDA}")).unwrap_or_else(|e| panic!("{e}"));
+    let v = c.vda5050.unwrap_or_else(|| panic!("no [vda5050]"));
+    assert_eq!(
+        (v.broker.host.as_str(), v.broker.port, v.broker.tls),
+        ("127.0.0.1", 1883, false)
+    );
+    assert_eq!(v.prefix.topic(vda5050::Topic::Order), "uagv/v2/Furrow/agv1/order");
+    assert_eq!(v.client_id, "Furrow-agv1");
+    assert_eq!(v.credentials, None);
+    let defaults = AgentConfig::default();
+    assert_eq!(v.agent, defaults, "map, rates and the pick/drop mapping");
+    assert!(parse(&format!("{HEAD}{GNSS}")).is_ok_and(|c| c.vda5050.is_none()));
+}
+
+#[test]
+fn vda5050_mistakes_are_named_with_their_line() {
+    let cases: [(&str, &str, &str); 16] = [
+        (
+            "broker = \"http://x:1\" # <-\nserial_number = \"a\"\n",
+            "vda5050.broker",
+            "mqtt://",
+        ),
+        (
+            "broker = \"mqtt://x:1\"\nserial_number = \"a/b\" # <-\n",
+            "vda5050.serial_number",
+            "topic level",
+        ),
+        (
+            "broker = \"mqtt://x:1\"\nserial_number = \"a\"\nmanufacturer = \"A+B\" # <-\n",
+            "vda5050.manufacturer",
+            "topic level",
+        ),
+        (
+            "broker = \"mqtt://x:1\"\nserial_number = \"a\"\nmap_id = \"\" # <-\n",
+            "vda5050.map_id",
+            "empty",
+        ),
+        (
+            "broker = \"mqtt://x:1\"\nserial_number = \"a\"\nca_file = \"ca.pem\" # <-\n",
+            "vda5050.ca_file",
+            "mqtts://",
+        ),
+        (
+            "broker = \"mqtts://x:1\"\nserial_number = \"a\"\nca_file = \"no-such-ca.pem\" # <-\n",
+            "vda5050.ca_file",
+            "cannot read /srv/vehicle/no-such-ca.pem",
+        ),
+        (
+            "broker = \"mqtts://x:1\"\nserial_number = \"a\"\nclient_cert = \"c.pem\" # <-\n",
+            "vda5050.client_key",
+            "needs client_key",
+        ),
+        (
+            "broker = \"mqtt://x:1\"\nserial_number = \"a\"\npassword = \"p\" # <-\n",
+            "vda5050.password",
+            "without a user",
+        ),
+        (
+            "broker = \"mqtt://x:1\"\nserial_number = \"a\"\nstate_interval_s = 31 # <-\n",
+            "vda5050.state_interval_s",
+            "out of range",
+        ),
+        (
+            "broker = \"mqtt://x:1\"\nserial_number = \"a\"\nvisualization_interval_s = -1.0 # <-\n",
+            "vda5050.visualization_interval_s",
+            "out of range",
+        ),
+        (
+            "broker = \"mqtt://x:1\"\nserial_number = \"a\"\n[[vda5050.action]]\ntype = \"cancelOrder\" # <-\nrelay = 0\non = true\nduration_s = 1\n",
+            "vda5050.action[0].type",
+            "vehicle itself",
+        ),
+        (
+            "broker = \"mqtt://x:1\"\nserial_number = \"a\"\n[[vda5050.action]]\ntype = \"lift\"\nservo = 17 # <-\npwm_us = 1500\nduration_s = 1\n",
+            "vda5050.action[0].servo",
+            "out of range",
+        ),
+        (
+            "broker = \"mqtt://x:1\"\nserial_number = \"a\"\n[[vda5050.action]]\ntype = \"lift\"\nservo = 9 # <-\nduration_s = 1\n",
+            "vda5050.action[0].pwm_us",
+            "needs pwm_us",
+        ),
+        (
+            "broker = \"mqtt://x:1\"\nserial_number = \"a\"\n[[vda5050.action]]\ntype = \"horn\"\nrelay = 6 # <-\non = true\nduration_s = 1\n",
+            "vda5050.action[0].relay",
+            "out of range",
+        ),
+        (
+            "broker = \"mqtt://x:1\"\nserial_number = \"a\"\n[[vda5050.action]]\ntype = \"horn\"\nrelay = 1\non = true\nduration_s = 1\n[[vda5050.action]]\ntype = \"horn\" # <-\nrelay = 2\non = true\nduration_s = 1\n",
+            "vda5050.action[1].type",
+            "already vda5050.action[0]",
+        ),
+        (
+            "broker = \"mqtt://x:1\"\nserial_number = \"a\"\nqos = 2 # <-\n",
+            "vda5050.qos",
+            "unknown",
+        ),
+    ];
+    for (body, key, fragment) in cases {
+        expect_error_at_mark(&format!("{HEAD}{GNSS}[vda5050]\n{body}"), key, fragment);
+    }
+    let missing = expect_error(
+        &format!("{HEAD}{GNSS}[vda5050]\nbroker = \"mqtt://x\"\n"),
+        "vda5050",
+        "serial_number",
+    );
+    assert!(missing.line.is_some(), "{missing}");
+}
+
+/// Runs openssl in `dir`.
+fn openssl(dir: &Path, args: &str) {
+    let status = Command::new("openssl")
+        .current_dir(dir)
+        .args(args.split_whitespace())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .unwrap_or_else(|e| panic!("openssl: {e}"));
+    assert!(status.success(), "openssl {args}");
+}
+
+/// A CA and a client certificate it signed, plus a key of another pair.
+fn make_pki(dir: &Path) {
+    let ec = "-newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes";
+    openssl(
+        dir,
+        &format!("req -x509 {ec} -keyout ca.key -out ca.pem -days 2 -subj /CN=test-ca"),
+    );
+    openssl(dir, &format!("req {ec} -keyout agv.key -out agv.csr -subj /CN=agv1"));
+    // Extensions make it an X.509 v3 certificate, the only version rustls takes.
+    std::fs::write(dir.join("v3.ext"), "basicConstraints=CA:FALSE\n").unwrap_or_else(|e| panic!("{e}"));
+    openssl(
+        dir,
+        "x509 -req -in agv.csr -CA ca.pem -CAkey ca.key -CAcreateserial -out agv.pem -days 2 -extfile v3.ext",
+    );
+    openssl(
+        dir,
+        &format!("req {ec} -keyout other.key -out other.csr -subj /CN=other"),
+    );
+}
+
+#[test]
+fn an_mqtts_broker_takes_a_ca_and_a_client_certificate_that_go_together() {
+    let scratch = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let dir = scratch.path();
+    make_pki(dir);
+    let section = |key_file: &str| {
+        format!(
+            "{HEAD}{GNSS}[vda5050]\nbroker = \"mqtts://127.0.0.1\"\nserial_number = \"agv1\"\n\
+             ca_file = \"ca.pem\"\nclient_cert = \"agv.pem\"\nclient_key = \"{key_file}\" # <-\n\
+             username = \"agv1\"\n"
+        )
+    };
+    let good = config::parse(&section("agv.key"), dir).unwrap_or_else(|e| panic!("{e}"));
+    let v = good.vda5050.unwrap_or_else(|| panic!("no [vda5050]"));
+    assert_eq!((v.broker.port, v.broker.tls), (8883, true));
+    assert_eq!(v.tls.ca_file.as_deref(), Some(dir.join("ca.pem").as_path()));
+    assert_eq!(v.credentials, Some(("agv1".into(), String::new())));
+    let mqtt = v.mqtt().unwrap_or_else(|e| panic!("{e}"));
+    assert!(mqtt.tls.is_some());
+
+    let text = section("other.key");
+    let e = config::parse(&text, dir)
+        .err()
+        .unwrap_or_else(|| panic!("a key of another pair accepted"));
+    assert_eq!(
+        (e.key.as_str(), e.line),
+        ("vda5050.client_key", Some(marked_line(&text))),
+        "{e}"
+    );
+    let text = section("ca.pem");
+    let e = config::parse(&text, dir)
+        .err()
+        .unwrap_or_else(|| panic!("a certificate as a key accepted"));
+    assert!(e.message.contains("no private key"), "{e}");
 }

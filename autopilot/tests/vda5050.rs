@@ -1,7 +1,8 @@
 //! VDA 5050 orders driven through the core and the simulated world in
 //! stepped time: nodes reported in order, a reverse edge and pick/drop, an
 //! update extending the base, cancel mid-edge, a rejected order beside a
-//! running one, and a ground station taking over.
+//! running one, a ground station taking over or disarming, and the
+//! state's maps, loads, information and e-stop.
 
 mod common;
 
@@ -11,9 +12,10 @@ use autopilot::sitl::simulation::ModelKind;
 use autopilot::time::FrozenTimer;
 use autopilot::vehicle::FleetMessage;
 use common::Harness;
+use mavlink::dialects::ardupilotmega::MavCmd;
 use serde_json::{Value, json};
 use test_support::vda5050::{N, instant, order};
-use vda5050::state::{ActionStatus, OperatingMode, State};
+use vda5050::state::{ActionStatus, EStop, MapStatus, OperatingMode, State};
 use vda5050::{Topic, TopicPrefix};
 
 /// Every message published is stamped as the MQTT edge stamps it and
@@ -363,4 +365,63 @@ fn every_message_published_validates_and_a_factsheet_tells_what_the_vehicle_does
     );
     assert!(f.last().battery_state.battery_charge > 50.0);
     assert!(!f.last().safety_state.field_violation);
+    assert_eq!(f.last().safety_state.e_stop, EStop::None);
+    let maps = f.last().maps.clone().expect("maps");
+    assert_eq!(
+        maps.iter()
+            .map(|m| (m.map_id.as_str(), m.map_version.as_str(), m.map_status))
+            .collect::<Vec<_>>(),
+        [("yard", "1", MapStatus::Enabled)]
+    );
+    let loads = f.last().loads.clone().expect("loads are known from pick and drop");
+    assert_eq!(loads.len(), 1, "picked at a, not dropped");
+    let information = f.last().information.clone().expect("information");
+    let described = |kind: &str| {
+        information
+            .iter()
+            .find(|i| i.info_type == kind)
+            .and_then(|i| i.info_description.clone())
+    };
+    assert_eq!(described("mode").as_deref(), Some("AUTO"));
+    assert!(
+        described("gnssFix").is_some_and(|d| d.starts_with("RTK fixed")),
+        "{information:?}"
+    );
+    assert!(f.last().errors.is_empty(), "{:?}", f.last().errors);
+}
+
+#[test]
+fn a_ground_station_disarming_mid_order_is_a_remote_estop_until_armed_again() {
+    let mut f = Fleet::new();
+    let nodes = [N("a", 0.0, 0.0, true, None), N("b", 0.0, 30.0, true, None)];
+    f.send_order("job8", 0, 0, &nodes, &[]);
+    f.get_moving(1.0);
+    f.h.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, [0.0; 7]);
+    assert!(f.run_until(5.0, |f| f.last().safety_state.e_stop == EStop::Remote));
+    assert!(
+        f.last()
+            .information
+            .as_ref()
+            .is_some_and(|i| i.iter().any(|i| i.info_type == "eStop")),
+        "{:?}",
+        f.last().information
+    );
+    f.run_for_seconds(5.0);
+    assert!(f.speed() < 0.05, "disarmed, yet moving");
+    assert_eq!(f.last().safety_state.e_stop, EStop::Remote, "latched while disarmed");
+    f.h.arm();
+    assert!(
+        f.run_until(5.0, |f| f.last().safety_state.e_stop == EStop::None),
+        "{:?}\n{:?}",
+        f.last(),
+        f.h.texts()
+    );
+    let done = f.run_until(60.0, |f| f.idle() && f.last().last_node_id == "b");
+    assert!(done, "the order did not go on after arming");
+
+    // A disarm with no order is not an e-stop.
+    f.h.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, [0.0; 7]);
+    f.send(Topic::InstantActions, &instant("s9", "stateRequest"));
+    f.run_for_seconds(2.0);
+    assert_eq!(f.last().safety_state.e_stop, EStop::None);
 }

@@ -30,6 +30,7 @@ class Sitl:
         self.workdir = pathlib.Path(workdir)
         self.data_dir = pathlib.Path(data_dir) if data_dir else self.workdir / "data"
         self.stderr_path = self.workdir / f"furrow-{time.monotonic_ns()}.log"
+        self.connections = []
         args = [FURROW, "sitl", "--data-dir", str(self.data_dir), "--tcp-port", "0", "--speedup", str(speedup)]
         if udp_port is not None:
             args += ["--udp-port", str(udp_port)]
@@ -44,7 +45,6 @@ class Sitl:
         self.tcp_port = int(match.group(2))
         # The whole ready line: listeners bound to port 0 say their port there.
         self.ready = line
-        self.connections = []
 
     def tcp(self, source_system=255, wait=True):
         """A TCP ground station, after the first heartbeat."""
@@ -58,7 +58,8 @@ class Sitl:
         return self.proc.poll() is None
 
     def log(self):
-        self.stderr.flush()
+        if not self.stderr.closed:
+            self.stderr.flush()
         return self.stderr_path.read_text()
 
     def stop(self, timeout=10):

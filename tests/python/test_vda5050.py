@@ -2,6 +2,7 @@
 with paho-mqtt sends orders and instant actions to `furrow sitl --vda5050`
 and reads the vehicle's state, connection and factsheet."""
 
+import getpass
 import json
 import math
 import pathlib
@@ -13,6 +14,7 @@ import subprocess
 import time
 
 import pytest
+from gcs import command, mavlink
 
 paho = pytest.importorskip("paho.mqtt.client")
 
@@ -31,12 +33,12 @@ class Broker:
     """Mosquitto on a loopback port, anonymous, no persistence; it can be
     killed and started again on the same port."""
 
-    def __init__(self, tmp_path):
+    def __init__(self, tmp_path, settings="allow_anonymous true\n"):
         if not pathlib.Path(MOSQUITTO).exists():
             pytest.fail("mosquitto is not installed (tests/run installs it)")
         self.port = free_port()
         self.conf = tmp_path / "mosquitto.conf"
-        self.conf.write_text(f"listener {self.port} 127.0.0.1\nallow_anonymous true\npersistence false\n")
+        self.conf.write_text(f"listener {self.port} 127.0.0.1\npersistence false\n{settings}")
         self.log = open(tmp_path / "mosquitto.log", "a")
         self.proc = None
         self.start()
@@ -75,7 +77,8 @@ class Master:
     """The master control's side: publishes to the vehicle, keeps what it
     publishes by topic."""
 
-    def __init__(self, port):
+    def __init__(self, port, tls=None, user=None):
+        """tls: (CA, certificate, key) files; user: (name, password)."""
         self.messages = queue.Queue()
         self.states = []
         self.connections = []
@@ -86,6 +89,10 @@ class Master:
         # Subscribed on every connect: a restarted broker has forgotten us.
         self.client.on_connect = lambda c, _u, _f, _r, _p: c.subscribe(f"{PREFIX}/#", qos=1)
         self.client.reconnect_delay_set(0.2, 1)
+        if tls:
+            self.client.tls_set(ca_certs=str(tls[0]), certfile=str(tls[1]), keyfile=str(tls[2]))
+        if user:
+            self.client.username_pw_set(*user)
         self.client.connect("127.0.0.1", port)
         self.client.loop_start()
 
@@ -200,6 +207,14 @@ def test_an_order_with_a_reverse_edge_and_pick_drop_is_driven_and_every_node_rep
     assert master.nodes_reported() == ["n0", "n1", "n2", "n3", "n4", "n5"]
     assert master.action("pick1") == "FINISHED"
     assert any(s["lastNodeId"] == "n2" and s["velocity"]["vx"] < -0.2 for s in master.states), "no reverse"
+    # The load is on from the pick's end to the drop's end, and the map is the one configured.
+    loaded = [s for s in master.states if s["loads"]]
+    assert loaded and loaded[0]["lastNodeId"] == "n2" and loaded[-1]["lastNodeId"] in ("n4", "n5")
+    assert master.last()["loads"] == []
+    assert master.last()["maps"] == [{"mapId": "yard", "mapVersion": "1", "mapStatus": "ENABLED"}]
+    info = {i["infoType"]: i["infoDescription"] for i in master.last()["information"]}
+    assert info["mode"] == "AUTO" and info["gnssFix"].startswith("RTK fixed"), info
+    assert master.last()["safetyState"] == {"eStop": "NONE", "fieldViolation": False}
     assert master.last()["operatingMode"] == "AUTOMATIC"
     assert sitl.alive()
 
@@ -251,3 +266,108 @@ def test_an_order_carries_on_through_a_broker_restart(fleet, mosquitto):
     master.wait("the order to complete", lambda m: m.last()["lastNodeId"] == "b" and not m.last()["nodeStates"], 60)
     assert master.last()["orderId"] == "job4"
     assert sitl.alive()
+
+
+HOLD, AUTO = 4, 10
+
+
+def set_mode(gcs, mode):
+    ack = command(gcs, mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, mode)
+    assert ack and ack.result == mavlink.MAV_RESULT_ACCEPTED, ack
+
+
+def test_a_gcs_switching_to_hold_pauses_the_order_and_auto_gives_it_back(fleet):
+    """Who is in charge: the master control while the vehicle is in AUTO. A
+    ground station switching to HOLD mid-order takes the vehicle: the order
+    is kept but paused, `operatingMode` is SERVICE, and nothing fights the
+    ground station. Switching back to AUTO gives the vehicle back to the
+    master control and the order resumes where it stood."""
+    master, sitl, origin = fleet
+    master.publish("order", order(master, origin, "job5", [("a", 0, 0, None), ("b", 0, 30, None)]))
+    master.wait("driving", lambda m: m.last()["driving"], 30)
+    gcs = sitl.tcp()
+    set_mode(gcs, HOLD)
+    master.wait("SERVICE, paused", lambda m: m.last()["operatingMode"] == "SERVICE" and m.last()["paused"], 10)
+    master.wait("standing", lambda m: not m.last()["driving"], 10)
+    held = master.last()
+    assert held["orderId"] == "job5" and [n["nodeId"] for n in held["nodeStates"]] == ["b"], held
+    stood_at = held["agvPosition"]["y"]
+    time.sleep(2.0)
+    master.instant("s1", "stateRequest")
+    master.wait("a fresh state", lambda m: m.action("s1") == "FINISHED", 10)
+    assert abs(master.last()["agvPosition"]["y"] - stood_at) < 0.05, "the vehicle moved in HOLD"
+    assert master.last()["operatingMode"] == "SERVICE" and not master.last()["driving"]
+    set_mode(gcs, AUTO)
+    master.wait("AUTOMATIC again", lambda m: m.last()["operatingMode"] == "AUTOMATIC" and not m.last()["paused"], 10)
+    master.wait("the order to complete", lambda m: m.last()["lastNodeId"] == "b" and not m.last()["nodeStates"], 60)
+    assert sitl.alive()
+
+
+def openssl(cwd, *args):
+    subprocess.run(["openssl", *args], cwd=cwd, check=True, capture_output=True)
+
+
+def make_pki(d):
+    """A test CA; the broker's certificate for 127.0.0.1 and the vehicle's
+    and the master's client certificates, all signed by it."""
+    ec = ["-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes"]
+    openssl(d, "req", "-x509", *ec, "-keyout", "ca.key", "-out", "ca.pem", "-days", "2", "-subj", "/CN=test-ca")
+    # Extensions make X.509 v3 certificates, the only version rustls takes.
+    (d / "broker.ext").write_text("subjectAltName=IP:127.0.0.1\n")
+    (d / "client.ext").write_text("basicConstraints=CA:FALSE\n")
+    for name in ("broker", "agv", "master"):
+        openssl(d, "req", *ec, "-keyout", f"{name}.key", "-out", f"{name}.csr", "-subj", f"/CN={name}")
+        ext = "broker.ext" if name == "broker" else "client.ext"
+        openssl(d, "x509", "-req", "-in", f"{name}.csr", "-CA", "ca.pem", "-CAkey", "ca.key", "-CAcreateserial",
+                "-out", f"{name}.pem", "-days", "2", "-extfile", ext)
+
+
+def test_an_mqtts_broker_with_client_certificates_and_passwords(tmp_path, start_sitl):
+    """mqtts:// against Mosquitto that requires a client certificate signed by
+    its CA and a user name and password: the vehicle connects with
+    --vda5050-ca/--vda5050-cert/--vda5050-key and its credentials, and
+    answers; its state carries maps, loads, information and safetyState."""
+    pki = tmp_path / "pki"
+    pki.mkdir()
+    make_pki(pki)
+    subprocess.run(["mosquitto_passwd", "-b", "-c", str(pki / "passwd"), "agv", "s3cret"], check=True)
+    subprocess.run(["mosquitto_passwd", "-b", str(pki / "passwd"), "master", "m4ster"], check=True)
+    broker = Broker(tmp_path, settings=(
+        f"cafile {pki / 'ca.pem'}\ncertfile {pki / 'broker.pem'}\nkeyfile {pki / 'broker.key'}\n"
+        f"require_certificate true\nallow_anonymous false\npassword_file {pki / 'passwd'}\n"
+        # Started as root, mosquitto drops to its own user, who cannot read the test's files.
+        f"user {getpass.getuser()}\n"))
+    try:
+        master = Master(broker.port, tls=(pki / "ca.pem", pki / "master.pem", pki / "master.key"),
+                        user=("master", "m4ster"))
+        (tmp_path / "password").write_text("s3cret\n")
+        sitl = start_sitl(speedup="5", extra_args=[
+            "--vda5050", f"mqtts://127.0.0.1:{broker.port}", "--serial-number", SERIAL, "--map-id", "yard",
+            "--vda5050-ca", str(pki / "ca.pem"), "--vda5050-cert", str(pki / "agv.pem"),
+            "--vda5050-key", str(pki / "agv.key"),
+            "--vda5050-user", "agv", "--vda5050-password-file", str(tmp_path / "password")])
+        master.wait("ONLINE over TLS", lambda m: any(c["connectionState"] == "ONLINE" for c in m.connections), 20)
+        master.instant("s0", "stateRequest")
+        master.wait("an answer", lambda m: m.states and m.action("s0") == "FINISHED", 10)
+        state = master.last()
+        assert state["maps"] == [{"mapId": "yard", "mapVersion": "1", "mapStatus": "ENABLED"}]
+        assert state["loads"] == [] and state["safetyState"]["eStop"] == "NONE"
+        assert {i["infoType"] for i in state["information"]} >= {"mode", "gnssFix"}
+        master.close()
+        assert sitl.alive()
+        assert "VDA 5050: connected to 127.0.0.1" in sitl.log()
+    finally:
+        broker.stop()
+        broker.log.close()
+
+
+def test_a_wrong_broker_password_or_tls_file_is_a_clear_error(tmp_path, start_sitl):
+    (tmp_path / "empty").write_text("")
+    with pytest.raises(RuntimeError, match="--vda5050-password-file: .* is empty"):
+        start_sitl(extra_args=["--vda5050", "mqtt://127.0.0.1:1", "--vda5050-user", "u",
+                               "--vda5050-password-file", str(tmp_path / "empty")])
+    (tmp_path / "junk.pem").write_text("junk\n")
+    with pytest.raises(RuntimeError, match="--vda5050-ca: .*no certificate"):
+        start_sitl(extra_args=["--vda5050", "mqtts://127.0.0.1:1", "--vda5050-ca", str(tmp_path / "junk.pem")])
+    with pytest.raises(RuntimeError, match="need an mqtts:// broker"):
+        start_sitl(extra_args=["--vda5050", "mqtt://127.0.0.1:1", "--vda5050-ca", str(tmp_path / "junk.pem")])

@@ -10,7 +10,8 @@
 //!
 //! - [`clock`]: the task timer and the two tick clocks.
 //! - [`persistence`]: stored plans and parameters in, the core's saves out.
-//! - [`mqtt`]: the VDA 5050 client, when the vehicle is an AGV of a fleet.
+//! - [`mqtt`]: the VDA 5050 client, when the vehicle is an AGV of a fleet;
+//!   [`mqtt_tls`] its TLS (`mqtts://`).
 //! - [`shutdown`]: the shutdown future (SIGINT or SIGTERM).
 //! - [`runner`]: the loop.
 //! - [`fleet`]: the loop for several vehicles in one process (a simulated
@@ -19,6 +20,7 @@
 pub mod clock;
 pub mod fleet;
 pub mod mqtt;
+pub mod mqtt_tls;
 pub mod persistence;
 pub mod runner;
 pub mod shutdown;

@@ -6,14 +6,16 @@
 //! [`Backoff`] and subscribes again; the core's order carries on through an
 //! outage and a fresh state and factsheet go out on reconnect.
 
+use std::sync::Arc;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use drivers::backoff::Backoff;
-use rumqttc::{AsyncClient, Event, EventLoop, LastWill, MqttOptions, Packet, QoS};
+use rumqttc::{AsyncClient, Event, EventLoop, LastWill, MqttOptions, Packet, QoS, TlsConfiguration, Transport};
 use tokio::runtime::Handle;
 use tokio::sync::{mpsc, oneshot};
 use vda5050::{ConnectionState, Qos, Topic, TopicPrefix};
 
+use super::mqtt_tls::{TlsError, TlsFiles, client_config};
 use crate::fleet::publish::{Publication, Publisher};
 use crate::vehicle::{FleetMessage, Inputs};
 
@@ -22,30 +24,79 @@ use crate::vehicle::{FleetMessage, Inputs};
 pub struct MqttConfig {
     pub host: String,
     pub port: u16,
+    /// TLS for `mqtts://` (see [`super::mqtt_tls`]).
+    pub tls: Option<Arc<rustls::ClientConfig>>,
     pub prefix: TopicPrefix,
     pub client_id: String,
     pub credentials: Option<(String, String)>,
 }
 
-/// `mqtt://HOST:PORT` (port 1883 when absent) as host and port.
-pub fn parse_broker_url(url: &str) -> Result<(String, u16), String> {
-    if url.starts_with("mqtts://") {
-        return Err(format!("{url}: TLS (mqtts://) is not supported yet; use mqtt://"));
+/// A broker URL: `mqtt://HOST[:PORT]` or `mqtts://HOST[:PORT]`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BrokerUrl {
+    pub host: String,
+    pub port: u16,
+    pub tls: bool,
+}
+
+impl std::fmt::Display for BrokerUrl {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let scheme = if self.tls { "mqtts" } else { "mqtt" };
+        write!(f, "{scheme}://{}:{}", self.host, self.port)
     }
-    let rest = url
-        .strip_prefix("mqtt://")
-        .ok_or_else(|| format!("{url}: expected mqtt://HOST:PORT"))?;
+}
+
+/// `mqtt://HOST:PORT` (port 1883 when absent) or `mqtts://HOST:PORT` (8883).
+pub fn parse_broker_url(url: &str) -> Result<BrokerUrl, String> {
+    let (rest, tls) = if let Some(rest) = url.strip_prefix("mqtts://") {
+        (rest, true)
+    } else if let Some(rest) = url.strip_prefix("mqtt://") {
+        (rest, false)
+    } else {
+        return Err(format!("{url}: expected mqtt://HOST:PORT or mqtts://HOST:PORT"));
+    };
     let (host, port) = match rest.rsplit_once(':') {
         Some((host, port)) => {
-            let port = port.parse::<u16>().map_err(|_| format!("{url}: bad port {port:?}"))?;
+            let port = port
+                .parse::<u16>()
+                .ok()
+                .filter(|p| *p != 0)
+                .ok_or_else(|| format!("{url}: bad port {port:?}"))?;
             (host, port)
         }
+        None if tls => (rest, 8883),
         None => (rest, 1883),
     };
-    if host.is_empty() || host.contains('/') {
-        return Err(format!("{url}: expected mqtt://HOST:PORT"));
+    if host.is_empty() || host.contains(['/', '@', '?', '#']) || host.contains(char::is_whitespace) {
+        return Err(format!("{url}: expected mqtt://HOST:PORT or mqtts://HOST:PORT"));
     }
-    Ok((host.to_owned(), port))
+    Ok(BrokerUrl {
+        host: host.to_owned(),
+        port,
+        tls,
+    })
+}
+
+impl MqttConfig {
+    /// The client's configuration; for `mqtts://` the TLS files are read
+    /// and checked now, so a bad one fails at start-up.
+    pub fn new(
+        broker: &BrokerUrl,
+        tls_files: &TlsFiles,
+        prefix: TopicPrefix,
+        client_id: String,
+        credentials: Option<(String, String)>,
+    ) -> Result<MqttConfig, TlsError> {
+        let tls = broker.tls.then(|| client_config(tls_files)).transpose()?;
+        Ok(MqttConfig {
+            host: broker.host.clone(),
+            port: broker.port,
+            tls,
+            prefix,
+            client_id,
+            credentials,
+        })
+    }
 }
 
 /// A broker still sending while the core is slow drops here, counted.
@@ -91,6 +142,9 @@ impl MqttLink {
             .set_last_will(LastWill::new(will.topic, will.payload, qos(will.qos), will.retain));
         if let Some((user, password)) = &config.credentials {
             options.set_credentials(user.clone(), password.clone());
+        }
+        if let Some(tls) = &config.tls {
+            options.set_transport(Transport::tls_with_config(TlsConfiguration::Rustls(tls.clone())));
         }
         let (client, eventloop) = AsyncClient::new(options, QUEUE);
         let (to_core, inbound) = mpsc::channel(QUEUE);
@@ -245,18 +299,35 @@ impl Session {
 
 #[cfg(test)]
 mod tests {
-    use super::parse_broker_url;
+    use super::{BrokerUrl, parse_broker_url};
 
     #[test]
-    fn broker_urls_are_mqtt_host_port() {
+    fn broker_urls_are_mqtt_or_mqtts_host_port() {
+        let url = |host: &str, port, tls| {
+            Ok(BrokerUrl {
+                host: host.into(),
+                port,
+                tls,
+            })
+        };
+        assert_eq!(parse_broker_url("mqtt://127.0.0.1:1884"), url("127.0.0.1", 1884, false));
+        assert_eq!(parse_broker_url("mqtt://broker"), url("broker", 1883, false));
+        assert_eq!(parse_broker_url("mqtts://broker:8884"), url("broker", 8884, true));
+        assert_eq!(parse_broker_url("mqtts://broker"), url("broker", 8883, true));
         assert_eq!(
-            parse_broker_url("mqtt://127.0.0.1:1884"),
-            Ok(("127.0.0.1".into(), 1884))
+            parse_broker_url("mqtts://broker").map(|u| u.to_string()),
+            Ok("mqtts://broker:8883".into())
         );
-        assert_eq!(parse_broker_url("mqtt://broker"), Ok(("broker".into(), 1883)));
-        assert!(parse_broker_url("mqtts://broker:8883").unwrap_err().contains("TLS"));
-        assert!(parse_broker_url("http://broker").is_err());
-        assert!(parse_broker_url("mqtt://:1883").is_err());
-        assert!(parse_broker_url("mqtt://b:99999").is_err());
+        for bad in [
+            "http://broker",
+            "mqtt://:1883",
+            "mqtt://b:99999",
+            "mqtt://b:0",
+            "mqtts://user@b:1",
+            "mqtt://b/x",
+            "broker:1883",
+        ] {
+            assert!(parse_broker_url(bad).is_err(), "{bad}");
+        }
     }
 }

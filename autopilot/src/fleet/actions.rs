@@ -85,6 +85,8 @@ pub struct ActionRunner {
     actions: Vec<Tracked>,
     /// Bumped on every status change (the state message is sent on change).
     pub generation: u64,
+    /// Actions that ran their duration since the last [`Self::take_finished`].
+    finished: Vec<Action>,
 }
 
 impl ActionRunner {
@@ -194,6 +196,7 @@ impl ActionRunner {
                     if now_s - started >= duration_s.unwrap_or(0.0) {
                         tracked.status = ActionStatus::Finished;
                         tracked.result = Some("done".into());
+                        self.finished.push(tracked.action.clone());
                         self.generation += 1;
                     }
                 }
@@ -240,6 +243,12 @@ impl ActionRunner {
             any_running = true;
             hard_running = hard;
         }
+    }
+
+    /// The actions that finished by running their duration (a pick or a
+    /// drop done), since the last call.
+    pub fn take_finished(&mut self) -> Vec<Action> {
+        std::mem::take(&mut self.finished)
     }
 
     /// `actionStates` for the state message.

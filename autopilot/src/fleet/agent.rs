@@ -8,7 +8,7 @@
 
 use vda5050::common::Action;
 use vda5050::order::{Edge, Node, OrientationType};
-use vda5050::state::{ActionStatus, Error, OperatingMode};
+use vda5050::state::{ActionStatus, EStop, Error, Load, OperatingMode};
 use vda5050::{Order, Topic, parse_instant_actions, parse_order};
 
 use super::actions::{ActionMapping, ActionOutput, ActionRunner, Scope, mapping};
@@ -18,8 +18,10 @@ use super::order::{OrderBook, OrderContext, Verdict, error};
 /// How the agent is set up.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AgentConfig {
-    /// The map this vehicle drives on (orders on another map are refused).
+    /// The map this vehicle drives on (orders on another map are refused),
+    /// reported ENABLED in the state's `maps`.
     pub map_id: String,
+    pub map_version: String,
     pub mappings: Vec<ActionMapping>,
     /// `state` at least this often while driving (default 1 s)…
     pub state_interval_driving_s: f64,
@@ -33,6 +35,7 @@ impl Default for AgentConfig {
     fn default() -> Self {
         AgentConfig {
             map_id: "local".into(),
+            map_version: "1".into(),
             mappings: super::actions::default_mappings(),
             state_interval_driving_s: 1.0,
             state_interval_idle_s: 30.0,
@@ -53,6 +56,8 @@ pub struct VehicleView {
     pub arrived_at: Option<u32>,
     pub driving: bool,
     pub operating_mode: OperatingMode,
+    /// The e-stop the state reports (a change sends a state).
+    pub e_stop: EStop,
 }
 
 /// One leg to drive: along an edge to its end node.
@@ -104,6 +109,8 @@ pub struct Agent {
     pub order: OrderBook,
     pub actions: ActionRunner,
     pub paused: bool,
+    /// What the vehicle carries, by its pick and drop actions.
+    pub loads: Vec<Load>,
     /// Errors of instant actions and of unreadable payloads, reported until
     /// the next order is accepted.
     pub errors: Vec<Error>,
@@ -132,6 +139,7 @@ struct Fingerprint {
     paused: bool,
     new_base_request: bool,
     operating_mode: OperatingMode,
+    e_stop: EStop,
 }
 
 /// Not driving for this long is standing still (the speed estimate lags
@@ -155,6 +163,7 @@ impl Agent {
             order: OrderBook::default(),
             actions: ActionRunner::default(),
             paused: false,
+            loads: Vec::new(),
             errors: Vec::new(),
             cancelling: None,
             standing_since_s: None,
@@ -217,6 +226,9 @@ impl Agent {
         }
         let outputs = self.actions.step(view.boot_s, self.paused, &self.config.mappings);
         self.outputs.extend(outputs);
+        for action in self.actions.take_finished() {
+            super::loads::apply(&mut self.loads, &action);
+        }
         self.standing_since_s = if view.driving {
             None
         } else {
@@ -464,6 +476,7 @@ impl Agent {
             paused: self.paused,
             new_base_request: self.new_base_request(),
             operating_mode: view.operating_mode,
+            e_stop: view.e_stop,
         }
     }
 

@@ -8,6 +8,7 @@
 //!   a drive command and messages out;
 //! - [`state`]: the `state` and `visualization` messages;
 //! - [`factsheet`]: the `factsheet` from the vehicle's parameters;
+//! - [`loads`]: the loads on the vehicle, from its pick and drop actions;
 //! - [`publish`]: headers stamped and topics, QoS and retain for each.
 //!
 //! All of it is pure; the core steps the agent (`vehicle/fleet.rs`) and the
@@ -16,6 +17,7 @@
 pub mod actions;
 pub mod agent;
 pub mod factsheet;
+pub mod loads;
 pub mod map;
 pub mod order;
 pub mod publish;

@@ -2,7 +2,9 @@
 //! agent and what the core reports of the vehicle.
 
 use vda5050::common::{AgvPosition, NodePosition, Velocity};
-use vda5050::state::{BatteryState, EStop, EdgeState, Error, NodeState, OperatingMode, SafetyState};
+use vda5050::state::{
+    BatteryState, EStop, EdgeState, Error, Information, MapInfo, MapStatus, NodeState, OperatingMode, SafetyState,
+};
 use vda5050::{Header, State, Visualization};
 
 use super::agent::Agent;
@@ -27,7 +29,10 @@ pub struct VehicleReport {
     pub operating_mode: OperatingMode,
     /// Failsafes, a GNSS loss, an obstacle stop…
     pub errors: Vec<Error>,
+    /// The mode, the GNSS fix, why the vehicle stands…
+    pub information: Vec<Information>,
     pub field_violation: bool,
+    pub e_stop: EStop,
 }
 
 /// A header the edge replaces with its own id and time.
@@ -92,7 +97,12 @@ pub fn build_state(agent: &Agent, report: &VehicleReport) -> State {
     let taken_over = report.operating_mode != OperatingMode::Automatic && order.has_nodes();
     State {
         header: blank_header(),
-        maps: None,
+        maps: Some(vec![MapInfo {
+            map_id: agent.config.map_id.clone(),
+            map_version: agent.config.map_version.clone(),
+            map_description: None,
+            map_status: MapStatus::Enabled,
+        }]),
         order_id: order.order_id.clone(),
         order_update_id: order.order_update_id,
         zone_set_id: order.zone_set_id.clone(),
@@ -107,7 +117,8 @@ pub fn build_state(agent: &Agent, report: &VehicleReport) -> State {
         edge_states,
         agv_position: agv_position(report, &agent.config.map_id),
         velocity: Some(velocity(report)),
-        loads: None,
+        // Known from the pick and drop actions: empty is unloaded.
+        loads: Some(agent.loads.clone()),
         action_states: agent.actions.states(),
         battery_state: BatteryState {
             battery_charge: report.battery_percent.clamp(0.0, 100.0),
@@ -117,9 +128,9 @@ pub fn build_state(agent: &Agent, report: &VehicleReport) -> State {
             reach: None,
         },
         errors,
-        information: None,
+        information: Some(report.information.clone()),
         safety_state: SafetyState {
-            e_stop: EStop::None,
+            e_stop: report.e_stop,
             field_violation: report.field_violation,
         },
     }

@@ -4,7 +4,7 @@
 use serde_json::{Value, json};
 use test_support::vda5050::{ALLOWED_DEVIATION_XY_M, N, instant, order};
 use vda5050::Topic;
-use vda5050::state::{ActionStatus, OperatingMode};
+use vda5050::state::{ActionStatus, EStop, OperatingMode};
 
 use super::agent::{Agent, AgentConfig, Command, Publish, VehicleView};
 use super::map::MapPose;
@@ -28,6 +28,7 @@ fn view(t: f64) -> VehicleView {
         arrived_at: None,
         driving: false,
         operating_mode: OperatingMode::Automatic,
+        e_stop: EStop::None,
     }
 }
 

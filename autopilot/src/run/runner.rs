@@ -57,7 +57,7 @@ pub fn vehicle_params(model: ModelKind) -> (params::ParamTable, CoreParams) {
 /// Runs until SIGINT/SIGTERM.
 pub fn run(config_path: &Path) -> Result<(), String> {
     let config = config::load(config_path).map_err(|e| e.to_string())?;
-    let edge = EdgeRunner::new()?;
+    let mut edge = EdgeRunner::new()?;
     let model = config.frame.model_kind();
     let data_dir = DataDir::open(&config.data_dir, Profile::Vehicle(model))?;
     let (mut table, core_params) = vehicle_params(model);
@@ -69,6 +69,10 @@ pub fn run(config_path: &Path) -> Result<(), String> {
             MavSeverity::MAV_SEVERITY_WARNING,
             "No scanner configured: set OA_ENABLE 0 to drive",
         );
+    }
+    if let Some(vda5050) = &config.vda5050 {
+        edge = edge.with_vda5050(vda5050.mqtt()?);
+        core.enable_vda5050(vda5050.agent.clone());
     }
     let persistence = Persistence::start(&data_dir, session, &mut core);
     let sockets = LinkSockets::bind(&link_endpoints(&config)).map_err(|e| format!("MAVLink links: {e}"))?;

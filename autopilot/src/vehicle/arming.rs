@@ -62,7 +62,9 @@ impl Core {
                 failures.push(format!("Scanner {} not sending", scanner + 1));
             }
         }
-        if enabled(check::MISSION) && self.mode == Mode::Auto && !self.missions.executor.has_nav_items() {
+        // AUTO drives a VDA 5050 order when one is held, else the mission.
+        let nothing_to_drive = !self.missions.executor.has_nav_items() && !self.fleet_drives();
+        if enabled(check::MISSION) && self.mode == Mode::Auto && nothing_to_drive {
             failures.push("No mission for AUTO".to_string());
         }
         if enabled(check::FENCE)

@@ -198,6 +198,7 @@ impl Core {
         let ok = if p1 == 1.0 {
             self.arm(force)
         } else if p1 == 0.0 {
+            self.fleet_note_gcs_disarm();
             self.disarm()
         } else {
             return MavResult::MAV_RESULT_DENIED;

@@ -183,7 +183,7 @@ impl FailsafeAction {
         }
     }
 
-    fn name(self) -> &'static str {
+    pub(super) fn name(self) -> &'static str {
         match self {
             FailsafeAction::Report => "report only",
             FailsafeAction::Rtl => "RTL",
@@ -434,7 +434,7 @@ impl Core {
 
     /// The action as it can be carried out: RTL needs a position and home;
     /// without them the nearest safe thing is to stop where it is.
-    fn effective_action(&self, failsafe: Failsafe, mode: Mode) -> FailsafeAction {
+    pub(super) fn effective_action(&self, failsafe: Failsafe, mode: Mode) -> FailsafeAction {
         let action = self.configured_action(failsafe, mode);
         let can_rtl = self.home.is_some()
             && self.estimator.estimate().position_valid

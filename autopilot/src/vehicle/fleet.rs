@@ -4,9 +4,8 @@
 //! drive, and builds the messages it wants sent (docs/architecture.md
 //! §Fleets).
 
-use drivers::gnss::FixQuality;
 use mavlink::dialects::ardupilotmega::MavSeverity;
-use vda5050::state::{ErrorLevel, OperatingMode};
+use vda5050::state::OperatingMode;
 
 use super::{Core, Inputs, Outputs};
 use crate::fleet::actions::ActionOutput;
@@ -14,7 +13,7 @@ use crate::fleet::factsheet::{VehicleDescription, build_factsheet};
 use crate::fleet::map::{local_from_map, map_from_local};
 use crate::fleet::order::error;
 use crate::fleet::state::{build_state, build_visualization};
-use crate::fleet::{Agent, AgentConfig, Command, Leg, OrderEvent, Publish, VehicleReport, VehicleView};
+use crate::fleet::{Agent, AgentConfig, Command, Leg, OrderEvent, Publish, VehicleView};
 use crate::guidance::navigator::{NavTarget, StopTolerance};
 use crate::guidance::tracker::Direction;
 use crate::modes::Mode;
@@ -38,6 +37,9 @@ pub(super) struct FleetState {
     leg: Option<u32>,
     /// The stop tolerance of the leg being driven, when the node gives one.
     tolerance: Option<StopTolerance>,
+    /// A ground station disarmed the vehicle during the order: a remote
+    /// e-stop until the vehicle is armed again.
+    remote_stop: bool,
 }
 
 impl Core {
@@ -49,6 +51,7 @@ impl Core {
             command: Command::Hold,
             leg: None,
             tolerance: None,
+            remote_stop: false,
         }));
     }
 
@@ -67,10 +70,20 @@ impl Core {
         self.fleet.as_ref().and_then(|f| f.tolerance)
     }
 
+    /// A ground station's disarm: during an order it is a remote e-stop.
+    pub(super) fn fleet_note_gcs_disarm(&mut self) {
+        let during_order = self.armed && self.fleet_drives();
+        if let Some(fleet) = self.fleet.as_mut()
+            && during_order
+        {
+            fleet.remote_stop = true;
+        }
+    }
+
     /// Who is in charge (§6.10.6): the master control in AUTO, and in HOLD
     /// with no order left; a ground station that took the vehicle (MANUAL,
     /// or any other mode mid-order) pauses the order.
-    fn operating_mode(&self) -> OperatingMode {
+    pub(super) fn operating_mode(&self) -> OperatingMode {
         match self.mode {
             Mode::Auto => OperatingMode::Automatic,
             Mode::Manual => OperatingMode::Manual,
@@ -81,11 +94,15 @@ impl Core {
 
     /// Once a tick, after the tasks: the agent's step and what follows.
     pub(super) fn fleet_tick(&mut self, inputs: &Inputs, out: &mut Outputs) {
-        if self.fleet.is_none() {
+        let armed = self.armed;
+        let Some(fleet) = self.fleet.as_mut() else {
             return;
-        }
-        let view = self.fleet_view();
-        let report = self.vehicle_report(view.driving);
+        };
+        fleet.remote_stop &= !armed;
+        let remote_stop = fleet.remote_stop;
+        let mut view = self.fleet_view();
+        let report = self.vehicle_report(view.driving, remote_stop);
+        view.e_stop = report.e_stop;
         let description = self.vehicle_description();
         let Some(fleet) = self.fleet.as_mut() else {
             return;
@@ -129,6 +146,8 @@ impl Core {
             arrived_at: leg.filter(|_| arrived),
             driving: self.armed && estimate.speed_mps.abs() > DRIVING_SPEED_MPS,
             operating_mode: self.operating_mode(),
+            // Set from the report once it is built.
+            e_stop: vda5050::state::EStop::None,
         }
     }
 
@@ -144,55 +163,6 @@ impl Core {
             front_m: footprint.front_m,
             rear_m: footprint.rear_m,
             width_m: 2.0 * footprint.half_width_m,
-        }
-    }
-
-    fn vehicle_report(&self, driving: bool) -> VehicleReport {
-        let estimate = self.estimator.estimate();
-        let quality = self.estimator.gnss().quality;
-        let localization_score = match quality {
-            Some(FixQuality::RtkFixed) => 1.0,
-            Some(FixQuality::RtkFloat) => 0.7,
-            Some(FixQuality::Dgps) => 0.5,
-            Some(FixQuality::Single) => 0.3,
-            Some(FixQuality::DeadReckoning) => 0.1,
-            _ => 0.0,
-        };
-        let mut errors = Vec::new();
-        for failsafe in self.active_failsafes() {
-            let mut e = error(
-                "failsafe",
-                failsafe.name().to_owned(),
-                vec![("failsafe", failsafe.name().to_owned())],
-            );
-            e.error_level = ErrorLevel::Fatal;
-            errors.push(e);
-        }
-        let obstacle_stop = self.obstacles.status().stopped;
-        if obstacle_stop {
-            errors.push(error(
-                "obstacleStop",
-                "an obstacle stops the vehicle".into(),
-                Vec::new(),
-            ));
-        }
-        VehicleReport {
-            pose: estimate
-                .position_valid
-                .then(|| map_from_local(&estimate.position, estimate.yaw_rad)),
-            position_initialized: estimate.position_valid && estimate.heading_valid,
-            localization_score,
-            // 2σ: the standard's range holds the position with ~95 %.
-            deviation_range_m: 2.0 * estimate.horiz_sigma_m,
-            speed_mps: estimate.speed_mps,
-            // Clockwise in the core, counter-clockwise in the map frame.
-            yaw_rate_rad_s: -estimate.yaw_rate_rad_s,
-            driving,
-            battery_percent: self.battery.map_or(0.0, |b| b.remaining_pct),
-            battery_voltage_v: self.battery.map(|b| b.voltage_v),
-            operating_mode: self.operating_mode(),
-            errors,
-            field_violation: obstacle_stop,
         }
     }
 

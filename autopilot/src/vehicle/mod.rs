@@ -9,6 +9,7 @@ mod drive;
 mod estimation;
 mod failsafe;
 mod fleet;
+mod fleet_report;
 mod geofence;
 mod io;
 mod messages;

@@ -95,6 +95,8 @@ pub struct ObstacleStatus {
     /// Every fitted scanner has sent a scan recently.
     pub scans_fresh: bool,
     pub stopped: bool,
+    /// Why, while stopped.
+    pub stop_cause: Option<StopCause>,
     /// The speed limit the warning field or a followed obstacle imposes.
     pub speed_limit_mps: Option<f64>,
     /// Pass first (OA_PASS): the speed to drive at until the obstacle is
@@ -429,6 +431,10 @@ impl Core {
         }
         let verdict = status.verdict;
         self.obstacles.status.stopped = status.stopped;
+        self.obstacles.status.stop_cause = match verdict {
+            Verdict::Stop(cause) => Some(cause),
+            _ => None,
+        };
         self.obstacles.status.speed_limit_mps = match verdict {
             Verdict::Slow { limit_mps } => Some(limit_mps),
             _ => None,
@@ -477,6 +483,7 @@ impl Core {
             enabled,
             scans_fresh,
             stopped: false,
+            stop_cause: None,
             speed_limit_mps: None,
             speed_up_mps: None,
             confirmed_tracks: confirmed,

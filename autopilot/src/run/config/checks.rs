@@ -1,6 +1,8 @@
 //! The configuration file as written, spans kept, and the checks that turn
 //! it into [`VehicleConfig`]: every error names its key and place.
 
+mod vda5050_section;
+
 use std::ops::{Range, RangeInclusive};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -42,6 +44,7 @@ struct RawConfig {
     pwm: Option<RawPwm>,
     #[serde(default)]
     mavlink: Vec<RawMavlink>,
+    vda5050: Option<vda5050_section::RawVda5050>,
 }
 
 #[derive(Deserialize)]
@@ -198,6 +201,7 @@ impl Checker<'_> {
                 mavlink.push(endpoint);
             }
         }
+        let vda5050 = raw.vda5050.map(|v| self.vda5050(v)).transpose()?;
         Ok(VehicleConfig {
             frame: vehicle.frame,
             data_dir,
@@ -210,6 +214,7 @@ impl Checker<'_> {
             pwm,
             mavlink,
             secure_mavlink,
+            vda5050,
         })
     }
 

@@ -7,6 +7,12 @@ use std::time::Duration;
 use drivers::ntrip::{NtripConfig, NtripVersion};
 use serde::Deserialize;
 
+use vda5050::TopicPrefix;
+
+use crate::edge::mqtt::{BrokerUrl, MqttConfig};
+use crate::edge::mqtt_tls::TlsFiles;
+use crate::fleet::AgentConfig;
+use crate::fleet::actions::ActionOutput;
 use crate::link::endpoint::Endpoint;
 use crate::sitl::simulation::ModelKind;
 
@@ -49,6 +55,76 @@ pub struct VehicleConfig {
     /// Endpoints marked `secure = true`, in file order: they accept
     /// SETUP_SIGNING and unsigned packets (see `link::sign_policy`).
     pub secure_mavlink: Vec<Endpoint>,
+    /// The VDA 5050 broker and agent, when this vehicle is an AGV of a fleet.
+    pub vda5050: Option<Vda5050Settings>,
+}
+
+/// `[vda5050]`: the broker, who this vehicle is on it, and its agent.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Vda5050Settings {
+    pub broker: BrokerUrl,
+    /// Read for an `mqtts://` broker only.
+    pub tls: TlsFiles,
+    /// User name and password (empty when only a user name is given).
+    pub credentials: Option<(String, String)>,
+    pub client_id: String,
+    pub prefix: TopicPrefix,
+    /// Map, message rates and the actions' outputs.
+    pub agent: AgentConfig,
+}
+
+impl Vda5050Settings {
+    /// The MQTT client's configuration (the TLS files read again).
+    pub fn mqtt(&self) -> Result<MqttConfig, String> {
+        MqttConfig::new(
+            &self.broker,
+            &self.tls,
+            self.prefix.clone(),
+            self.client_id.clone(),
+            self.credentials.clone(),
+        )
+        .map_err(|e| format!("[vda5050]: {e}"))
+    }
+
+    fn summary(&self) -> Vec<String> {
+        let mut lines = vec![format!(
+            "vda5050      {} as {}, client id {}, map {:?} v{:?}",
+            self.broker,
+            self.prefix.topic(vda5050::Topic::State).trim_end_matches("/state"),
+            self.client_id,
+            self.agent.map_id,
+            self.agent.map_version
+        )];
+        if self.broker.tls {
+            let ca = self
+                .tls
+                .ca_file
+                .as_ref()
+                .map_or("the system's trust store".to_string(), |f| f.display().to_string());
+            let client = self
+                .tls
+                .client_auth
+                .as_ref()
+                .map_or("no client certificate".to_string(), |(c, _)| {
+                    format!("client certificate {}", c.display())
+                });
+            lines.push(format!("vda5050      TLS: broker checked against {ca}, {client}"));
+        }
+        if let Some((user, _)) = &self.credentials {
+            lines.push(format!("vda5050      user {user} (password not shown)"));
+        }
+        for m in &self.agent.mappings {
+            let output = match m.output {
+                ActionOutput::Servo { channel, pwm_us } => format!("SERVO{channel} to {pwm_us} us"),
+                ActionOutput::Relay { relay, on } => format!("relay {relay} {}", if on { "on" } else { "off" }),
+            };
+            lines.push(format!(
+                "vda5050      action {} sets {output} for {} s",
+                m.action_type, m.duration_s
+            ));
+        }
+        lines
+    }
 }
 
 /// The drive train; it picks the parameter defaults profile the way
@@ -268,6 +344,9 @@ impl VehicleConfig {
         }
         if self.mavlink.is_empty() && self.secure_mavlink.is_empty() {
             lines.push("mavlink      none: no ground station can connect".to_string());
+        }
+        if let Some(vda5050) = &self.vda5050 {
+            lines.extend(vda5050.summary());
         }
         lines.join("\n")
     }
