@@ -666,6 +666,7 @@ impl Core {
     fn sweep_path_ahead(&mut self, pose: &Pose, footprint: &Footprint, reverse: bool, length_m: f64) {
         let estimate = self.estimator.estimate();
         let nav_config = self.nav_config();
+        let pivot = self.navigator.pivot_target().filter(|_| self.mode != Mode::Magnetic);
         let target = self.navigator.target().copied();
         let leg = (self.mode != Mode::Magnetic)
             .then(|| self.navigator.path_ahead(pose.position, &nav_config).zip(target))
@@ -679,7 +680,6 @@ impl Core {
                 let heading_off = wrap_pi(pose.yaw_rad - path.heading_at(*along_m) - flip).abs();
                 path.point_at(*along_m).distance_to(&pose.position) <= ON_PATH_M && heading_off <= ON_PATH_RAD
             });
-        let pivot = self.navigator.pivot_target().filter(|_| self.mode != Mode::Magnetic);
         let ahead = match (pivot, leg) {
             // Turning on the spot: the outline swept round to the heading.
             (Some(to_yaw_rad), _) => PathAhead::Pivot { to_yaw_rad },
