@@ -170,6 +170,12 @@ impl Bench<'_> {
                 let Some(m) = master.next(Duration::from_millis(200)) else {
                     continue;
                 };
+                if m.kind == "state"
+                    && m.body["orderId"] != order_id.as_str()
+                    && !m.body["errors"].as_array().is_none_or(Vec::is_empty)
+                {
+                    println!("  order {order_id}: {}", m.body["errors"]);
+                }
                 if m.kind != "state" || m.body["orderId"] != order_id.as_str() {
                     continue;
                 }
@@ -187,6 +193,9 @@ impl Bench<'_> {
                     position = state_position(&m.body).unwrap_or(position);
                     break;
                 }
+            }
+            if accepted.is_none() {
+                println!("  order {order_id}: no state carried it within 60 s");
             }
             accepted_ms.extend(accepted);
             moving_ms.extend(moving);
