@@ -330,15 +330,13 @@ fn state_rates(serials: &[String], times: &BTreeMap<String, Vec<Instant>>, start
             .windows(2)
             .map(|w| (w[1] - w[0]).as_secs_f64())
             .fold(0.0, f64::max);
-        // The mean rate between the first and the last state seen.
-        let hz = match (seen.first(), seen.last()) {
-            (Some(first), Some(last)) if seen.len() > 1 => (seen.len() - 1) as f64 / (*last - *first).as_secs_f64(),
-            _ => seen.len() as f64 / window_s,
-        };
+        let hz = seen.len() as f64 / window_s;
         rates.lowest_hz = rates.lowest_hz.min(hz);
         rates.longest_gap_s = rates.longest_gap_s.max(gap_s);
-        // A 1 Hz state on the wall clock reads a hair under 1 Hz.
-        rates.failing += usize::from(hz < 0.99 || gap_s > 2.0);
+        // A state at 1 Hz or more gives at least one per whole second of
+        // the window, wherever the window falls.
+        let below_1_hz = (seen.len() as f64) < window_s.floor();
+        rates.failing += usize::from(below_1_hz || gap_s > 2.0);
     }
     rates
 }
