@@ -3,6 +3,7 @@
 //! `autopilot::offline::plot`, shared with `furrow logs plot`).
 
 pub mod ekf_cost;
+pub mod fleet;
 pub mod magnetic;
 pub mod magnetic_bound;
 pub mod manoeuvre;

@@ -29,6 +29,8 @@ enum BenchCommand {
     Safety(furrow_bench::safety::SafetyBenchArgs),
     /// MAGNETIC mode's guide back on the tape: three starts, straight and arcs, 0.5–1.5 m/s, two vehicles.
     Magnetic(furrow_bench::magnetic::MagneticBenchArgs),
+    /// A simulated fleet (`furrow sitl --fleet N`) against a real Mosquitto: VDA 5050 latency, state rates, CPU and RSS per vehicle, scaling.
+    Fleet(furrow_bench::fleet::FleetBenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -39,6 +41,7 @@ fn main() -> ExitCode {
         BenchCommand::Obstacles(args) => furrow_bench::obstacles::run(&args),
         BenchCommand::Safety(args) => furrow_bench::safety::run(&args),
         BenchCommand::Magnetic(args) => furrow_bench::magnetic::run_bench(&args),
+        BenchCommand::Fleet(args) => furrow_bench::fleet::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

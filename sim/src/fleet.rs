@@ -7,6 +7,14 @@
 use super::obstacles::{Rectangle, VehicleOutline};
 use super::world::World;
 
+/// Vehicles this close are shared even with no scanner fitted, so a
+/// collision between them shows in [`World::clearance_m`].
+pub const MIN_REACH_M: f64 = 10.0;
+
+fn half_diagonal_m(outline: &Rectangle) -> f64 {
+    outline.half_length_m.hypot(outline.half_width_m)
+}
+
 /// The outlines of a fleet's vehicles as they were when last gathered.
 #[derive(Clone, Debug, Default)]
 pub struct FleetOutlines {
@@ -23,13 +31,24 @@ impl FleetOutlines {
             .extend(vehicles.map(|(world, outline)| world.outline_now(&outline)));
     }
 
-    /// Places every other vehicle's outline in the world of vehicle `index`.
+    /// Places the other vehicles' outlines in the world of vehicle `index`:
+    /// those its scanners can reach (at least [`MIN_REACH_M`] about it).
+    /// The rest are left out, so a scan of a large fleet tests a handful of
+    /// neighbours, not every vehicle.
     pub fn share_with(&self, index: usize, world: &mut World) {
+        let Some(own) = self.outlines.get(index) else {
+            return;
+        };
+        let reach_m = world.scan_reach_m().max(MIN_REACH_M) + half_diagonal_m(own);
         let others = self
             .outlines
             .iter()
             .enumerate()
-            .filter(move |(i, _)| *i != index)
+            .filter(move |&(i, other)| {
+                let (dn, de) = (other.center[0] - own.center[0], other.center[1] - own.center[1]);
+                let within_m = reach_m + half_diagonal_m(other);
+                i != index && dn * dn + de * de <= within_m * within_m
+            })
             .map(|(_, outline)| *outline);
         world.set_other_vehicles(others);
     }
@@ -87,6 +106,19 @@ mod tests {
                 "nearest echo {nearest_m} m, expected the other vehicle's nose at {expected_m} m"
             );
         }
+    }
+
+    #[test]
+    fn only_the_vehicles_within_the_scanners_reach_are_shared() {
+        let outline = VehicleOutline::default();
+        // The scanner reaches 3.6 + 20 m ahead of the reference point.
+        let mut worlds = [world_at(0.0, 0.0), world_at(25.0, 0.0), world_at(80.0, 0.0)];
+        let mut fleet = FleetOutlines::default();
+        fleet.gather(worlds.iter().map(|w| (w, outline)));
+        fleet.share_with(0, &mut worlds[0]);
+        assert_eq!(worlds[0].obstacles().map(|o| o.vehicles.len()), Some(1));
+        fleet.share_with(2, &mut worlds[2]);
+        assert_eq!(worlds[2].obstacles().map(|o| o.vehicles.len()), Some(0));
     }
 
     #[test]

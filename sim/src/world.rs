@@ -380,6 +380,16 @@ impl World {
             .collect();
     }
 
+    /// How far from the vehicle's reference point its scanners can see
+    /// anything (0 with none fitted).
+    pub fn scan_reach_m(&self) -> f64 {
+        self.scanner_configs()
+            .filter(|c| c.enabled)
+            .map(|c| c.mount_x_m.hypot(c.mount_y_m) + c.max_range_m)
+            .filter(|reach_m| reach_m.is_finite())
+            .fold(0.0, f64::max)
+    }
+
     pub fn scanner_configs(&self) -> impl Iterator<Item = &SimScannerConfig> {
         self.scanners.iter().map(SimScanner::config)
     }

@@ -155,6 +155,7 @@ impl MqttLink {
             publisher,
             to_core,
             connected: false,
+            held: Vec::new(),
         };
         handle.spawn(task.run(eventloop, from_core));
         MqttLink {
@@ -201,6 +202,8 @@ struct Session {
     publisher: Publisher,
     to_core: mpsc::Sender<(Topic, Vec<u8>)>,
     connected: bool,
+    /// What the core published while not connected, oldest first.
+    held: Vec<Publication>,
 }
 
 impl Session {
@@ -224,7 +227,7 @@ impl Session {
                 out = from_core.recv() => match out {
                     Some(Outgoing::Message(message)) => {
                         let publication = self.publisher.message(message, unix_ms());
-                        self.send(publication);
+                        self.send_or_hold(publication);
                     }
                     Some(Outgoing::Stop(done)) => {
                         self.stop(&mut eventloop).await;
@@ -251,6 +254,9 @@ impl Session {
                 }
                 let online = self.publisher.connection(ConnectionState::Online, unix_ms());
                 self.send(online);
+                for held in std::mem::take(&mut self.held) {
+                    self.send(held);
+                }
                 // Tells the core: a fresh state and the factsheet are due.
                 let _ = self.to_core.try_send((Topic::Connection, Vec::new()));
                 true
@@ -266,6 +272,20 @@ impl Session {
             }
             _ => false,
         }
+    }
+
+    /// Sends at once when connected; else holds it until the subscriptions
+    /// and ONLINE have gone out: a state the master reads before the
+    /// vehicle has subscribed invites an order the broker would drop.
+    fn send_or_hold(&mut self, publication: Publication) {
+        if self.connected {
+            self.send(publication);
+            return;
+        }
+        if self.held.len() >= QUEUE {
+            self.held.remove(0);
+        }
+        self.held.push(publication);
     }
 
     fn send(&self, publication: Publication) {

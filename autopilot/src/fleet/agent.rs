@@ -495,7 +495,14 @@ impl Agent {
             self.publish.push(Publish::State);
         }
         if due || changed || requested {
-            self.last_state_wall_s = Some(view.wall_s);
+            // A periodic state keeps to its grid (the tick would stretch
+            // each interval by up to a period, and 1 Hz read 0.98 Hz); one
+            // sent for a change restarts the interval.
+            let on_grid = self
+                .last_state_wall_s
+                .map(|t| t + interval)
+                .filter(|&next| due && !changed && !requested && view.wall_s - next < interval);
+            self.last_state_wall_s = Some(on_grid.unwrap_or(view.wall_s));
             self.last_fingerprint = Some(fingerprint);
         }
         let every = self.config.visualization_interval_s;
