@@ -23,7 +23,7 @@ use crate::obstacles::policy::{
     ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, PolicyStatus, StopCause, Verdict,
 };
 use crate::obstacles::prediction::CollisionPrediction;
-use crate::obstacles::swept::{Contact, PathAhead, Shape, SweptPath};
+use crate::obstacles::swept::{Contact, Drive, PathAhead, Shape, SweptPath};
 use crate::obstacles::tracking::{ObstacleTracker, TrackingConfig};
 use crate::obstacles::{Footprint, Pose, ScannerMount, Track, TrackStatus};
 
@@ -516,6 +516,7 @@ impl Core {
     ) -> (Vec<CollisionPrediction>, Vec<CollisionPrediction>) {
         let passing = self.obstacles.detour.as_ref().map(|d| d.obstacle);
         let velocity_gate_mps = f64::from(self.p.obstacles.avoidance.velocity_gate_mps.get(&self.params));
+        let accel_mps2 = self.policy_config().accel_mps2;
         let mut predictions: Vec<CollisionPrediction> = Vec::new();
         let mut predictions_at_resume: Vec<CollisionPrediction> = Vec::new();
         if estimate.position_valid && estimate.heading_valid {
@@ -569,7 +570,14 @@ impl Core {
                 if let Some(c) = swept.first_contact(&shape, velocity, speed, margin, horizon) {
                     predictions.push(to_prediction(c));
                 }
-                if let Some(c) = swept.first_contact(&shape, velocity, planned_mps, margin, horizon) {
+                // Resuming, it gets up to the planned speed from the speed
+                // it has, and is slower than that for the first seconds.
+                let resume = Drive {
+                    from_mps: speed.abs(),
+                    speed_mps: planned_mps.abs(),
+                    accel_mps2,
+                };
+                if let Some(c) = swept.first_contact_driving(&shape, velocity, &resume, margin, horizon) {
                     predictions_at_resume.push(to_prediction(c));
                 }
             }
