@@ -13,6 +13,20 @@ use furrow_bench::obstacles::{self, Family, Outcome, Scenario};
 const SEEDS: u64 = 2;
 const SPEEDS_MPS: [f64; 2] = [1.0, 2.0];
 
+/// Randomized runs where someone walking slowly across the lane went into
+/// the scanners' blind zone beside the stopped vehicle (their velocity
+/// spoilt by the last sliver of returns) and walked on into its side: the
+/// vehicle must not start until they have been seen again.
+#[test]
+fn no_start_into_someone_lost_beside_the_body() {
+    for seed in [595, 617] {
+        let o = random::run(seed, &[], None).expect("runs");
+        let r = &o.result;
+        assert_eq!(r.collisions, r.unavoidable, "seed {seed}: {:?}", r.events);
+        assert!(r.completion_s.is_some(), "seed {seed}: {:?}", r.events);
+    }
+}
+
 fn families(pick: impl Fn(&Family) -> bool) -> Vec<Scenario> {
     let list: Vec<Scenario> = Family::all()
         .into_iter()

@@ -418,6 +418,32 @@ mod tests {
     }
 
     #[test]
+    fn the_cheap_gate_test_never_rejects_what_the_gate_passes() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let gate = chi2_gate_2dof(0.99);
+        let (mut rejected, mut tried) = (0, 0);
+        for _ in 0..20_000 {
+            let r = polar_measurement_covariance(
+                Ned::new(0.0, 0.0),
+                Ned::new(rng.random_range(-15.0..15.0), rng.random_range(-15.0..15.0)),
+                rng.random_range(0.005..0.05),
+                rng.random_range(0.0005..0.01),
+            );
+            let mut kf = CvKalman::new(Ned::new(1.0, -2.0), &r, 1.0).unwrap();
+            // A scan or a few apart, as between updates.
+            kf.predict(rng.random_range(0.0..0.1), rng.random_range(0.1..4.0))
+                .unwrap();
+            let z = Ned::new(1.0 + rng.random_range(-3.0..3.0), -2.0 + rng.random_range(-3.0..3.0));
+            let outside = kf.surely_outside_gate(z, &r, gate);
+            assert!(!(outside && kf.mahalanobis_sq(z, &r) <= gate), "{z:?} {r:?}");
+            rejected += usize::from(outside);
+            tried += 1;
+        }
+        // It must also be worth having: most far pairs are settled cheaply.
+        assert!(rejected > tried / 4, "{rejected} of {tried}");
+    }
+
+    #[test]
     fn chi2_gate_matches_tables() {
         assert!((chi2_gate_2dof(0.99) - 9.2103).abs() < 1e-3);
         assert!((chi2_gate_2dof(0.9) - 4.6052).abs() < 1e-3);

@@ -37,9 +37,10 @@
 //!
 //! # Collision in time
 //! An obstacle moving at its tracked velocity against the vehicle moving
-//! along the path at a constant speed v: the gap between the obstacle's
-//! shape and the outline at the pose the vehicle has at time t shrinks at
-//! most at `v·spread + |v_obstacle|`, so time advances by the gap over that
+//! along the path at a constant speed v (or getting up to v from a slower
+//! speed at a constant acceleration, as it does when it starts: [`Drive`]):
+//! the gap between the obstacle's shape and the outline at the pose the
+//! vehicle has at time t shrinks at most at `v·spread + |v_obstacle|`, so time advances by the gap over that
 //! rate, and at least by [`MAX_STEP_M`] of relative motion (which can hide a
 //! dip of at most half of it, added to the margin). The first time the gap
 //! is within the margin is the collision time (seed 004 §III.C's t_c, for a
@@ -341,19 +342,42 @@ impl SweptPath {
         margin_m: f64,
         horizon_s: f64,
     ) -> Option<Contact> {
+        let drive = Drive {
+            from_mps: speed_mps.abs(),
+            speed_mps: speed_mps.abs(),
+            accel_mps2: 0.0,
+        };
+        self.first_contact_driving(shape, velocity, &drive, margin_m, horizon_s)
+    }
+
+    /// [`Self::first_contact`] for a vehicle that gets up to its speed from
+    /// a slower one (a start or a resume): it lingers where it is for the
+    /// first seconds, and someone walking up to it from behind or from the
+    /// side meets it there, where a vehicle already at speed would be gone.
+    pub fn first_contact_driving(
+        &self,
+        shape: &Shape,
+        velocity: (f64, f64),
+        drive: &Drive,
+        margin_m: f64,
+        horizon_s: f64,
+    ) -> Option<Contact> {
         let centre = shape.centre();
         let finite = [
             centre.north_m,
             centre.east_m,
             velocity.0,
             velocity.1,
-            speed_mps,
+            drive.speed_mps,
+            drive.from_mps,
+            drive.accel_mps2,
             margin_m,
         ];
         if self.samples.is_empty() || finite.iter().any(|v| !v.is_finite()) || horizon_s.is_nan() {
             return None;
         }
-        let speed = speed_mps.abs();
+        // The fastest it drives bounds how fast the gap can shrink.
+        let speed = drive.speed_mps.abs().max(drive.from_mps.abs());
         let obstacle_mps = velocity.0.hypot(velocity.1);
         let rate = speed * self.spread + obstacle_mps;
         let threshold = margin_m.max(0.0) + self.slack_m() + 0.5 * MAX_STEP_M;
@@ -363,7 +387,7 @@ impl SweptPath {
         let gap_now = self.shape_gap(0, shape, extent_m, (0.0, 0.0), f64::INFINITY);
         let mut t = 0.0;
         loop {
-            let index = self.index_at(speed * t);
+            let index = self.index_at(drive.along_m(t));
             let shift = (velocity.0 * t, velocity.1 * t);
             let sample = &self.samples[index];
             let gap = self.shape_gap(index, shape, extent_m, shift, threshold);
@@ -411,6 +435,32 @@ impl SweptPath {
             return 0;
         }
         ((along_m / self.ds_m).round().max(0.0) as usize).min(n)
+    }
+}
+
+/// How the vehicle drives along the path from now: from `from_mps` it gets
+/// to `speed_mps` at `accel_mps2` (at once without a positive one), then
+/// holds it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Drive {
+    pub from_mps: f64,
+    pub speed_mps: f64,
+    pub accel_mps2: f64,
+}
+
+impl Drive {
+    /// Path driven after `t_s`.
+    fn along_m(&self, t_s: f64) -> f64 {
+        let (from, to) = (self.from_mps.abs(), self.speed_mps.abs());
+        if from >= to || self.accel_mps2 <= 0.0 {
+            return to * t_s;
+        }
+        let ramp_s = (to - from) / self.accel_mps2;
+        if t_s <= ramp_s {
+            from * t_s + 0.5 * self.accel_mps2 * t_s * t_s
+        } else {
+            from * ramp_s + 0.5 * self.accel_mps2 * ramp_s * ramp_s + to * (t_s - ramp_s)
+        }
     }
 }
 
@@ -822,5 +872,37 @@ mod tests {
         // Driving straight on, the same person is beside the lane.
         let straight = arc(0.0, false, &AGV, 10.0);
         assert!(straight.first_contact(&person, (0.0, 0.0), 1.1, 0.3, 10.0).is_none());
+    }
+
+    #[test]
+    fn someone_catching_up_from_behind_meets_a_vehicle_getting_under_way() {
+        let straight = arc(0.0, false, &AGV, 12.0);
+        // 1.5 m behind the rear bumper, walking after it at 1.4 m/s.
+        let person = Shape::Disc {
+            centre: Ned::new(-AGV.rear_m - 1.5 - 0.25, 0.0),
+            radius_m: 0.25,
+        };
+        let at_speed = Drive {
+            from_mps: 1.6,
+            speed_mps: 1.6,
+            accel_mps2: 0.5,
+        };
+        assert!(
+            straight
+                .first_contact_driving(&person, (1.4, 0.0), &at_speed, 0.3, 3.0)
+                .is_none()
+        );
+        // From rest at 0.5 m/s² the gap is 1.5 − 1.4t + 0.25t²: within the
+        // margin and the sampling slack (0.4 m) after 0.95 s.
+        let from_rest = Drive {
+            from_mps: 0.0,
+            speed_mps: 1.6,
+            accel_mps2: 0.5,
+        };
+        let contact = straight
+            .first_contact_driving(&person, (1.4, 0.0), &from_rest, 0.3, 3.0)
+            .expect("caught up");
+        assert!(contact.time_s > 0.7 && contact.time_s < 1.2, "{contact:?}");
+        assert!(contact.along_m < 0.5, "{contact:?}");
     }
 }

@@ -23,7 +23,7 @@ use crate::obstacles::policy::{
     ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, PolicyStatus, StopCause, Verdict,
 };
 use crate::obstacles::prediction::CollisionPrediction;
-use crate::obstacles::swept::{Contact, PathAhead, Shape, SweptPath};
+use crate::obstacles::swept::{Contact, Drive, PathAhead, Shape, SweptPath};
 use crate::obstacles::tracking::{ObstacleTracker, TrackingConfig};
 use crate::obstacles::{Footprint, Pose, ScannerMount, Track, TrackStatus};
 
@@ -63,6 +63,12 @@ const HIDDEN_CLEAR_M: f64 = 0.3;
 /// A new track this near a remembered one's predicted place is that object
 /// seen again.
 const HIDDEN_SEEN_M: f64 = 0.7;
+/// How fast a remembered track that had been moving, without a velocity to
+/// trust, may have gone anywhere since it was lost (m/s). A slow walker's
+/// velocity is spoilt as it enters the blind zone (the last returns are a
+/// sliver of its side), and its last place says nothing about where it is
+/// a second later: it may be walking on into the body.
+const HIDDEN_SPREAD_MPS: f64 = 1.0;
 
 /// One scanner's latest scan, reduced to what the tick needs.
 #[derive(Clone, Debug)]
@@ -110,7 +116,9 @@ pub struct ObstacleStatus {
 }
 
 /// A track lost from view next to the vehicle: where it was, the velocity
-/// it was going at (0 unless settled and moving) and when.
+/// it was going at (0 unless settled and moving) and when; and, for one
+/// that had been moving without a velocity to trust, how fast the place it
+/// may be in grows.
 #[derive(Clone, Copy, Debug)]
 struct HiddenTrack {
     id: u32,
@@ -118,9 +126,16 @@ struct HiddenTrack {
     velocity: (f64, f64),
     radius_m: f64,
     lost_s: f64,
+    spread_mps: f64,
 }
 
 impl HiddenTrack {
+    /// How far from its predicted place it may be by `t_s`, its radius
+    /// included.
+    fn reach_at(&self, t_s: f64) -> f64 {
+        self.radius_m + self.spread_mps * (t_s - self.lost_s).max(0.0)
+    }
+
     fn position_at(&self, t_s: f64) -> Ned {
         let dt = (t_s - self.lost_s).max(0.0);
         Ned::new(
@@ -508,6 +523,7 @@ impl Core {
     ) -> (Vec<CollisionPrediction>, Vec<CollisionPrediction>) {
         let passing = self.obstacles.detour.as_ref().map(|d| d.obstacle);
         let velocity_gate_mps = f64::from(self.p.obstacles.avoidance.velocity_gate_mps.get(&self.params));
+        let accel_mps2 = self.policy_config().accel_mps2;
         let mut predictions: Vec<CollisionPrediction> = Vec::new();
         let mut predictions_at_resume: Vec<CollisionPrediction> = Vec::new();
         if estimate.position_valid && estimate.heading_valid {
@@ -561,7 +577,14 @@ impl Core {
                 if let Some(c) = swept.first_contact(&shape, velocity, speed, margin, horizon) {
                     predictions.push(to_prediction(c));
                 }
-                if let Some(c) = swept.first_contact(&shape, velocity, planned_mps, margin, horizon) {
+                // Resuming, it gets up to the planned speed from the speed
+                // it has, and is slower than that for the first seconds.
+                let resume = Drive {
+                    from_mps: speed.abs(),
+                    speed_mps: planned_mps.abs(),
+                    accel_mps2,
+                };
+                if let Some(c) = swept.first_contact_driving(&shape, velocity, &resume, margin, horizon) {
                     predictions_at_resume.push(to_prediction(c));
                 }
             }
@@ -585,11 +608,12 @@ impl Core {
                 at.north_m - pose.position.north_m,
                 at.east_m - pose.position.east_m,
             );
+            let distance_m = outline_distance(footprint, x, y) - hidden.reach_at(now_s);
             predictions_at_resume.push(CollisionPrediction {
                 track_id: hidden.id,
                 time_s: 0.0,
                 place: pose.position,
-                distance_m: (outline_distance(footprint, x, y) - hidden.radius_m).max(0.0),
+                distance_m: distance_m.max(0.0),
                 relative_speed_mps: hidden.velocity.0.hypot(hidden.velocity.1),
                 closing: true,
             });
@@ -634,6 +658,9 @@ impl Core {
         for lost in obs.last_tracks.iter().filter(|l| tracks.iter().all(|t| t.id != l.id)) {
             if gap_m(lost.position, lost.radius_m) <= margin_m + HIDDEN_NEAR_M {
                 let walking = lost.velocity_sigma_mps <= gate_mps && moving(lost);
+                // Its returns were leaving their outline: it was moving, at
+                // a velocity not good enough to follow.
+                let wandering = !walking && lost.still_s < STILL_S;
                 obs.hidden.push(HiddenTrack {
                     id: lost.id,
                     position: lost.position,
@@ -644,15 +671,24 @@ impl Core {
                     },
                     radius_m: lost.radius_m,
                     lost_s: now_s,
+                    spread_mps: if wandering { HIDDEN_SPREAD_MPS } else { 0.0 },
                 });
             }
         }
         obs.hidden.retain(|h| {
             let at = h.position_at(now_s);
+            let spread_m = h.reach_at(now_s) - h.radius_m;
             let seen_again = tracks
                 .iter()
-                .any(|t| t.status != TrackStatus::Tentative && t.position.distance_to(&at) <= HIDDEN_SEEN_M);
-            now_s - h.lost_s <= HIDDEN_MAX_S && !seen_again && gap_m(at, h.radius_m) <= margin_m + HIDDEN_CLEAR_M
+                .any(|t| t.status != TrackStatus::Tentative && t.position.distance_to(&at) <= HIDDEN_SEEN_M + spread_m);
+            // One that may be anywhere nearby has not walked clear until
+            // seen (or the vehicle has left it behind).
+            let clear_m = if h.spread_mps > 0.0 {
+                HIDDEN_NEAR_M
+            } else {
+                HIDDEN_CLEAR_M
+            };
+            now_s - h.lost_s <= HIDDEN_MAX_S && !seen_again && gap_m(at, h.reach_at(now_s)) <= margin_m + clear_m
         });
         obs.last_tracks.clear();
         obs.last_tracks
