@@ -53,6 +53,11 @@ const SHARPER_VIEW: usize = 2;
 /// extent seen of where it came to rest shows it still there: the range
 /// noise of the returns the centroid is the mean of.
 const REST_TOLERANCE_M: f64 = 0.1;
+/// …and only for an object wider than this (m) at its widest: anything a
+/// person's size could be a person, whose view-made centroid wander is
+/// within the outline test's tolerance anyway, while the disc would take
+/// someone creeping towards the vehicle for a thing at rest.
+const REST_MIN_EXTENT_M: f64 = 0.7;
 
 /// No track is born this close (m) beyond the edges of an existing one.
 const BIRTH_EXCLUSION_M: f64 = 0.2;
@@ -668,9 +673,10 @@ impl Stillness {
 /// rear one on the opposite face, stays at rest while its filtered
 /// velocity swings by a metre per second. Something walking leaves the
 /// disc within its own size of travel (a person: 0.6 m, under 0.6 s at
-/// 1 m/s); only what creeps slower than its size in the time a caller
-/// asks a track to have stayed still counts as resting (a person under
-/// about 0.4 m/s, for 1.5 s).
+/// 1 m/s), yet a person creeping below about 0.4 m/s would stay in their
+/// own disc for the 1.5 s a caller asks a track to have stayed still: so
+/// the disc is kept only for objects wider than any person
+/// ([`REST_MIN_EXTENT_M`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Rest {
     point: Ned,
@@ -697,6 +703,9 @@ impl Rest {
     }
 
     fn still_s(&self, now: Duration) -> f64 {
+        if self.extent_m <= REST_MIN_EXTENT_M {
+            return 0.0;
+        }
         now.saturating_sub(self.since).as_secs_f64()
     }
 }
