@@ -39,11 +39,14 @@ pub fn run(options: &SitlOptions, fleet: &FleetOptions) -> Result<(), String> {
     };
     let mut vehicles = Vec::with_capacity(count);
     let mut members = Vec::with_capacity(count);
+    // Each vehicle's data directory stays locked while the fleet runs.
+    let mut data_dir_locks = Vec::with_capacity(count);
     for (index, home) in homes.into_iter().enumerate() {
         let slot = slot(options, index, home)?;
         let prepared = runner::prepare(options, &slot)?;
         println!("furrow sitl ready: vehicle {index}: {}", prepared.ready);
         vehicles.push(prepared.sim);
+        data_dir_locks.push(prepared.data_dir);
         members.push(FleetMember {
             sockets: prepared.sockets,
             persistence: prepared.persistence,
@@ -58,7 +61,9 @@ pub fn run(options: &SitlOptions, fleet: &FleetOptions) -> Result<(), String> {
         world_watch: options.world.clone().map(WorldWatch::new),
         pacer: Pacer::default(),
     };
-    EdgeRunner::new()?.run_fleet(&mut platform, members, shutdown::signal())
+    let result = EdgeRunner::new()?.run_fleet(&mut platform, members, shutdown::signal());
+    drop(data_dir_locks);
+    result
 }
 
 /// Vehicle `index` of the fleet: instance, ports, data, seed and serial of

@@ -85,6 +85,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
     // (new fields go at the end).
     println!("furrow sitl ready: {}", prepared.ready);
     log_start(&options);
+    let _data_dir_lock = prepared.data_dir;
     let mut platform = SimulatedVehicle {
         sim: prepared.sim,
         world_watch,
@@ -120,6 +121,9 @@ pub(super) struct Prepared {
     pub sockets: LinkSockets,
     /// What `furrow sitl ready:` says about it.
     pub ready: String,
+    /// Held while the vehicle runs: its lock keeps `furrow params` and a
+    /// second `furrow sitl` out of the directory.
+    pub data_dir: DataDir,
 }
 
 /// The vehicle of `slot`: its data directory opened, its simulation
@@ -182,6 +186,7 @@ pub(super) fn prepare(options: &SitlOptions, slot: &VehicleSlot) -> Result<Prepa
         persistence,
         sockets,
         ready,
+        data_dir,
     })
 }
 
