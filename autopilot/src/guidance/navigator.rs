@@ -1209,18 +1209,24 @@ mod tests {
         ] {
             let mut car = Bicycle::new(0.0, 0.0, 0.0);
             let (report, changes) = drive_manoeuvre(&mut car, goal, yaw);
-            assert_eq!(report.seq, Some(7));
-            assert!(report.within_tolerance, "{goal:?}: {report:?}");
-            assert!(
-                car.est.position.distance_to(&goal) < 0.01,
-                "{goal:?}: {:?}",
-                car.est.position
-            );
-            if let Some(yaw) = yaw {
-                let error = wrap_pi(car.est.yaw_rad - f64::to_radians(yaw)).to_degrees();
-                assert!(error.abs() < 0.05, "{goal:?}: yaw off by {error}°");
-            }
+            check_stopped_on(&car, &report, goal, yaw);
             assert!(changes <= 3, "{goal:?}: {changes} changes");
+        }
+    }
+
+    /// The manoeuvre's stop report is in tolerance, and the car rests within
+    /// 1 cm of the goal and 0.05° of its heading (when it has one).
+    fn check_stopped_on(car: &Bicycle, report: &StopReport, goal: Ned, yaw: Option<f64>) {
+        assert_eq!(report.seq, Some(7));
+        assert!(report.within_tolerance, "{goal:?}: {report:?}");
+        assert!(
+            car.est.position.distance_to(&goal) < 0.01,
+            "{goal:?}: {:?}",
+            car.est.position
+        );
+        if let Some(yaw) = yaw {
+            let error = wrap_pi(car.est.yaw_rad - f64::to_radians(yaw)).to_degrees();
+            assert!(error.abs() < 0.05, "{goal:?}: yaw off by {error}°");
         }
     }
 
@@ -1236,17 +1242,7 @@ mod tests {
             let mut car = Bicycle::new(0.0, 0.0, 0.0);
             let ((report, changes), m) = drive_manoeuvre_with(&mut car, goal, yaw, true);
             assert!(m.pivots, "{goal:?}: {m:?}");
-            assert_eq!(report.seq, Some(7));
-            assert!(report.within_tolerance, "{goal:?}: {report:?}");
-            assert!(
-                car.est.position.distance_to(&goal) < 0.01,
-                "{goal:?}: {:?}",
-                car.est.position
-            );
-            if let Some(yaw) = yaw {
-                let error = wrap_pi(car.est.yaw_rad - f64::to_radians(yaw)).to_degrees();
-                assert!(error.abs() < 0.05, "{goal:?}: yaw off by {error}°");
-            }
+            check_stopped_on(&car, &report, goal, yaw);
             assert_eq!(changes, 0, "{goal:?}: a pivot plan never reverses mid-way");
         }
     }
