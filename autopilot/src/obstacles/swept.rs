@@ -40,11 +40,16 @@
 //! along the path at a constant speed v (or getting up to v from a slower
 //! speed at a constant acceleration, as it does when it starts: [`Drive`]):
 //! the gap between the obstacle's shape and the outline at the pose the
-//! vehicle has at time t shrinks at most at `v·spread + |v_obstacle|`, so time advances by the gap over that
-//! rate, and at least by [`MAX_STEP_M`] of relative motion (which can hide a
-//! dip of at most half of it, added to the margin). The first time the gap
-//! is within the margin is the collision time (seed 004 §III.C's t_c, for a
-//! turning vehicle).
+//! vehicle has at time t shrinks at most at `v·spread + |v_obstacle|`, so
+//! time advances by the gap over that rate, and at least by
+//! 2·[`CONTACT_TOLERANCE_M`] of relative motion (which can hide a dip of at
+//! most [`CONTACT_TOLERANCE_M`], added to the margin). The pose at time t is
+//! interpolated between the two samples either side of it (position and
+//! heading; off by at most the sagitta of a sample step, `ds·step/8`, also
+//! added), not the nearest sample taken, so the sampling slack does not
+//! widen the margin here: a thing beside the lane just beyond the margin is
+//! not stopped for. The first time the gap is within the margin is the
+//! collision time (seed 004 §III.C's t_c, for a turning vehicle).
 //!
 //! Sources: docs/references.md §Seed 004.
 
@@ -55,6 +60,9 @@ use crate::guidance::path::{LegPath, Piece};
 
 /// Largest motion of any outline point between two samples, m.
 pub const MAX_STEP_M: f64 = 0.1;
+/// How much nearer than the margin a contact search may let a dip between
+/// two of its instants go unseen, m.
+pub const CONTACT_TOLERANCE_M: f64 = 0.005;
 /// Samples per swept path at most.
 pub const MAX_POSES: usize = 1024;
 /// Over this much path a vehicle off its path is assumed to rejoin it.
@@ -269,7 +277,11 @@ impl SweptPath {
     /// the outline at sample `i`, or a lower bound of it above
     /// `exact_below` (enough to advance by).
     fn shape_gap(&self, i: usize, shape: &Shape, extent_m: f64, shift: (f64, f64), exact_below: f64) -> f64 {
-        let sample = &self.samples[i];
+        self.shape_gap_at(&self.samples[i], shape, extent_m, shift, exact_below)
+    }
+
+    /// [`Self::shape_gap`] for the outline at any pose.
+    fn shape_gap_at(&self, sample: &Sample, shape: &Shape, extent_m: f64, shift: (f64, f64), exact_below: f64) -> f64 {
         let centre = shape.centre();
         let (cn, ce) = (centre.north_m + shift.0, centre.east_m + shift.1);
         let (x, y) = sample.body(cn, ce);
@@ -380,34 +392,75 @@ impl SweptPath {
         let speed = drive.speed_mps.abs().max(drive.from_mps.abs());
         let obstacle_mps = velocity.0.hypot(velocity.1);
         let rate = speed * self.spread + obstacle_mps;
-        let threshold = margin_m.max(0.0) + self.slack_m() + 0.5 * MAX_STEP_M;
-        let min_dt = if rate > 0.0 { MAX_STEP_M / rate } else { f64::INFINITY };
+        let threshold = margin_m.max(0.0) + CONTACT_TOLERANCE_M + self.sagitta_m();
+        let min_dt = if rate > 0.0 {
+            2.0 * CONTACT_TOLERANCE_M / rate
+        } else {
+            f64::INFINITY
+        };
+        let standing = obstacle_mps == 0.0;
         // Once per query: a polygon's extent is a dozen square roots.
         let extent_m = shape.extent_m();
         let gap_now = self.shape_gap(0, shape, extent_m, (0.0, 0.0), f64::INFINITY);
         let mut t = 0.0;
         loop {
-            let index = self.index_at(drive.along_m(t));
+            let along_m = drive.along_m(t).min(self.length_m());
             let shift = (velocity.0 * t, velocity.1 * t);
-            let sample = &self.samples[index];
-            let gap = self.shape_gap(index, shape, extent_m, shift, threshold);
+            let sample = self.sample_at(along_m);
+            let gap = self.shape_gap_at(&sample, shape, extent_m, shift, threshold);
             if gap <= threshold {
                 let closing = t > 0.0 || self.closing_now(shape, extent_m, velocity, speed, gap_now);
                 return Some(Contact {
                     time_s: t,
-                    along_m: index as f64 * self.ds_m,
+                    along_m,
                     place: Ned::new(sample.north_m, sample.east_m),
                     gap_now_m: gap_now,
                     closing,
                 });
             }
-            if rate <= 0.0 {
+            // Nothing moves any more: the vehicle has reached the end of
+            // the path and the object stands.
+            if rate <= 0.0 || (standing && along_m >= self.length_m()) {
                 return None;
             }
             t += ((gap - threshold) / rate).max(min_dt);
             if t > horizon_s {
                 return None;
             }
+        }
+    }
+
+    /// How far an interpolated pose can be off the path: the sagitta of one
+    /// sample step.
+    fn sagitta_m(&self) -> f64 {
+        self.ds_m * self.step_m / 8.0
+    }
+
+    /// The pose `along_m` along the path, interpolated between the samples
+    /// either side (heading by its unit vector).
+    fn sample_at(&self, along_m: f64) -> Sample {
+        let n = self.samples.len() - 1;
+        if self.ds_m <= 0.0 || n == 0 {
+            return self.samples[0];
+        }
+        let x = (along_m / self.ds_m).max(0.0);
+        let i = x.floor() as usize;
+        if i >= n {
+            return self.samples[n];
+        }
+        let f = x - i as f64;
+        let (a, b) = (&self.samples[i], &self.samples[i + 1]);
+        let lerp = |p: f64, q: f64| p + f * (q - p);
+        let (sin_yaw, cos_yaw) = (lerp(a.sin_yaw, b.sin_yaw), lerp(a.cos_yaw, b.cos_yaw));
+        let norm = sin_yaw.hypot(cos_yaw);
+        if norm <= 0.0 {
+            return if f < 0.5 { *a } else { *b };
+        }
+        Sample {
+            north_m: lerp(a.north_m, b.north_m),
+            east_m: lerp(a.east_m, b.east_m),
+            sin_yaw: sin_yaw / norm,
+            cos_yaw: cos_yaw / norm,
         }
     }
 
@@ -419,22 +472,13 @@ impl SweptPath {
         }
         // Long enough to move on by a couple of samples.
         let dt = (2.0 * self.ds_m.max(MAX_STEP_M) / rate).max(0.05);
-        let index = self.index_at(speed * dt);
-        self.shape_gap(
-            index,
+        self.shape_gap_at(
+            &self.sample_at(speed * dt),
             shape,
             extent_m,
             (velocity.0 * dt, velocity.1 * dt),
             f64::INFINITY,
         ) < gap_now
-    }
-
-    fn index_at(&self, along_m: f64) -> usize {
-        let n = self.samples.len() - 1;
-        if self.ds_m <= 0.0 {
-            return 0;
-        }
-        ((along_m / self.ds_m).round().max(0.0) as usize).min(n)
     }
 }
 
@@ -872,6 +916,31 @@ mod tests {
         // Driving straight on, the same person is beside the lane.
         let straight = arc(0.0, false, &AGV, 10.0);
         assert!(straight.first_contact(&person, (0.0, 0.0), 1.1, 0.3, 10.0).is_none());
+    }
+
+    #[test]
+    fn a_thing_just_beyond_the_margin_is_no_contact_on_a_straight_or_an_arc() {
+        // A post of 0.25 m: 0.3 m margin, then 1 cm on either side of it.
+        for (curvature, length_m) in [(0.0, 8.0), (1.0 / 6.0, 8.0), (-1.0 / 15.0, 8.0)] {
+            let swept = arc(curvature, false, &AGV, length_m);
+            for (gap_m, contact) in [(0.29, true), (0.31, false)] {
+                // Beside the inner side of the arc half-way along it (on a
+                // straight, beside the side at 4 m).
+                let post = if curvature == 0.0 {
+                    Ned::new(4.0, 1.0 + 0.25 + gap_m)
+                } else {
+                    let r = 1.0 / curvature.abs();
+                    let c = round_right_turn(r, r - 1.0 - 0.25 - gap_m, 0.5 * length_m / r);
+                    Ned::new(c.north_m, c.east_m * curvature.signum())
+                };
+                let shape = Shape::Disc {
+                    centre: post,
+                    radius_m: 0.25,
+                };
+                let found = swept.first_contact(&shape, (0.0, 0.0), 2.0, 0.3, 10.0);
+                assert_eq!(found.is_some(), contact, "κ {curvature} gap {gap_m}: {found:?}");
+            }
+        }
     }
 
     #[test]

@@ -69,6 +69,10 @@ pub struct ObstacleBenchArgs {
     /// Print every run, not only the per-scenario summary.
     #[arg(long)]
     pub verbose: bool,
+    /// Print the true pose, the people and the tracks every 0.2 s of every
+    /// scenario run (with `--only` and `--jobs 1`, to follow one family).
+    #[arg(long)]
+    pub trace: bool,
     /// Only measure the core tick with 30 people tracked and two 361-beam scanners.
     #[arg(long)]
     pub tick: bool,
@@ -96,6 +100,8 @@ pub struct Job {
     pub row: usize,
     pub course: Course,
     pub variant: Variant,
+    /// Print the run as it goes (`--trace`).
+    pub trace: bool,
 }
 
 /// A run's figures and how it was driven.
@@ -168,12 +174,16 @@ pub fn run_job(scenario: &Scenario, job: &Job, log: &TruthLog, params: &[(String
     let sim = drive::build_sim(&job.course, job.variant.seed, params)?;
     let (outline, _) = drive::outline_and_limits(&sim);
     drop(sim);
-    let setup = match scenario {
+    let mut setup = match scenario {
         Scenario::Classic { kind, .. } => kind.setup(log, &outline),
         Scenario::Family(family) => family
             .setup(log, &outline, &job.variant)
             .map_err(|e| format!("{} {}: {e}", family.name(), job.variant.label()))?,
     };
+    if job.trace {
+        println!("## {} {}", scenario.name(), job.variant.label());
+        setup.trace = true;
+    }
     drive::drive_with(&job.course, job.variant.seed, params, &setup, log)
 }
 
@@ -207,6 +217,7 @@ pub fn jobs(scenarios: &[Scenario], speeds: &[f64], seeds: u64) -> Vec<Job> {
                             speed_mps,
                             seed,
                         },
+                        trace: false,
                     }),
                     Scenario::Family(family) => {
                         for reverse in [false, true] {
@@ -221,6 +232,7 @@ pub fn jobs(scenarios: &[Scenario], speeds: &[f64], seeds: u64) -> Vec<Job> {
                                     row,
                                     course: families::course(family.lane(), &variant),
                                     variant,
+                                    trace: false,
                                 });
                             }
                         }
@@ -258,7 +270,10 @@ pub fn run(args: &ObstacleBenchArgs) -> Result<(), String> {
         if scenarios.is_empty() {
             return Err("--only matches no scenario".into());
         }
-        let jobs = jobs(&scenarios, &args.speeds, args.seeds);
+        let mut jobs = jobs(&scenarios, &args.speeds, args.seeds);
+        for job in &mut jobs {
+            job.trace = args.trace;
+        }
         println!(
             "{} scenarios, {} runs (families forwards and reverse, left and right) × speeds {:?} m/s × {} seeds; Ackermann AGV 4.4 × 2.0 m, scanners front and rear (LMS1xx-like, 50 Hz, 0.5°, 270°); {threads} threads.",
             scenarios.len(),
