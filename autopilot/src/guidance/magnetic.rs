@@ -665,6 +665,20 @@ const TRUST_MARGIN_PITCHES: f64 = 1.5;
 /// Below this speed a sensor's rate says nothing about the tape's direction.
 const MIN_RATE_SPEED_MPS: f64 = 0.05;
 
+/// How long a sensor's rate filter takes to settle.
+fn rate_settle_s(config: &MagneticGuideConfig) -> f64 {
+    RATE_SETTLE_TIME_CONSTANTS / (std::f64::consts::TAU * config.sensor_rate_filter_hz)
+}
+
+/// An edge reading (beyond `trust_m`) only says "this far or further": it
+/// is pushed out to the prediction when that is further on the same side.
+fn pushed_out(read_m: Option<f64>, predicted_m: Option<f64>, trust_m: f64) -> Option<f64> {
+    match (read_m, predicted_m) {
+        (Some(e), Some(p)) if e.abs() > trust_m && p.signum() == e.signum() && p.abs() > e.abs() => Some(p),
+        _ => read_m,
+    }
+}
+
 impl MagneticGuide {
     /// A guide taking over a vehicle that already steers `steer_rad` (the
     /// mode engaging while driving): the steering PID's integral starts
@@ -837,116 +851,31 @@ impl MagneticGuide {
         input: &MagneticInput,
         dt_s: f64,
     ) -> Option<(f64, f64)> {
-        let spacing_m = config.sensor_spacing_m();
-        let (speed_mps, yaw_rate) = (input.speed_mps, input.yaw_rate_rad_s);
-        let curvature_per_m = if config.wheelbase_m.abs() > f64::EPSILON {
-            self.steer.integral().tan() / config.wheelbase_m.abs()
-        } else {
-            0.0
-        };
-        let mid_x_m = 0.5 * (config.front_x_m + config.rear_x_m);
-        let predicted = self
-            .estimate
-            .filter(|e| e.age_s < config.dead_reckon_s)
-            .map(|e| e.predicted(speed_mps, yaw_rate, curvature_per_m, mid_x_m, dt_s));
+        let predicted = self.predicted_estimate(config, input, dt_s);
         let (pf, pr) = match predicted {
             Some(p) => {
-                let (f, r) = p.sensor_deviations_m(spacing_m);
+                let (f, r) = p.sensor_deviations_m(config.sensor_spacing_m());
                 (Some(f), Some(r))
             }
             None => (None, None),
         };
         let trust_m = config.sensor_reach_m() - TRUST_MARGIN_PITCHES * config.probe_pitch_m.abs();
-        let weak = |read: Option<f64>, predicted: Option<f64>| match (read, predicted) {
-            (Some(e), Some(p)) if e.abs() > trust_m && p.signum() == e.signum() && p.abs() > e.abs() => Some(p),
-            _ => read,
-        };
         let trusted = |e: f64| e.abs() <= trust_m;
-        // A sensor moving along the tape sees it drift across at v·tan α − ω·x.
-        let tan_alpha = |track: &SensorTrack, x_m: f64| {
-            if speed_mps.abs() > MIN_RATE_SPEED_MPS {
-                (track.rate_mps + yaw_rate * x_m) / speed_mps
-            } else {
-                0.0
-            }
-        };
-        let settle_s = RATE_SETTLE_TIME_CONSTANTS / (std::f64::consts::TAU * config.sensor_rate_filter_hz);
-        // The other sensor from this one at `x_m` reading `e_m`, `towards`
-        // it (+1 forwards): along this sensor's local tape direction (from
-        // its rate), the tape bending by k·d²/2 on the way (y'' = k either
-        // way). While the rate settles its filter leans on 0, which says
-        // "the vehicle follows the tape": k is then the vehicle's own
-        // curvature ω/v, which keeps that prior whole (with the sensors
-        // symmetric about the rear axle, the other sensor reads the same);
-        // once settled, the tape's (the integral's). Found in SITL: with the
-        // unsettled rate and no bend, on a 10 m arc the other sensor was
-        // placed 0.2 m off on the wrong side and the vehicle steered away
-        // from the tape.
-        let own_curvature_per_m = if speed_mps.abs() > MIN_RATE_SPEED_MPS {
-            yaw_rate / speed_mps
-        } else {
-            0.0
-        };
-        let other_m = |track: &SensorTrack, x_m: f64, e_m: f64, towards: f64| {
-            let k = if track.on_tape_s >= settle_s {
-                curvature_per_m
-            } else {
-                own_curvature_per_m
-            };
-            e_m + towards * spacing_m * tan_alpha(track, x_m) + 0.5 * k * spacing_m.powi(2)
-        };
-        let (e1, e2, fresh) = match (weak(front_m, pf), weak(rear_m, pr)) {
+        let (e1, e2, fresh) = match (pushed_out(front_m, pf, trust_m), pushed_out(rear_m, pr, trust_m)) {
             (Some(f), Some(r)) => (
                 f,
                 r,
                 predicted.is_none() || (front_m.is_some_and(trusted) && rear_m.is_some_and(trusted)),
             ),
-            // The other sensor's placement: from this one's rate once that
-            // has settled away from the edge (where the reading sticks), else
-            // from the estimate while there is one.
             (Some(f), None) => {
-                let settled = self.front.on_tape_s >= settle_s && trusted(f);
-                let from_rate_m = other_m(&self.front, config.front_x_m, f, -1.0);
-                let estimate_m = pr.filter(|_| !settled).unwrap_or(from_rate_m);
-                let informed = predicted.is_some() || settled;
-                (
-                    f,
-                    Self::place_lost(&mut self.rear, &self.front, estimate_m, config),
-                    informed,
-                )
+                let (r, informed) = self.place_rear_from_front(config, f, pr, predicted.is_some(), trust_m, input);
+                (f, r, informed)
             }
             (None, Some(r)) => {
-                let settled = self.rear.on_tape_s >= settle_s && trusted(r);
-                let from_rate_m = other_m(&self.rear, config.rear_x_m, r, 1.0);
-                let estimate_m = pf.filter(|_| !settled).unwrap_or(from_rate_m);
-                let informed = predicted.is_some() || settled;
-                (
-                    Self::place_lost(&mut self.front, &self.rear, estimate_m, config),
-                    r,
-                    informed,
-                )
+                let (f, informed) = self.place_front_from_rear(config, r, pf, predicted.is_some(), trust_m, input);
+                (f, r, informed)
             }
-            (None, None) => {
-                let p = predicted.filter(|_| self.seen_tape)?;
-                self.lost_s += dt_s.max(0.0);
-                // Reading nothing, each sensor is beyond its edge on the
-                // side it last saw the tape: an estimate that puts the tape
-                // under it is pushed out that far.
-                let edge_m = LOST_EDGE_PITCHES * config.probe_pitch_m.abs();
-                let beyond = |e: f64, side: Option<f64>| match side {
-                    Some(side) if side * e < edge_m => side * edge_m,
-                    _ => e,
-                };
-                let (f, r) = p.sensor_deviations_m(spacing_m);
-                let (f, r) = (beyond(f, self.front.side), beyond(r, self.rear.side));
-                let (lateral_m, angle_rad) = lateral_and_angle(f, r, spacing_m);
-                self.estimate = Some(TapeEstimate {
-                    lateral_m,
-                    angle_rad,
-                    ..p
-                });
-                return Some((f, r));
-            }
+            (None, None) => return self.dead_reckoned(config, predicted, dt_s),
         };
         self.estimate = if fresh {
             Some(TapeEstimate::measured(0.0, 0.0))
@@ -954,6 +883,136 @@ impl MagneticGuide {
             predicted
         };
         Some((e1, e2))
+    }
+
+    /// The estimate carried forward by `dt_s`, while it is young enough to
+    /// steer on; the tape's curvature taken as what the integral steers.
+    fn predicted_estimate(
+        &self,
+        config: &MagneticGuideConfig,
+        input: &MagneticInput,
+        dt_s: f64,
+    ) -> Option<TapeEstimate> {
+        let curvature_per_m = self.integral_curvature_per_m(config);
+        let mid_x_m = 0.5 * (config.front_x_m + config.rear_x_m);
+        self.estimate
+            .filter(|e| e.age_s < config.dead_reckon_s)
+            .map(|e| e.predicted(input.speed_mps, input.yaw_rate_rad_s, curvature_per_m, mid_x_m, dt_s))
+    }
+
+    /// The curvature the steering integral drives (what the guide has
+    /// learnt of the tape's curve).
+    fn integral_curvature_per_m(&self, config: &MagneticGuideConfig) -> f64 {
+        if config.wheelbase_m.abs() > f64::EPSILON {
+            self.steer.integral().tan() / config.wheelbase_m.abs()
+        } else {
+            0.0
+        }
+    }
+
+    /// Only the front sensor reads the tape: the rear one's placement, from
+    /// the front one's rate once that has settled away from the edge (where
+    /// the reading sticks), else from the estimate while there is one; and
+    /// whether that placement is informed.
+    fn place_rear_from_front(
+        &mut self,
+        config: &MagneticGuideConfig,
+        front_m: f64,
+        predicted_rear_m: Option<f64>,
+        has_estimate: bool,
+        trust_m: f64,
+        input: &MagneticInput,
+    ) -> (f64, bool) {
+        let settled = self.front.on_tape_s >= rate_settle_s(config) && front_m.abs() <= trust_m;
+        let from_rate_m = self.other_sensor_m(config, &self.front, config.front_x_m, front_m, -1.0, input);
+        let estimate_m = predicted_rear_m.filter(|_| !settled).unwrap_or(from_rate_m);
+        let rear_m = Self::place_lost(&mut self.rear, &self.front, estimate_m, config);
+        (rear_m, has_estimate || settled)
+    }
+
+    /// The same with only the rear sensor on the tape.
+    fn place_front_from_rear(
+        &mut self,
+        config: &MagneticGuideConfig,
+        rear_m: f64,
+        predicted_front_m: Option<f64>,
+        has_estimate: bool,
+        trust_m: f64,
+        input: &MagneticInput,
+    ) -> (f64, bool) {
+        let settled = self.rear.on_tape_s >= rate_settle_s(config) && rear_m.abs() <= trust_m;
+        let from_rate_m = self.other_sensor_m(config, &self.rear, config.rear_x_m, rear_m, 1.0, input);
+        let estimate_m = predicted_front_m.filter(|_| !settled).unwrap_or(from_rate_m);
+        let front_m = Self::place_lost(&mut self.front, &self.rear, estimate_m, config);
+        (front_m, has_estimate || settled)
+    }
+
+    /// The other sensor's deviation from this one (`track`, at `x_m`,
+    /// reading `e_m`), `towards` it (+1 forwards): along this sensor's local
+    /// tape direction (a sensor moving along the tape sees it drift across
+    /// at v·tan α − ω·x), the tape bending by k·d²/2 on the way (y'' = k
+    /// either way). While the rate settles its filter leans on 0, which
+    /// says "the vehicle follows the tape": k is then the vehicle's own
+    /// curvature ω/v, which keeps that prior whole (with the sensors
+    /// symmetric about the rear axle, the other sensor reads the same);
+    /// once settled, the tape's (the integral's). Found in SITL: with the
+    /// unsettled rate and no bend, on a 10 m arc the other sensor was
+    /// placed 0.2 m off on the wrong side and the vehicle steered away from
+    /// the tape.
+    fn other_sensor_m(
+        &self,
+        config: &MagneticGuideConfig,
+        track: &SensorTrack,
+        x_m: f64,
+        e_m: f64,
+        towards: f64,
+        input: &MagneticInput,
+    ) -> f64 {
+        let (speed_mps, yaw_rate) = (input.speed_mps, input.yaw_rate_rad_s);
+        let moving = speed_mps.abs() > MIN_RATE_SPEED_MPS;
+        let tan_alpha = if moving {
+            (track.rate_mps + yaw_rate * x_m) / speed_mps
+        } else {
+            0.0
+        };
+        let k = if track.on_tape_s >= rate_settle_s(config) {
+            self.integral_curvature_per_m(config)
+        } else if moving {
+            yaw_rate / speed_mps
+        } else {
+            0.0
+        };
+        let spacing_m = config.sensor_spacing_m();
+        e_m + towards * spacing_m * tan_alpha + 0.5 * k * spacing_m.powi(2)
+    }
+
+    /// Both sensors off the tape: the estimate, if there is one and the tape
+    /// has been seen, each sensor kept beyond its edge on the side it last
+    /// saw the tape (reading nothing, an estimate that puts the tape under
+    /// it is pushed out that far).
+    fn dead_reckoned(
+        &mut self,
+        config: &MagneticGuideConfig,
+        predicted: Option<TapeEstimate>,
+        dt_s: f64,
+    ) -> Option<(f64, f64)> {
+        let p = predicted.filter(|_| self.seen_tape)?;
+        self.lost_s += dt_s.max(0.0);
+        let edge_m = LOST_EDGE_PITCHES * config.probe_pitch_m.abs();
+        let beyond = |e: f64, side: Option<f64>| match side {
+            Some(side) if side * e < edge_m => side * edge_m,
+            _ => e,
+        };
+        let spacing_m = config.sensor_spacing_m();
+        let (f, r) = p.sensor_deviations_m(spacing_m);
+        let (f, r) = (beyond(f, self.front.side), beyond(r, self.rear.side));
+        let (lateral_m, angle_rad) = lateral_and_angle(f, r, spacing_m);
+        self.estimate = Some(TapeEstimate {
+            lateral_m,
+            angle_rad,
+            ..p
+        });
+        Some((f, r))
     }
 
     /// Measures the tape's curvature while both sensors read it away from
@@ -1105,7 +1164,7 @@ impl MagneticGuide {
             Some(side) => side,
             None if estimate_m == 0.0 => return 0.0,
             None => {
-                let settle_s = RATE_SETTLE_TIME_CONSTANTS / (std::f64::consts::TAU * config.sensor_rate_filter_hz);
+                let settle_s = rate_settle_s(config);
                 if seen.on_tape_s >= settle_s {
                     lost.side = Some(estimate_m.signum());
                 }
