@@ -425,3 +425,72 @@ fn a_ground_station_disarming_mid_order_is_a_remote_estop_until_armed_again() {
     f.run_for_seconds(2.0);
     assert_eq!(f.last().safety_state.e_stop, EStop::None);
 }
+
+#[test]
+fn a_flight_termination_stops_and_holds_the_vehicle_as_a_remote_estop_until_cleared() {
+    use mavlink::dialects::ardupilotmega::MavResult;
+    let mut f = Fleet::new();
+    let nodes = [N("a", 0.0, 0.0, true, None), N("b", 0.0, 30.0, true, None)];
+    f.send_order("job9", 0, 0, &nodes, &[]);
+    f.get_moving(1.0);
+    let speed_at_termination = f.speed();
+    f.h.command(
+        MavCmd::MAV_CMD_DO_FLIGHTTERMINATION,
+        [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    );
+    let start = f.h.sim.time();
+    assert!(f.run_until(5.0, |f| f.speed() < 0.05), "still moving");
+    let stop_s = (f.h.sim.time() - start).as_secs_f64();
+    assert!(
+        stop_s < 2.0 * speed_at_termination,
+        "{stop_s:.2} s to stop from {speed_at_termination:.2} m/s"
+    );
+    assert_eq!(
+        f.h.acks(MavCmd::MAV_CMD_DO_FLIGHTTERMINATION),
+        [MavResult::MAV_RESULT_ACCEPTED]
+    );
+    assert!(!f.h.sim.core().is_armed());
+    assert!(f.run_until(2.0, |f| f.last().safety_state.e_stop == EStop::Remote));
+    let state = f.last().clone();
+    assert_eq!(state.operating_mode, OperatingMode::Service, "a ground station took it");
+    assert_eq!(state.paused, Some(true));
+    assert_eq!(state.node_states.len(), 1, "the order is kept, paused");
+    assert!(
+        state
+            .errors
+            .iter()
+            .any(|e| e.error_type == "flightTermination" && e.error_level == vda5050::state::ErrorLevel::Fatal),
+        "{:?}",
+        state.errors
+    );
+
+    // Held: neither arming nor forced arming moves it.
+    f.h.arm();
+    f.h.command(
+        MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        [1.0, 21196.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    );
+    f.h.set_mode(10);
+    f.run_for_seconds(5.0);
+    assert!(!f.h.sim.core().is_armed(), "armed while terminated");
+    assert!(f.speed() < 0.05);
+    assert!(
+        f.h.texts().iter().any(|t| t == "PreArm: Flight terminated"),
+        "{:?}",
+        f.h.texts()
+    );
+    assert_eq!(f.last().safety_state.e_stop, EStop::Remote);
+
+    // Cleared from the ground station, armed and in AUTO: the order goes on.
+    f.h.command(MavCmd::MAV_CMD_DO_FLIGHTTERMINATION, [0.0; 7]);
+    f.h.arm();
+    f.h.set_mode(10);
+    assert!(
+        f.run_until(5.0, |f| f.last().safety_state.e_stop == EStop::None),
+        "{:?}\n{:?}",
+        f.last(),
+        f.h.texts()
+    );
+    let done = f.run_until(60.0, |f| f.idle() && f.last().last_node_id == "b");
+    assert!(done, "the order did not go on: {:?}", f.h.texts());
+}

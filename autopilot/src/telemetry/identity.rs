@@ -65,6 +65,7 @@ pub fn capabilities() -> MavProtocolCapability {
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+        | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FLIGHT_TERMINATION
 }
 
 /// The build's git hash, eight lowercase hex digits (from build.rs).

@@ -27,6 +27,9 @@ impl Core {
     /// Reasons the vehicle cannot arm now (empty: it can).
     pub fn arming_failures(&self) -> Vec<String> {
         let mut failures = Vec::new();
+        if self.terminated {
+            failures.push(super::termination::TERMINATED.to_string());
+        }
         if self.mode == Mode::Initialising {
             failures.push("Mode not armable".to_string());
         }
@@ -136,6 +139,12 @@ impl Core {
             return true;
         }
         let failures = self.arming_failures();
+        // A termination is no check to skip.
+        if force && self.terminated {
+            let text = format!("PreArm: {}", super::termination::TERMINATED);
+            self.send_text(MavSeverity::MAV_SEVERITY_CRITICAL, &text);
+            return false;
+        }
         if force {
             tracing::warn!("arming forced (magic value): checks skipped: {failures:?}");
             self.send_text(MavSeverity::MAV_SEVERITY_WARNING, "Arming checks skipped (forced)");

@@ -145,6 +145,7 @@ impl Core {
         match c.command {
             MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => self.arm_disarm(p1, p2),
             MavCmd::MAV_CMD_DO_SET_MODE => self.do_set_mode(p1, p2),
+            MavCmd::MAV_CMD_DO_FLIGHTTERMINATION => self.flight_termination(p1),
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => self.set_mode_result(Mode::Rtl.number()),
             MavCmd::MAV_CMD_MISSION_START => {
                 // First/last item selection is not supported (as ArduPilot).

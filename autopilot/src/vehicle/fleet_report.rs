@@ -76,7 +76,9 @@ impl Core {
             errors: self.fleet_errors(),
             information: self.fleet_information(remote_stop),
             field_violation: in_path(obstacle_stop),
-            e_stop: if remote_stop {
+            // Both are cleared only from a ground station (the REMOTE
+            // acknowledgement of the standard's eStop).
+            e_stop: if self.terminated || remote_stop {
                 EStop::Remote
             } else if in_path(obstacle_stop) {
                 // The stop ends by itself once the path is clear.
@@ -91,6 +93,15 @@ impl Core {
     /// report), a GNSS without fix, and an obstacle stop (WARNING).
     fn fleet_errors(&self) -> Vec<Error> {
         let mut errors = Vec::new();
+        if self.terminated {
+            let mut e = error(
+                "flightTermination",
+                "terminated by a ground station: disarmed and held".into(),
+                Vec::new(),
+            );
+            e.error_level = ErrorLevel::Fatal;
+            errors.push(e);
+        }
         for failsafe in self.active_failsafes() {
             let kind = match failsafe {
                 Failsafe::GnssLost => "gnssLost",
@@ -142,7 +153,12 @@ impl Core {
         if let Some(cause) = self.obstacles.status().stop_cause {
             information.push(info("obstacleStop", cause.to_string()));
         }
-        if remote_stop {
+        if self.terminated {
+            information.push(info(
+                "eStop",
+                "flight termination by a ground station: DO_FLIGHTTERMINATION 0 clears it, then arm".into(),
+            ));
+        } else if remote_stop {
             information.push(info(
                 "eStop",
                 "disarmed by a ground station during the order: arm again to go on".into(),

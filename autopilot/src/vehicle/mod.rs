@@ -24,6 +24,7 @@ mod persistence;
 mod pose_goal;
 mod sim_truth;
 mod telemetry;
+mod termination;
 
 use std::collections::BTreeMap;
 use std::time::Duration;
@@ -90,6 +91,9 @@ pub struct Core {
     speed_control: SpeedController,
     mode: Mode,
     armed: bool,
+    /// A ground station's flight termination holds the vehicle disarmed
+    /// until it is cleared.
+    terminated: bool,
     home: Option<GeoPoint>,
     home_set_by_gcs: bool,
     /// GUIDED/RTL's goal, home's heading, a missed mission stop.
@@ -150,6 +154,7 @@ impl Core {
             speed_control: SpeedController::default(),
             mode: initial,
             armed: false,
+            terminated: false,
             home: None,
             home_set_by_gcs: false,
             goals: pose_goal::PoseGoalState::default(),
