@@ -17,8 +17,10 @@ use sim::{MovingObstacle, ObstacleWorld, Shape};
 #[global_allocator]
 static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
 
-/// Obstacles beside the route, in both scanners' view, none in the way: a
-/// wall, a parked box, a polygon and a person walking alongside.
+/// Obstacles beside the route, in both scanners' view: a wall, a parked
+/// box, a polygon and a person walking alongside; and one in the way, a
+/// person walking ahead down the lane that the vehicle catches up with and
+/// follows (a collision predicted on every tick).
 fn roadside() -> ObstacleWorld {
     ObstacleWorld::new(
         vec![
@@ -37,20 +39,37 @@ fn roadside() -> ObstacleWorld {
                 points: vec![[90.0, -4.0], [95.0, -4.5], [93.0, -8.0]],
             },
         ],
-        vec![MovingObstacle {
-            name: "walker".to_owned(),
-            shape: Shape::Circle {
-                center: [0.0, 0.0],
-                radius_m: 0.25,
+        vec![
+            MovingObstacle {
+                name: "walker".to_owned(),
+                shape: Shape::Circle {
+                    center: [0.0, 0.0],
+                    radius_m: 0.25,
+                },
+                path: vec![[0.0, -4.0], [400.0, -4.0]],
+                speed_mps: 1.0,
+                start_s: 0.0,
+                looped: true,
+                vanish_at_end: false,
             },
-            path: vec![[0.0, -4.0], [400.0, -4.0]],
-            speed_mps: 1.0,
-            start_s: 0.0,
-            looped: true,
-            vanish_at_end: false,
-        }],
+            MovingObstacle {
+                name: "leader".to_owned(),
+                shape: Shape::Circle {
+                    center: [0.0, 0.0],
+                    radius_m: 0.25,
+                },
+                path: vec![[12.0, 0.0], [400.0, 0.0]],
+                speed_mps: LEADER_SPEED_MPS,
+                start_s: 0.0,
+                looped: false,
+                vanish_at_end: false,
+            },
+        ],
     )
 }
+
+/// Slower than the vehicle's cruise, fast enough to count as driving.
+const LEADER_SPEED_MPS: f64 = 1.0;
 
 #[test]
 fn a_steady_state_tick_allocates_nothing() {
@@ -81,6 +100,7 @@ fn a_steady_state_tick_allocates_nothing() {
     assert!(sim.world().truth().speed_mps > 0.5, "the vehicle should be driving");
 
     let mut ticks = 0;
+    let mut following_ticks = 0;
     let mut allocating = Vec::with_capacity(64);
     while sim.time() < Duration::from_secs(45) {
         let region = Region::new(GLOBAL);
@@ -91,9 +111,15 @@ fn a_steady_state_tick_allocates_nothing() {
             allocating.push((sim.time(), count));
         }
         ticks += 1;
+        // Held to the leader's speed: its track predicted in the way.
+        following_ticks += usize::from(sim.core().obstacle_status().speed_limit_mps.is_some());
     }
     assert!(ticks >= 1000, "{ticks} ticks");
     assert_eq!(sim.malformed_scans(), 0);
+    assert!(
+        following_ticks == ticks,
+        "slowed behind the leader on {following_ticks} of {ticks} ticks"
+    );
     assert!(
         sim.world().truth().speed_mps > 0.5,
         "still driving at the end, so every tick measured was a driving one"

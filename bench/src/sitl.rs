@@ -103,7 +103,7 @@ fn in_process(seconds: f64, logging: bool) {
     let stages_before = sim.stage_times();
     let mut driving = false;
     let mut odometer_m = 0.0;
-    let mut link = LinkBytes::default();
+    let mut link = LinkBytes::new();
     let mut allocations = AllocationCount::default();
     while sim.time().as_secs_f64() < seconds {
         let new_leg = !driving || sim.core().navigator().arrived();
@@ -118,12 +118,23 @@ fn in_process(seconds: f64, logging: bool) {
         let wall = start.elapsed();
         let before = *sim.world().truth();
         let out = sim.step(wall, &mut timer);
+        let announces = out
+            .mavlink
+            .iter()
+            .any(|m| matches!(m.message, MavMessage::STATUSTEXT(_)));
         link.send(&mut out.mavlink);
         log_bytes += log_records_bytes(&out.log);
         let after = sim.world().truth();
         odometer_m += (after.north_m - before.north_m).hypot(after.east_m - before.east_m);
         let change = region.change();
-        allocations.add(change.allocations + change.reallocations, new_leg);
+        let kind = if new_leg {
+            TickKind::LegStart
+        } else if announces {
+            TickKind::Event
+        } else {
+            TickKind::Driving
+        };
+        allocations.add(change.allocations + change.reallocations, kind);
     }
     let wall = start.elapsed().as_secs_f64();
     let stages = stage_delta(sim.stage_times(), stages_before);
@@ -180,14 +191,25 @@ fn armed_in_guided(logging: bool) -> (Simulation, InstantTimer) {
 
 /// The ground station's link as the process would drive it: each message
 /// encoded to MAVLink 2 bytes, timed.
-#[derive(Default)]
 struct LinkBytes {
     buffer: Vec<u8>,
     ns: u64,
     timer: InstantTimer,
 }
 
+/// The link buffer's size: a tick's burst of frames (a MAVLink 2 frame is at
+/// most 280 bytes), so the harness's own buffer never grows in the count.
+const LINK_BUFFER_BYTES: usize = 64 * 280;
+
 impl LinkBytes {
+    fn new() -> Self {
+        LinkBytes {
+            buffer: Vec::with_capacity(LINK_BUFFER_BYTES),
+            ns: 0,
+            timer: InstantTimer::default(),
+        }
+    }
+
     fn send(&mut self, outbound: &mut Vec<autopilot::vehicle::Outbound>) {
         let started_ns = self.timer.now_ns();
         self.buffer.clear();
@@ -200,8 +222,20 @@ impl LinkBytes {
     }
 }
 
-/// Heap allocations per tick, apart for the ticks that start a new leg
-/// (a new path is planned then: not steady state).
+/// What a tick did besides driving on: the ticks that are not steady state.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum TickKind {
+    /// Steady driving along a leg.
+    Driving,
+    /// A leg starts: a target arrives and its path is planned.
+    LegStart,
+    /// Something is announced (a STATUSTEXT: a stop report, an arrival, a
+    /// retry): the text is formatted then.
+    Event,
+}
+
+/// Heap allocations per tick, apart for the ticks that start a leg or
+/// announce something (not steady state).
 #[derive(Default)]
 struct AllocationCount {
     ticks: u64,
@@ -209,28 +243,41 @@ struct AllocationCount {
     allocating_ticks: u64,
     leg_ticks: u64,
     leg_allocations: u64,
+    event_ticks: u64,
+    event_allocations: u64,
 }
 
 impl AllocationCount {
-    fn add(&mut self, allocations: usize, new_leg: bool) {
-        if new_leg {
-            self.leg_ticks += 1;
-            self.leg_allocations += allocations as u64;
-            return;
+    fn add(&mut self, allocations: usize, kind: TickKind) {
+        let allocations = allocations as u64;
+        match kind {
+            TickKind::LegStart => {
+                self.leg_ticks += 1;
+                self.leg_allocations += allocations;
+            }
+            TickKind::Event => {
+                self.event_ticks += 1;
+                self.event_allocations += allocations;
+            }
+            TickKind::Driving => {
+                self.ticks += 1;
+                self.allocations += allocations;
+                self.allocating_ticks += u64::from(allocations > 0);
+            }
         }
-        self.ticks += 1;
-        self.allocations += allocations as u64;
-        self.allocating_ticks += u64::from(allocations > 0);
     }
 
     fn print(&self) {
+        let per = |allocations: u64, ticks: u64| allocations as f64 / ticks.max(1) as f64;
         println!(
-            "  heap allocations: {:.3} per driving tick ({} of {} ticks allocated); {:.1} per tick that starts a leg ({} ticks)",
-            self.allocations as f64 / self.ticks.max(1) as f64,
+            "  heap allocations: {:.3} per steady driving tick ({} of {} ticks allocated); {:.1} per tick that starts a leg ({} ticks); {:.1} per tick that announces an event ({} ticks)",
+            per(self.allocations, self.ticks),
             self.allocating_ticks,
             self.ticks,
-            self.leg_allocations as f64 / self.leg_ticks.max(1) as f64,
-            self.leg_ticks
+            per(self.leg_allocations, self.leg_ticks),
+            self.leg_ticks,
+            per(self.event_allocations, self.event_ticks),
+            self.event_ticks
         );
     }
 }

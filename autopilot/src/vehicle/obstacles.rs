@@ -170,6 +170,10 @@ pub(super) struct ObstacleState {
     /// Tracks lost from view next to the body: the vehicle may not start
     /// while one may still be there.
     hidden: Vec<HiddenTrack>,
+    /// This tick's collision predictions (at the speed now, at the resume
+    /// speed): buffers kept between ticks so a tick allocates nothing.
+    predictions: Vec<CollisionPrediction>,
+    predictions_at_resume: Vec<CollisionPrediction>,
     status: ObstacleStatus,
     /// Since when the vehicle has been held for a static obstacle (s).
     static_stop_since: Option<f64>,
@@ -374,8 +378,14 @@ impl Core {
         let [field, field_at_resume] = self.check_fields(&here_fields, &resume_fields, &field_config);
 
         let velocity_gate_mps = f64::from(self.p.obstacles.avoidance.velocity_gate_mps.get(&self.params));
-        let (predictions, mut predictions_at_resume) =
-            self.track_predictions(&estimate, &pose, speed, planned_mps, margin, horizon);
+        let mut predictions = std::mem::take(&mut self.obstacles.predictions);
+        let mut predictions_at_resume = std::mem::take(&mut self.obstacles.predictions_at_resume);
+        self.track_predictions(
+            (&estimate, &pose),
+            (speed, planned_mps),
+            (margin, horizon),
+            (&mut predictions, &mut predictions_at_resume),
+        );
         self.remember_hidden_tracks(now_s, &pose, &footprint, margin, velocity_gate_mps);
         self.push_hidden_predictions(now_s, &pose, &footprint, &mut predictions_at_resume);
         let config = self.policy_config();
@@ -402,6 +412,8 @@ impl Core {
             warning_limit_mps,
         };
         let status = self.obstacles.policy.update(&inputs, &config);
+        self.obstacles.predictions = predictions;
+        self.obstacles.predictions_at_resume = predictions_at_resume;
         let verdict = self.apply_policy_status(&status);
         self.note_static_block(&verdict, wants_to_move, now_s);
         verdict
@@ -510,22 +522,21 @@ impl Core {
     }
 
     /// The collision predictions of the tracked obstacles against the path
-    /// ahead: at the vehicle's speed now (`speed`) and at the speed it would
-    /// resume at (`planned_mps`). None without a valid position and heading.
+    /// ahead, into `predictions` (cleared first): at the vehicle's speed now
+    /// (`speed`) and at the speed it would resume at (`planned_mps`). None
+    /// without a valid position and heading.
     fn track_predictions(
         &self,
-        estimate: &Estimate,
-        pose: &Pose,
-        speed: f64,
-        planned_mps: f64,
-        margin: f64,
-        horizon: f64,
-    ) -> (Vec<CollisionPrediction>, Vec<CollisionPrediction>) {
+        (estimate, pose): (&Estimate, &Pose),
+        (speed, planned_mps): (f64, f64),
+        (margin, horizon): (f64, f64),
+        (predictions, predictions_at_resume): (&mut Vec<CollisionPrediction>, &mut Vec<CollisionPrediction>),
+    ) {
+        predictions.clear();
+        predictions_at_resume.clear();
         let passing = self.obstacles.detour.as_ref().map(|d| d.obstacle);
         let velocity_gate_mps = f64::from(self.p.obstacles.avoidance.velocity_gate_mps.get(&self.params));
         let accel_mps2 = self.policy_config().accel_mps2;
-        let mut predictions: Vec<CollisionPrediction> = Vec::new();
-        let mut predictions_at_resume: Vec<CollisionPrediction> = Vec::new();
         if estimate.position_valid && estimate.heading_valid {
             let vehicle_velocity = (speed * estimate.yaw_rad.cos(), speed * estimate.yaw_rad.sin());
             let view = ViewChange::new(
@@ -589,7 +600,6 @@ impl Core {
                 }
             }
         }
-        (predictions, predictions_at_resume)
     }
 
     /// The remembered hidden tracks as predictions for starting: each one
