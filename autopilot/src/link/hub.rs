@@ -238,6 +238,30 @@ impl LinkIds {
     }
 }
 
+/// A link task's opening: the event announcing it to the hub, the link's
+/// end of the queue the hub sends its frames on, and the byte count of what
+/// is queued, which the hub reads to pace the link.
+pub(super) fn open_link(
+    link: LinkId,
+    role: LinkRole,
+    peers: PeerPolicy,
+    name: String,
+    pace: LinkPace,
+) -> (HubEvent, mpsc::Receiver<LinkFrame>, QueuedBytes) {
+    let (tx, rx) = mpsc::channel(LINK_QUEUE);
+    let queued = QueuedBytes::default();
+    let opened = HubEvent::Opened {
+        link,
+        role,
+        peers,
+        name,
+        tx,
+        pace,
+        queued: queued.clone(),
+    };
+    (opened, rx, queued)
+}
+
 // Frames are the common case; boxing them would allocate per message.
 #[allow(clippy::large_enum_variant)]
 pub(super) enum HubEvent {
