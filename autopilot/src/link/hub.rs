@@ -1534,20 +1534,9 @@ mod tests {
             let (core_tx, core) = mpsc::channel(core_queue);
             let sign_require = Arc::new(AtomicU8::new(sign_require_mask));
             let mut hub = Hub::new(1, core_tx, None, signing, None, sign_require);
-            let (tx, link_queue) = mpsc::channel(LINK_QUEUE);
             let role = LinkRole { slot: 1, secure: false };
-            let (peers, name) = (PeerPolicy::FirstFrame, "test".to_string());
-            let queued = QueuedBytes::default();
-            hub.on_event(HubEvent::Opened {
-                link: LINK,
-                role,
-                peers,
-                name,
-                tx,
-                pace,
-                queued: queued.clone(),
-            })
-            .await;
+            let (opened, link_queue, queued) = open_link(LINK, role, PeerPolicy::FirstFrame, "test".to_string(), pace);
+            hub.on_event(opened).await;
             let mut bare = BareHub {
                 hub,
                 core,
