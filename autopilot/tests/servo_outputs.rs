@@ -9,7 +9,7 @@ use autopilot::control::mixer::{self, WheelOutputs};
 use autopilot::modes::Mode;
 use autopilot::sitl::simulation::ModelKind;
 use autopilot::time::FrozenTimer;
-use common::Harness;
+use common::{Harness, item};
 use mavlink::dialects::ardupilotmega::{MANUAL_CONTROL_DATA, MavCmd, MavMessage};
 use mission::command::{cmd, frame};
 use mission::{ExecState, MissionItem, MissionType, Plan};
@@ -173,26 +173,12 @@ fn disarmed_channels_sit_at_their_trims() {
     assert_eq!((pwm[0], pwm[2]), (1530, 1440));
 }
 
-fn item(seq: u16, command: u16, frame: u8, params: [f32; 4], north_m: f64) -> MissionItem {
-    MissionItem {
-        seq,
-        frame,
-        command,
-        current: false,
-        autocontinue: true,
-        params,
-        x: (north_m * 1e4).round() as i32,
-        y: 0,
-        z: 0.0,
-    }
-}
-
 fn wp(seq: u16, north_m: f64) -> MissionItem {
-    item(seq, cmd::NAV_WAYPOINT, frame::LOCAL_NED, [0.0; 4], north_m)
+    item(seq, cmd::NAV_WAYPOINT, frame::LOCAL_NED, [0.0; 4], north_m, 0.0)
 }
 
 fn do_item(seq: u16, command: u16, params: [f32; 4]) -> MissionItem {
-    item(seq, command, frame::MISSION, params, 0.0)
+    item(seq, command, frame::MISSION, params, 0.0, 0.0)
 }
 
 #[test]

@@ -22,6 +22,7 @@ use drivers::gnss::{FixQuality, GnssFix, GnssSample, HeadingReference};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serialport::{SerialPort, TTYPort};
+use test_support::net::refusing_address;
 
 const DEADLINE: Duration = Duration::from_secs(2);
 const STALE_AFTER: Duration = Duration::from_millis(300);
@@ -542,8 +543,8 @@ fn tcp_source_reconnects_after_the_server_restarts() {
 
 #[test]
 fn tcp_nothing_listening_counts_errors_and_stays_stale() {
-    // A port that was free a moment ago: connects are refused.
-    let addr = TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap();
+    // A port held but never listened on: connects are refused.
+    let (_held, addr) = refusing_address();
     let clock = ManualClock::new();
     let port = spawn(
         fast_config(GnssSource::Tcp {

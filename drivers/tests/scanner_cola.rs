@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 
 use drivers::scanner::Scan;
 use drivers::scanner::client::{ScannerClient, ScannerClientConfig, ScannerExit, ScannerStats, run_scanner};
+use test_support::net::refusing_address;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpSocket, TcpStream};
 use tokio::sync::{mpsc, watch};
@@ -366,7 +367,7 @@ async fn full_channel_drops_scans_without_stalling_the_link() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn dropping_the_receiver_stops_the_client_even_while_disconnected() {
     // Nothing listens here: the client is in its backoff loop.
-    let addr = listen(local_any()).local_addr().unwrap();
+    let (_held, addr) = refusing_address();
     let stats = Arc::new(ScannerStats::default());
     let (tx, rx) = mpsc::channel(1);
     let (_stop_tx, stop_rx) = watch::channel(false);

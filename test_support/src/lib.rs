@@ -6,8 +6,10 @@
 //!   same samples on every machine.
 //! - [`vda5050`]: VDA 5050 orders and instant actions as a master control
 //!   would send them.
+//! - [`net`]: a loopback address that refuses connections, its port held.
 //!
 //! Scratch directories come from `tempfile` directly.
 
+pub mod net;
 pub mod noise;
 pub mod vda5050;

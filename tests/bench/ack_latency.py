@@ -12,17 +12,15 @@ import argparse
 import os
 import pathlib
 import shutil
-import subprocess
 import sys
+import tempfile
 import time
 
 os.environ.setdefault("MAVLINK20", "1")
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "python"))
 from pymavlink import mavutil  # noqa: E402
+from sitl import FURROW, REPO, Sitl  # noqa: E402
 from gcs import mavlink, mission_item, param_id  # noqa: E402
-
-REPO = pathlib.Path(__file__).resolve().parents[2]
-FURROW = os.environ.get("FURROW_BIN") or str(REPO / "target" / "release" / "furrow")
 
 
 def quantile(values, q):
@@ -77,10 +75,10 @@ def main():
     shutil.rmtree(data, ignore_errors=True)
     gcs = mavutil.mavlink_connection("udpin:127.0.0.1:0", source_system=255)
     port = gcs.port.getsockname()[1]
-    proc = subprocess.Popen([FURROW, "sitl", "--tcp-port", "0", "--udp-port", str(port), "--data-dir", str(data)],
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    # The log goes to a scratch directory; the data directory is the benchmark's.
+    logs = tempfile.TemporaryDirectory()
+    sitl = Sitl(logs.name, udp_port=port, speedup=None, data_dir=data)
     try:
-        proc.stdout.readline()
         gcs.wait_heartbeat(timeout=10)
         print(f"{FURROW}, data in {data}, UDP loopback, pymavlink:")
         for size in (1, 100, 1000):
@@ -95,8 +93,8 @@ def main():
         latencies = [echo_latency(gcs, names[i % len(names)], 1.0 + (i % 50) / 8) for i in range(args.sets)]
         report("PARAM_SET -> echo", latencies)
     finally:
-        proc.terminate()
-        proc.wait()
+        sitl.stop()
+        logs.cleanup()
 
 
 if __name__ == "__main__":

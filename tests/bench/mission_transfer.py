@@ -7,20 +7,16 @@ with pymavlink over UDP and TCP loopback.
 import argparse
 import os
 import pathlib
-import re
 import statistics
-import subprocess
 import sys
+import tempfile
 import time
 
 os.environ.setdefault("MAVLINK20", "1")
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "python"))
 from pymavlink import mavutil  # noqa: E402
+from sitl import REPO, Sitl  # noqa: E402
 from gcs import download_mission, mavlink, mission_item, upload_mission  # noqa: E402
-
-REPO = pathlib.Path(__file__).resolve().parents[2]
-FURROW = os.environ.get("FURROW_BIN") or str(REPO / "target" / "release" / "furrow")
-READY = re.compile(r"furrow sitl ready: tcp (\S+):(\d+)")
 
 
 def bench(name, gcs, items, runs):
@@ -48,10 +44,11 @@ def main():
     gcs = mavutil.mavlink_connection("udpin:127.0.0.1:0", source_system=255)
     port = gcs.port.getsockname()[1]
     data = REPO / "target" / "bench-mission-data"
-    proc = subprocess.Popen([FURROW, "sitl", "--tcp-port", "0", "--udp-port", str(port), "--data-dir", str(data)],
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    # The log goes to a scratch directory; the data directory is the benchmark's.
+    logs = tempfile.TemporaryDirectory()
+    sitl = Sitl(logs.name, udp_port=port, speedup=None, data_dir=data)
     try:
-        tcp_port = int(READY.search(proc.stdout.readline()).group(2))
+        tcp_port = sitl.tcp_port
         items = [mission_item(0, 16, 291330000, 1196400000)]
         items += [mission_item(i, 16, 291330000 + i * 10, 1196400000 + i * 10) for i in range(1, args.items)]
         bench("UDP loopback", gcs, items, args.runs)
@@ -60,8 +57,8 @@ def main():
         bench("TCP loopback", tcp, items, args.runs)
         tcp.close()
     finally:
-        proc.terminate()
-        proc.wait()
+        sitl.stop()
+        logs.cleanup()
 
 
 if __name__ == "__main__":

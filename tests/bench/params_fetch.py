@@ -8,18 +8,15 @@ and duplicates.
 import argparse
 import os
 import pathlib
-import re
 import statistics
-import subprocess
 import sys
+import tempfile
 import time
 
 os.environ.setdefault("MAVLINK20", "1")
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "python"))
 from pymavlink import mavutil  # noqa: E402
-
-REPO = pathlib.Path(__file__).resolve().parents[2]
-FURROW = os.environ.get("FURROW_BIN") or str(REPO / "target" / "release" / "furrow")
-READY = re.compile(r"furrow sitl ready: tcp (\S+):(\d+)")
+from sitl import REPO, Sitl  # noqa: E402
 
 
 def fetch(gcs):
@@ -80,10 +77,11 @@ def main():
     udp = mavutil.mavlink_connection("udpin:127.0.0.1:0", source_system=255)
     port = udp.port.getsockname()[1]
     data = REPO / "target" / "bench-params-data"
-    proc = subprocess.Popen([FURROW, "sitl", "--tcp-port", "0", "--udp-port", str(port), "--data-dir", str(data)],
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    # The log goes to a scratch directory; the data directory is the benchmark's.
+    logs = tempfile.TemporaryDirectory()
+    sitl = Sitl(logs.name, udp_port=port, speedup=None, data_dir=data)
     try:
-        tcp_port = int(READY.search(proc.stdout.readline()).group(2))
+        tcp_port = sitl.tcp_port
         if args.link in ("udp", "both"):
             bench("UDP loopback", udp, args.runs)
         udp.close()
@@ -92,8 +90,8 @@ def main():
             bench("TCP loopback", tcp, args.runs)
             tcp.close()
     finally:
-        proc.terminate()
-        proc.wait()
+        sitl.stop()
+        logs.cleanup()
 
 
 if __name__ == "__main__":

@@ -123,8 +123,7 @@ class Control:
 def broker(tmp_path):
     b = Broker(tmp_path)
     yield b.port
-    b.stop()
-    b.log.close()
+    b.close()
 
 
 def test_two_vehicles_meeting_head_on_in_a_corridor_both_stop_short_of_each_other(tmp_path, broker):

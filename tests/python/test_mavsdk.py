@@ -3,22 +3,69 @@ health flags it derives from SYS_STATUS and HOME_POSITION, and the version
 it reads from AUTOPILOT_VERSION."""
 
 import asyncio
-import socket
+import pathlib
+import queue
+import re
+import subprocess
+import threading
+import time
 import tomllib
 
+import mavsdk_grpc
 from conftest import REPO
 from mavsdk_grpc import System
 
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+MAVSDK_SERVER = pathlib.Path(mavsdk_grpc.__file__).parent / "bin" / "mavsdk_server"
+LISTENING = re.compile(r"Server set to listen on \S+:(\d+)")
 
 
-async def health_and_version(tcp_port):
-    drone = System(port=free_port())
-    await drone.connect(system_address=f"tcpout://127.0.0.1:{tcp_port}")
+class MavsdkServer:
+    """The bundled mavsdk_server, started here rather than by System so that
+    its gRPC port can come from the OS (-p 0): once it has found the vehicle
+    it says which port it was given."""
+
+    def __init__(self, system_address, timeout=30):
+        self.proc = subprocess.Popen([str(MAVSDK_SERVER), "-p", "0", system_address],
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        self.output = []
+        lines = queue.Queue()
+        # Drained to the end: a full pipe would stall the server.
+        threading.Thread(target=self._drain, args=(lines,), daemon=True).start()
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                line = lines.get(timeout=max(0.0, deadline - time.monotonic()))
+            except queue.Empty:
+                self.stop()
+                raise AssertionError("mavsdk_server did not start its gRPC server:\n" + "".join(self.output))
+            if line is None:
+                raise AssertionError("mavsdk_server exited:\n" + "".join(self.output))
+            if match := LISTENING.search(line):
+                self.port = int(match.group(1))
+                return
+
+    def _drain(self, lines):
+        for line in self.proc.stdout:
+            self.output.append(line)
+            lines.put(line)
+        lines.put(None)
+
+    def stop(self):
+        self.proc.kill()
+        self.proc.wait()
+
+
+def health_and_version(tcp_port):
+    server = MavsdkServer(f"tcpout://127.0.0.1:{tcp_port}")
+    try:
+        return asyncio.run(asyncio.wait_for(query_health_and_version(server.port), 60))
+    finally:
+        server.stop()
+
+
+async def query_health_and_version(grpc_port):
+    drone = System(mavsdk_server_address="127.0.0.1", port=grpc_port)
+    await drone.connect()
     async for state in drone.core.connection_state():
         if state.is_connected:
             break
@@ -34,13 +81,12 @@ async def health_and_version(tcp_port):
         all_ok = ok
         break
     version = await drone.info.get_version()
-    drone._stop_mavsdk_server()
     return health, all_ok, version
 
 
 def test_mavsdk_sees_a_ready_vehicle_and_its_version(start_sitl):
     sitl = start_sitl(speedup="1")
-    health, all_ok, version = asyncio.run(asyncio.wait_for(health_and_version(sitl.tcp_port), 60))
+    health, all_ok, version = health_and_version(sitl.tcp_port)
     print(health, "health_all_ok", all_ok, version)
     # What Furrow has, reported ready: the simulated IMU (VectorNav $VNIMU,
     # on by default in SITL) as gyro and accelerometer, the heading sensor in
@@ -63,7 +109,7 @@ def test_mavsdk_sees_a_ready_vehicle_and_its_version(start_sitl):
 
 def test_without_an_imu_the_gyro_and_accelerometer_flags_stay_false(start_sitl):
     sitl = start_sitl(speedup="1", extra_args=["--no-imu"])
-    health, all_ok, _ = asyncio.run(asyncio.wait_for(health_and_version(sitl.tcp_port), 60))
+    health, all_ok, _ = health_and_version(sitl.tcp_port)
     print(health, "health_all_ok", all_ok)
     # No unit, no bits: nothing could back them.
     assert not health.is_gyrometer_calibration_ok and not health.is_accelerometer_calibration_ok

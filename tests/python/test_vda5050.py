@@ -7,10 +7,13 @@ import json
 import math
 import pathlib
 import queue
+import selectors
 import shutil
 import signal
 import socket
 import subprocess
+import tempfile
+import threading
 import time
 
 import pytest
@@ -23,32 +26,89 @@ SERIAL = "T1"
 PREFIX = f"uagv/v2/Furrow/{SERIAL}"
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+class BrokerPort:
+    """The broker's TCP port, owned by the test: bound to port 0 (the OS picks
+    it) and kept for the whole test, while each connection is carried to the
+    broker's Unix socket. Mosquitto cannot bind TCP port 0 and say what it
+    got, and a broker restarted on a port it had let go could find it taken;
+    behind this port it can stop and start again. While no broker is there a
+    connection is accepted and closed at once."""
+
+    def __init__(self, unix_path):
+        self.unix_path = str(unix_path)
+        self.listener = socket.create_server(("127.0.0.1", 0))
+        self.listener.settimeout(0.2)
+        self.port = self.listener.getsockname()[1]
+        self.closed = threading.Event()
+        self.accepting = threading.Thread(target=self._accept, daemon=True)
+        self.accepting.start()
+
+    def _accept(self):
+        while not self.closed.is_set():
+            try:
+                client, _ = self.listener.accept()
+            except (socket.timeout, OSError):
+                continue
+            client.settimeout(None)
+            broker = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+            try:
+                broker.connect(self.unix_path)
+            except OSError:
+                client.close()
+                broker.close()
+                continue
+            threading.Thread(target=self._carry, args=(client, broker), daemon=True).start()
+
+    def _carry(self, client, broker):
+        """Both directions of one connection; when either side ends, both do
+        (a broker that stops closes its clients' connections)."""
+        with client, broker, selectors.DefaultSelector() as selector:
+            selector.register(client, selectors.EVENT_READ, broker)
+            selector.register(broker, selectors.EVENT_READ, client)
+            while not self.closed.is_set():
+                for key, _ in selector.select(timeout=0.2):
+                    try:
+                        data = key.fileobj.recv(65536)
+                        if not data:
+                            return
+                        key.data.sendall(data)
+                    except OSError:
+                        return
+
+    def close(self):
+        self.closed.set()
+        self.accepting.join()
+        self.listener.close()
 
 
 class Broker:
-    """Mosquitto on a loopback port, anonymous, no persistence; it can be
-    killed and started again on the same port."""
+    """Mosquitto, anonymous, no persistence, behind a loopback TCP port the
+    test owns; it can be stopped and started again behind the same port."""
 
     def __init__(self, tmp_path, settings="allow_anonymous true\n"):
         if not pathlib.Path(MOSQUITTO).exists():
             pytest.fail("mosquitto is not installed (tests/run installs it)")
-        self.port = free_port()
+        # A short directory: a Unix socket path has at most 107 bytes.
+        self.socket_dir = pathlib.Path(tempfile.mkdtemp(prefix="furrow-mqtt-"))
+        self.unix_path = self.socket_dir / "broker.sock"
         self.conf = tmp_path / "mosquitto.conf"
-        self.conf.write_text(f"listener {self.port} 127.0.0.1\npersistence false\n{settings}")
+        # Started as root, mosquitto drops to its own user, who cannot
+        # create the socket or read the test's files.
+        self.conf.write_text(f"listener 0 {self.unix_path}\npersistence false\nuser {getpass.getuser()}\n"
+                             f"{settings}")
         self.log = open(tmp_path / "mosquitto.log", "a")
         self.proc = None
         self.start()
+        self.tcp = BrokerPort(self.unix_path)
+        self.port = self.tcp.port
 
     def start(self):
         self.proc = subprocess.Popen([MOSQUITTO, "-c", str(self.conf)], stdout=self.log, stderr=subprocess.STDOUT)
         deadline = time.monotonic() + 10
         while time.monotonic() < deadline:
             try:
-                socket.create_connection(("127.0.0.1", self.port), timeout=0.2).close()
+                with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as probe:
+                    probe.connect(str(self.unix_path))
                 return
             except OSError:
                 time.sleep(0.05)
@@ -59,13 +119,19 @@ class Broker:
         self.proc.send_signal(signal.SIGTERM)
         self.proc.wait(timeout=10)
 
+    def close(self):
+        """The broker, its port and its socket's directory, at the test's end."""
+        self.stop()
+        self.tcp.close()
+        self.log.close()
+        shutil.rmtree(self.socket_dir, ignore_errors=True)
+
 
 @pytest.fixture
 def mosquitto(tmp_path):
     b = Broker(tmp_path)
     yield b
-    b.stop()
-    b.log.close()
+    b.close()
 
 
 @pytest.fixture
@@ -334,9 +400,7 @@ def test_an_mqtts_broker_with_client_certificates_and_passwords(tmp_path, start_
     subprocess.run(["mosquitto_passwd", "-b", str(pki / "passwd"), "master", "m4ster"], check=True)
     broker = Broker(tmp_path, settings=(
         f"cafile {pki / 'ca.pem'}\ncertfile {pki / 'broker.pem'}\nkeyfile {pki / 'broker.key'}\n"
-        f"require_certificate true\nallow_anonymous false\npassword_file {pki / 'passwd'}\n"
-        # Started as root, mosquitto drops to its own user, who cannot read the test's files.
-        f"user {getpass.getuser()}\n"))
+        f"require_certificate true\nallow_anonymous false\npassword_file {pki / 'passwd'}\n"))
     try:
         master = Master(broker.port, tls=(pki / "ca.pem", pki / "master.pem", pki / "master.key"),
                         user=("master", "m4ster"))
@@ -357,8 +421,7 @@ def test_an_mqtts_broker_with_client_certificates_and_passwords(tmp_path, start_
         assert sitl.alive()
         assert "VDA 5050: connected to 127.0.0.1" in sitl.log()
     finally:
-        broker.stop()
-        broker.log.close()
+        broker.close()
 
 
 def test_a_wrong_broker_password_or_tls_file_is_a_clear_error(tmp_path, start_sitl):

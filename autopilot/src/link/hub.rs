@@ -238,6 +238,30 @@ impl LinkIds {
     }
 }
 
+/// A link task's opening: the event announcing it to the hub, the link's
+/// end of the queue the hub sends its frames on, and the byte count of what
+/// is queued, which the hub reads to pace the link.
+pub(super) fn open_link(
+    link: LinkId,
+    role: LinkRole,
+    peers: PeerPolicy,
+    name: String,
+    pace: LinkPace,
+) -> (HubEvent, mpsc::Receiver<LinkFrame>, QueuedBytes) {
+    let (tx, rx) = mpsc::channel(LINK_QUEUE);
+    let queued = QueuedBytes::default();
+    let opened = HubEvent::Opened {
+        link,
+        role,
+        peers,
+        name,
+        tx,
+        pace,
+        queued: queued.clone(),
+    };
+    (opened, rx, queued)
+}
+
 // Frames are the common case; boxing them would allocate per message.
 #[allow(clippy::large_enum_variant)]
 pub(super) enum HubEvent {
@@ -1510,20 +1534,9 @@ mod tests {
             let (core_tx, core) = mpsc::channel(core_queue);
             let sign_require = Arc::new(AtomicU8::new(sign_require_mask));
             let mut hub = Hub::new(1, core_tx, None, signing, None, sign_require);
-            let (tx, link_queue) = mpsc::channel(LINK_QUEUE);
             let role = LinkRole { slot: 1, secure: false };
-            let (peers, name) = (PeerPolicy::FirstFrame, "test".to_string());
-            let queued = QueuedBytes::default();
-            hub.on_event(HubEvent::Opened {
-                link: LINK,
-                role,
-                peers,
-                name,
-                tx,
-                pace,
-                queued: queued.clone(),
-            })
-            .await;
+            let (opened, link_queue, queued) = open_link(LINK, role, PeerPolicy::FirstFrame, "test".to_string(), pace);
+            hub.on_event(opened).await;
             let mut bare = BareHub {
                 hub,
                 core,

@@ -7,7 +7,7 @@ use std::time::Duration;
 use tokio::sync::mpsc;
 
 use super::frame::StreamFramer;
-use super::hub::{HubEvent, LinkFrame, LinkIds, LinkRole, PeerPolicy, QueuedBytes, gather};
+use super::hub::{HubEvent, LinkIds, LinkRole, PeerPolicy, gather, open_link};
 use super::pacing::LinkPace;
 
 /// Opens the port, retrying until it exists (a USB radio plugged in later),
@@ -47,20 +47,9 @@ fn serve(
     link: crate::vehicle::LinkId,
     hub: &mpsc::Sender<HubEvent>,
 ) {
-    let (tx, mut rx) = mpsc::channel::<LinkFrame>(super::hub::LINK_QUEUE);
-    let queued = QueuedBytes::default();
-    if hub
-        .blocking_send(HubEvent::Opened {
-            link,
-            role,
-            peers: PeerPolicy::FirstFrame,
-            name: format!("serial {device}"),
-            tx,
-            pace: LinkPace::Serial { baud },
-            queued: queued.clone(),
-        })
-        .is_err()
-    {
+    let name = format!("serial {device}");
+    let (opened, mut rx, queued) = open_link(link, role, PeerPolicy::FirstFrame, name, LinkPace::Serial { baud });
+    if hub.blocking_send(opened).is_err() {
         return;
     }
     let Ok(mut writer_port) = port.try_clone() else {

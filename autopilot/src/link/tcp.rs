@@ -8,7 +8,7 @@ use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::mpsc;
 
 use super::frame::StreamFramer;
-use super::hub::{HubEvent, LinkIds, LinkRole, PeerPolicy, QueuedBytes, write_loop};
+use super::hub::{HubEvent, LinkIds, LinkRole, PeerPolicy, open_link, write_loop};
 use super::pacing::LinkPace;
 
 /// Accepts clients until the runtime stops.
@@ -80,21 +80,8 @@ pub(super) async fn run_link<R, W>(
     R: AsyncRead + Unpin,
     W: AsyncWrite + Unpin + Send + 'static,
 {
-    let (tx, rx) = mpsc::channel(super::hub::LINK_QUEUE);
-    let queued = QueuedBytes::default();
-    if hub
-        .send(HubEvent::Opened {
-            link,
-            role,
-            peers: PeerPolicy::Connection,
-            name: name.clone(),
-            tx,
-            pace: LinkPace::Network,
-            queued: queued.clone(),
-        })
-        .await
-        .is_err()
-    {
+    let (opened, rx, queued) = open_link(link, role, PeerPolicy::Connection, name.clone(), LinkPace::Network);
+    if hub.send(opened).await.is_err() {
         return;
     }
     let mut writer = tokio::spawn(write_loop(write, rx, queued));

@@ -11,7 +11,7 @@ use tokio::net::UdpSocket;
 use tokio::sync::mpsc;
 
 use super::frame::{FrameStats, frame_datagram};
-use super::hub::{HubEvent, LinkFrame, LinkRole, PeerPolicy, QueuedBytes};
+use super::hub::{HubEvent, LinkFrame, LinkRole, PeerPolicy, open_link};
 use super::pacing::LinkPace;
 use crate::vehicle::LinkId;
 
@@ -33,21 +33,9 @@ pub(super) async fn run(
     name: String,
     hub: mpsc::Sender<HubEvent>,
 ) {
-    let (tx, mut rx) = mpsc::channel(super::hub::LINK_QUEUE);
-    let queued = QueuedBytes::default();
-    if hub
-        .send(HubEvent::Opened {
-            link,
-            role,
-            peers: PeerPolicy::Addresses { fixed: default_peer },
-            name: name.clone(),
-            tx,
-            pace: LinkPace::Network,
-            queued: queued.clone(),
-        })
-        .await
-        .is_err()
-    {
+    let peers = PeerPolicy::Addresses { fixed: default_peer };
+    let (opened, mut rx, queued) = open_link(link, role, peers, name.clone(), LinkPace::Network);
+    if hub.send(opened).await.is_err() {
         return;
     }
     let mut stats = FrameStats::default();
