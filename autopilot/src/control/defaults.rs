@@ -35,10 +35,8 @@ pub fn apply(builder: &mut ParamTableBuilder, drive: DriveTrain) {
             builder.override_default("VEH_STEER_RATE", 0.0);
             builder.override_default("ATC_ACCEL_MAX", DIFFERENTIAL_ACCEL_MPS2);
             builder.override_default("ATC_DECEL_MAX", DIFFERENTIAL_DECEL_MPS2);
-            // It could turn on the spot (MNV_PIVOT 1), but not by default:
-            // with the IMU's yaw rate fused through the turn, the heading
-            // estimate ends about 0.1° off a true heading within 0.02°,
-            // so good stops are reported out of tolerance.
+            // Two driven wheels turn it on the spot: manoeuvres may.
+            builder.override_default("MNV_PIVOT", 1.0);
         }
     }
 }

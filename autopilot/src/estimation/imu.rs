@@ -4,6 +4,13 @@
 //! a heading outage, follows the turn the gyro measures), and the unit's
 //! freshness and plausibility for SYS_STATUS.
 //!
+//! While the gyro is fused, the filter's pivot process noise follows the
+//! change of yaw rate the gyro measured over its last interval instead of
+//! the vehicle's worst case: with the rate pinned at every sample, the
+//! worst-case noise would only let the yaw between samples wander (about
+//! 1°/√s at 1 rad/s²/√Hz), so each heading fix would move the estimate by
+//! the sensor's whole noise and the gyro would add nothing.
+//!
 //! The bias is calibrated at rest rather than estimated in the filter: a
 //! standing vehicle's true yaw rate is zero, so the mean reading *is* the
 //! bias, with no observability question; every stop refreshes it. Until the
@@ -12,6 +19,7 @@
 
 use std::time::Duration;
 
+use drivers::gnss::GnssSample;
 use drivers::imu::{GRAVITY_MPS2, ImuSample};
 
 use super::ekf::Ekf;
@@ -34,6 +42,15 @@ const MIN_FUSE_SPEED_MPS: f64 = 0.2;
 /// The specific force of a vehicle on the ground stays within this of g
 /// (braking, bumps): outside, the accelerometer is implausible.
 const ACCEL_PLAUSIBLE_MPS2: f64 = 0.5 * GRAVITY_MPS2;
+
+/// The pivot noise while the gyro is fused, in σ of the measured change of
+/// yaw rate per interval: a ramp twice as fast as the last one still passes
+/// the yaw-rate gate.
+const RATE_CHANGE_SIGMAS: f64 = 2.0;
+/// Floor of that noise (rad/s² per √Hz): what the bias left after a
+/// calibration and its drift move the heading by, so the heading fixes are
+/// still heard while the rate stands still.
+const MIN_PIVOT_ACCEL_SIGMA_RADPS2: f64 = 0.02;
 
 /// A finished calibration.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -87,6 +104,9 @@ pub struct ImuState {
     /// Yaw-rate samples fused, and refused by the filter's gate.
     fused: u64,
     rejected: u64,
+    /// The pivot noise the gyro's last rate change calls for (rad/s² per
+    /// √Hz), and the sample it was measured at.
+    pivot_accel_sigma: Option<(f64, Duration)>,
 }
 
 impl ImuState {
@@ -123,6 +143,38 @@ impl ImuState {
             ((x * x + y * y + z * z).sqrt() - GRAVITY_MPS2).abs() <= ACCEL_PLAUSIBLE_MPS2
         });
         self.fresh(now) && plausible
+    }
+
+    /// Looks ahead at a batch's samples before the filter predicts over
+    /// them: the largest change of yaw rate between consecutive samples, as
+    /// a process-noise density (σ² · interval = (k·Δω)²).
+    pub(super) fn note_rate_changes(&mut self, samples: &[GnssSample]) {
+        let mut previous = self.last;
+        for sample in samples {
+            let GnssSample::Imu(imu) = sample else { continue };
+            if let Some(before) = previous {
+                let dt_s = imu.t.saturating_sub(before.t).as_secs_f64();
+                if dt_s > 0.0 && imu.t.saturating_sub(before.t) <= IMU_STALE_AFTER {
+                    let change = (imu.gyro_rad_s[2] - before.gyro_rad_s[2]).abs();
+                    let sigma = (RATE_CHANGE_SIGMAS * change / dt_s.sqrt()).max(MIN_PIVOT_ACCEL_SIGMA_RADPS2);
+                    let sigma = match self.pivot_accel_sigma {
+                        Some((s, t)) if t == imu.t => s.max(sigma),
+                        _ => sigma,
+                    };
+                    self.pivot_accel_sigma = Some((sigma, imu.t));
+                }
+            }
+            previous = Some(*imu);
+        }
+    }
+
+    /// The pivot noise to predict with while the gyro is fused (calibrated,
+    /// fresh, a rate change measured); `None` otherwise, and the vehicle's
+    /// worst case applies.
+    pub(super) fn pivot_accel_sigma(&self, now: Duration) -> Option<f64> {
+        let (sigma, t) = self.pivot_accel_sigma?;
+        let current = now.saturating_sub(t) <= IMU_STALE_AFTER;
+        (self.bias.is_some() && self.fresh(now) && current).then_some(sigma)
     }
 
     /// One sample: calibrates at rest, otherwise fuses the yaw rate.

@@ -147,6 +147,9 @@ pub struct Estimator {
     /// Held still with the GNSS agreeing, as of the last update.
     at_rest: bool,
     imu: ImuState,
+    /// The time of the current update (the gyro's pivot noise is current
+    /// or not as of then).
+    now: Duration,
 }
 
 impl Estimator {
@@ -210,6 +213,8 @@ impl Estimator {
         // At rest as the last samples saw it: the vehicle is not commanded to
         // move and the GNSS agrees.
         self.at_rest = held_still && self.gnss_still(now);
+        self.imu.note_rate_changes(samples);
+        self.now = now;
         let tuning = self.tuning(config);
         let mut ekf = match self.ekf.take() {
             Some(mut ekf) => {
@@ -363,14 +368,15 @@ impl Estimator {
     /// remove). At rest a vehicle that can turn on the spot does not start
     /// pivoting unannounced (that takes a drive demand, which ends the rest):
     /// without pivot noise its heading averages down like a car's instead of
-    /// following the heading sensor's noise.
+    /// following the heading sensor's noise. Moving, with the gyro fused, the
+    /// pivot noise is what the gyro's rate changes call for (see [`imu`]).
     fn tuning(&self, config: &EstimatorConfig) -> EkfConfig {
         let slow = 0.7 * GnssStatus::quality_sigma_floor_m(self.fix_quality);
         EkfConfig {
-            pivot_yaw_accel_sigma_radps2: if self.at_rest {
-                0.0
-            } else {
-                config.ekf.pivot_yaw_accel_sigma_radps2
+            pivot_yaw_accel_sigma_radps2: match (self.at_rest, self.imu.pivot_accel_sigma(self.now)) {
+                (true, _) => 0.0,
+                (false, Some(gyro)) => gyro.min(config.ekf.pivot_yaw_accel_sigma_radps2),
+                (false, None) => config.ekf.pivot_yaw_accel_sigma_radps2,
             },
             curvature_rate_sigma_per_m_s: if self.at_rest {
                 0.0

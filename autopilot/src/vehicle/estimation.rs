@@ -56,10 +56,15 @@ impl Core {
                 max_curvature_per_m: steer_max.tan() / wheelbase,
                 ..base
             },
+            // Two driven wheels set the yaw rate whatever the speed: it is
+            // the pivot rate alone, with no curvature state. A curvature
+            // beside it is unobservable near standstill, and through a turn
+            // on the spot took values of 8/m, so the speed's noise times
+            // that curvature let the heading wander by degrees per √s.
             DriveTrain::Differential => EkfConfig {
                 pivot_yaw_accel_sigma_radps2: 1.0,
                 init_pivot_rate_sigma_rad_s: 0.5,
-                max_curvature_per_m: 10.0,
+                max_curvature_per_m: 0.0,
                 ..base
             },
         };

@@ -171,7 +171,7 @@ declare_params! {
         },
         pivot: bool = "MNV_PIVOT" => {
             default: false, range: 0, 1, unit: "",
-            desc: "1: a differential-drive vehicle may turn on the spot in a manoeuvre (face the goal, drive straight, turn onto its heading); 0: arcs only. Ignored for Ackermann",
+            desc: "1: a differential-drive vehicle may turn on the spot in a manoeuvre (face the goal, drive straight, turn onto its heading); 0: arcs only. Default 1 for differential drive; ignored for Ackermann",
         },
         pivot_rate_deg_s: f32 = "MNV_PIVOT_RATE" => {
             default: 30.0, range: 1.0, 180.0, unit: "deg/s",

@@ -47,7 +47,9 @@ pub struct EkfConfig {
     pub position_sigma_m_per_sqrt_s: f64,
     /// The tightest turn the vehicle can drive (tan(max steer)/wheelbase); the
     /// curvature σ is never allowed above it, so a long stop (when curvature
-    /// is unobservable) does not leave an absurd uncertainty behind.
+    /// is unobservable) does not leave an absurd uncertainty behind. Zero for
+    /// a vehicle whose yaw rate is not set by a curvature (differential
+    /// drive): the curvature then stays 0 and the pivot rate is the yaw rate.
     pub max_curvature_per_m: f64,
     /// Stationary σ of the slow GNSS position error (per axis).
     pub gnss_walk_sigma_m: f64,
@@ -150,7 +152,7 @@ impl EkfConfig {
         non_negative(self.curvature_rate_sigma_per_m_s, "curvature_rate_sigma_per_m_s")?;
         non_negative(self.pivot_yaw_accel_sigma_radps2, "pivot_yaw_accel_sigma_radps2")?;
         non_negative(self.position_sigma_m_per_sqrt_s, "position_sigma_m_per_sqrt_s")?;
-        positive(self.max_curvature_per_m, "max_curvature_per_m")?;
+        non_negative(self.max_curvature_per_m, "max_curvature_per_m")?;
         non_negative(self.gnss_walk_sigma_m, "gnss_walk_sigma_m")?;
         positive(self.gnss_walk_tau_s, "gnss_walk_tau_s")?;
         positive(self.position_gate_sigma, "position_gate_sigma")?;

@@ -187,11 +187,23 @@ impl Ekf {
         Ok(ekf)
     }
 
-    /// New tuning or lever arm (e.g. a parameter change); the state is kept.
+    /// New tuning or lever arm (e.g. a parameter change, or process noise
+    /// that follows the motion every tick); the state is kept.
     pub fn set_config(&mut self, config: EkfConfig) -> Result<(), ConfigError> {
         config.validate()?;
+        let gates = |c: &EkfConfig| {
+            [
+                c.position_gate_sigma,
+                c.velocity_gate_sigma,
+                c.heading_gate_sigma,
+                c.odometry_gate_sigma,
+            ]
+        };
+        let same_gates = gates(&config) == gates(&self.config);
         self.config = config;
-        self.set_gates();
+        if !same_gates {
+            self.set_gates();
+        }
         Ok(())
     }
 
@@ -362,7 +374,8 @@ impl Ekf {
         let mut p_next = propagate_covariance(p, &f, phi, bias_q, &self.process_noise_density(), dt_s);
         symmetrise(&mut p_next);
         // Curvature is unobservable at a stop: cap its σ by scaling its row
-        // and column (D·P·D with D diagonal keeps P positive semi-definite).
+        // and column (D·P·D with D diagonal keeps P positive semi-definite);
+        // a cap of 0 keeps it known at its value (no curvature state).
         let kk = p_next[(CURVATURE, CURVATURE)];
         let kk_max = c.max_curvature_per_m.powi(2);
         if kk > kk_max {
