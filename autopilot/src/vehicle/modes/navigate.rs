@@ -92,9 +92,12 @@ impl Core {
     }
 
     /// The achieved stop error, as the estimate has it once the vehicle
-    /// rests: what an integrator checks a docking against. A stop that took
-    /// longer than [`SETTLE_TARGET_S`] to settle says what it spent the
-    /// time on.
+    /// rests: what an integrator checks a docking against. A stop in
+    /// tolerance the estimate is not sure of says so, with the σ that keeps
+    /// it from being confirmed (AUTO still reports the item reached: the
+    /// estimate's verdict is its progress signal, as ArduPilot's); a stop
+    /// that took longer than [`SETTLE_TARGET_S`] to settle says what it
+    /// spent the time on.
     fn report_stop(&mut self, report: &StopReport) {
         self.log_stop_report(report);
         let which = report.seq.map_or(String::new(), |seq| format!(" #{seq}"));
@@ -103,6 +106,11 @@ impl Core {
         } else {
             "OUT of tolerance"
         });
+        if report.within_tolerance
+            && let Some(why) = self.unconfirmed_because(report.position_error_m(), report.yaw_error_rad)
+        {
+            verdict.push_str(&format!(", unconfirmed ({why})"));
+        }
         if report.settle_s > SETTLE_TARGET_S {
             let why = match report.reapproaches {
                 0 => String::from("slow final creep"),
