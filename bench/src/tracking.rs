@@ -189,6 +189,9 @@ pub struct RunRecord {
     pub reverse_straight_m: Vec<f64>,
     pub forward_arc_m: Vec<f64>,
     pub reverse_arc_m: Vec<f64>,
+    /// Straights within `AFTER_TURN_M` after a turn ends (where a turn's
+    /// exit leaves the vehicle off the line), both directions.
+    pub turn_exit_m: Vec<f64>,
     pub stops: Vec<StopRecord>,
     pub plot: PlotData,
     pub core_tick_overruns: u64,
@@ -609,8 +612,8 @@ fn start_course(
 }
 
 /// Files a cross-track sample under the part of the path it was taken on
-/// (only while moving; not within AFTER_TURN_M after a turn) and returns
-/// its plot class.
+/// (only while moving; straights within AFTER_TURN_M after a turn apart)
+/// and returns its plot class.
 fn classify_error(
     record: &mut RunRecord,
     moving: bool,
@@ -638,6 +641,7 @@ fn classify_error(
         }
         plot::Class::Straight
     } else {
+        record.turn_exit_m.push(error);
         plot::Class::Other
     }
 }
@@ -714,6 +718,7 @@ fn report_lateral(runs: &[RunRecord]) {
             (|r: &RunRecord| &r.straight_m) as fn(&RunRecord) -> &Vec<f64>,
         ),
         ("arcs", |r: &RunRecord| &r.arc_m),
+        ("straights, first 3 m after a turn", |r: &RunRecord| &r.turn_exit_m),
     ] {
         let n: usize = runs.iter().map(|r| pick(r).len()).sum();
         match error_figures(runs.iter().flat_map(|r| pick(r).iter().copied())) {
