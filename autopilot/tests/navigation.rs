@@ -33,7 +33,7 @@ fn a_guided_stop_ends_within_tolerance_and_says_so() {
         .into_iter()
         .find(|t| t.starts_with("Stop:"))
         .expect("a stop report");
-    assert!(report.ends_with("in tolerance"), "{report}");
+    assert!(report.contains("in tolerance"), "{report}");
     // The truth, not just the estimate: within a few centimetres (the GNSS
     // walk alone is 5 mm per axis), and at rest.
     assert!(h.distance_to(30.0, 0.0) < 0.03, "{:.4} m", h.distance_to(30.0, 0.0));

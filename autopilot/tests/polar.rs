@@ -62,7 +62,7 @@ fn goto_problems(h: &mut Harness, north_m: f64, east_m: f64, limit_s: f64) -> Ve
     }
     if !texts
         .iter()
-        .any(|t| t.starts_with("Stop") && t.ends_with("in tolerance"))
+        .any(|t| t.starts_with("Stop") && t.contains("in tolerance"))
     {
         problems.push(format!("no stop in tolerance: {texts:?}"));
     }

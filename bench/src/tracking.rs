@@ -43,6 +43,9 @@ const SETTLE_WINDOW_M: f64 = 0.03;
 /// re-approach) above the second figure.
 const REST_MPS: f64 = 0.002;
 const MOVING_AGAIN_MPS: f64 = 0.005;
+/// A stop should settle within this long (the tracking target); slower ones are
+/// listed one by one.
+const SETTLE_TARGET_S: f64 = 8.0;
 
 /// Where a stop's settling time goes, from the truth: from first coming
 /// within [`SETTLE_WINDOW_M`] of the point to first resting (the final
@@ -91,10 +94,13 @@ pub struct TrackingBenchArgs {
     /// Heading at the start, degrees (the courses start facing north).
     #[arg(long, default_value_t = 0.0)]
     pub heading_deg: f64,
-    /// Also write seed 1's tick-by-tick trace as CSV next to the plots (for
-    /// tuning).
+    /// Also write the plotted seed's tick-by-tick trace as CSV next to the
+    /// plots (for tuning).
     #[arg(long)]
     pub trace: bool,
+    /// The seed whose plot (and trace) is written.
+    #[arg(long, default_value_t = 1)]
+    pub plot_seed: u64,
     /// Only the manoeuvre section (pose goals 1–10 m away and RTL from
     /// them, both models), with this many seeds.
     #[arg(long)]
@@ -166,13 +172,14 @@ pub struct StopRecord {
     /// Times it moved off again after resting (re-approaches).
     pub restarts: u32,
     pub direction: Direction,
+    pub seed: u64,
 }
 
 /// One run of one course with one seed.
 #[derive(Default)]
 pub struct RunRecord {
     pub completion_s: Option<f64>,
-    /// time, true/estimated crosstrack, steering, speeds… (seed 1 with --trace).
+    /// time, true/estimated crosstrack, steering, speeds… (the plotted seed, with --trace).
     pub trace: Vec<String>,
     pub straight_m: Vec<f64>,
     pub arc_m: Vec<f64>,
@@ -182,6 +189,9 @@ pub struct RunRecord {
     pub reverse_straight_m: Vec<f64>,
     pub forward_arc_m: Vec<f64>,
     pub reverse_arc_m: Vec<f64>,
+    /// Straights within `AFTER_TURN_M` after a turn ends (where a turn's
+    /// exit leaves the vehicle off the line), both directions.
+    pub turn_exit_m: Vec<f64>,
     pub stops: Vec<StopRecord>,
     pub plot: PlotData,
     pub core_tick_overruns: u64,
@@ -236,8 +246,8 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
                         model: model.kind(),
                         heading_deg: args.heading_deg,
                         timeout_s: args.timeout_s,
-                        keep_plot: seed == 1,
-                        trace: args.trace && seed == 1,
+                        keep_plot: seed == args.plot_seed,
+                        trace: args.trace && seed == args.plot_seed,
                         params: &args.params,
                     },
                 )
@@ -270,12 +280,20 @@ fn write_outputs(
         BenchModel::Differential => format!("{}-differential", course.name),
     };
     let svg = args.out_dir.join(format!("tracking-{name}.svg"));
-    plot::write_svg(&svg, &format!("{} (seed 1)", course.name), &runs[0].plot)?;
+    // Seeds run from 1: the plotted one's record, if it ran.
+    let Some(plotted) = runs.get((args.plot_seed as usize).wrapping_sub(1)) else {
+        return Ok(());
+    };
+    plot::write_svg(
+        &svg,
+        &format!("{} (seed {})", course.name, args.plot_seed),
+        &plotted.plot,
+    )?;
     println!("  plot: {}", svg.display());
     if args.trace {
         let csv = args.out_dir.join(format!("tracking-{name}.csv"));
         let mut text = String::from(TRACE_HEADER);
-        for line in &runs[0].trace {
+        for line in &plotted.trace {
             text.push_str(line);
             text.push('\n');
         }
@@ -328,7 +346,7 @@ struct LegKey {
     point: Ned,
 }
 
-const TRACE_HEADER: &str = "t_s,seq,piece,class,true_xtrack_mm,est_xtrack_mm,est_minus_true_along_mm,steer_deg,ff_deg,lat_err_mm,yaw_err_deg,speed_cmd_mps,true_speed_mps,true_steer_deg,capturing,est_speed_mps,true_to_go_mm\n";
+const TRACE_HEADER: &str = "t_s,seq,piece,class,true_xtrack_mm,est_xtrack_mm,est_minus_true_along_mm,steer_deg,ff_deg,lat_err_mm,yaw_err_deg,speed_cmd_mps,true_speed_mps,true_steer_deg,capturing,est_speed_mps,true_to_go_mm,est_to_go_mm,stopping\n";
 
 struct RunOptions<'a> {
     seed: u64,
@@ -474,7 +492,9 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
                 .update(sim.time().as_secs_f64(), to_go_m, truth.speed_mps);
         }
         for text in texts.iter().filter(|t| t.starts_with("Stop")) {
-            record.stops.push(stop_record(&sim, &sample, text, &progress.settle));
+            record
+                .stops
+                .push(stop_record(&sim, &sample, text, &progress.settle, options.seed));
         }
         if core.mission_state() == ExecState::Complete && core.navigator().target().is_none() {
             record.completion_s = Some(sim.time().as_secs_f64() - start_s);
@@ -502,7 +522,7 @@ fn trace_row(sim: &Simulation, sample: &LegSample<'_>, class: plot::Class) -> St
     let along_true = path.project(&position, piece).along_m;
     let along_est = path.project(&est, piece).along_m;
     format!(
-        "{:.2},{},{},{:?},{:.1},{:.1},{:.1},{:.3},{:.3},{:.1},{:.4},{:.3},{:.3},{:.3},{},{:.4},{:.1}",
+        "{:.2},{},{},{:?},{:.1},{:.1},{:.1},{:.3},{:.3},{:.1},{:.4},{:.3},{:.3},{:.3},{},{:.4},{:.1},{:.1},{}",
         sim.time().as_secs_f64(),
         target.seq.unwrap_or(0),
         piece,
@@ -520,12 +540,14 @@ fn trace_row(sim: &Simulation, sample: &LegSample<'_>, class: plot::Class) -> St
         st.tracker.capturing as u8,
         core.estimator().estimate().speed_mps,
         (path.end_m() - along_true) * 1000.0,
+        st.remaining_m * 1000.0,
+        core.navigator().stopping() as u8,
     )
 }
 
 /// A stop, by the truth, when the autopilot reported it (`text`, whose
 /// figures are kept beside the truth's).
-fn stop_record(sim: &Simulation, sample: &LegSample<'_>, text: &str, settle: &SettleWatch) -> StopRecord {
+fn stop_record(sim: &Simulation, sample: &LegSample<'_>, text: &str, settle: &SettleWatch, seed: u64) -> StopRecord {
     let LegSample {
         target,
         path,
@@ -557,6 +579,7 @@ fn stop_record(sim: &Simulation, sample: &LegSample<'_>, text: &str, settle: &Se
         creep_s: settle.within_since_s.zip(settle.first_rest_s).map(|(a, b)| b - a),
         restarts: settle.restarts,
         direction: target.direction,
+        seed,
     }
 }
 
@@ -589,8 +612,8 @@ fn start_course(
 }
 
 /// Files a cross-track sample under the part of the path it was taken on
-/// (only while moving; not within AFTER_TURN_M after a turn) and returns
-/// its plot class.
+/// (only while moving; straights within AFTER_TURN_M after a turn apart)
+/// and returns its plot class.
 fn classify_error(
     record: &mut RunRecord,
     moving: bool,
@@ -618,6 +641,7 @@ fn classify_error(
         }
         plot::Class::Straight
     } else {
+        record.turn_exit_m.push(error);
         plot::Class::Other
     }
 }
@@ -694,6 +718,7 @@ fn report_lateral(runs: &[RunRecord]) {
             (|r: &RunRecord| &r.straight_m) as fn(&RunRecord) -> &Vec<f64>,
         ),
         ("arcs", |r: &RunRecord| &r.arc_m),
+        ("straights, first 3 m after a turn", |r: &RunRecord| &r.turn_exit_m),
     ] {
         let n: usize = runs.iter().map(|r| pick(r).len()).sum();
         match error_figures(runs.iter().flat_map(|r| pick(r).iter().copied())) {
@@ -852,6 +877,34 @@ fn report_settling(runs: &[RunRecord]) {
             quantile(&seconds, 0.95),
             quantile(&creep, 0.5),
             creep.last().copied().unwrap_or(f64::NAN),
+        );
+    }
+    report_slow_stops(runs);
+}
+
+/// The stops that took longer than [`SETTLE_TARGET_S`] to settle, one line
+/// each, with where their time went.
+fn report_slow_stops(runs: &[RunRecord]) {
+    let slow: Vec<&StopRecord> = runs
+        .iter()
+        .flat_map(|r| r.stops.iter())
+        .filter(|s| s.settle_s.is_some_and(|t| t > SETTLE_TARGET_S))
+        .collect();
+    if slow.is_empty() {
+        return;
+    }
+    println!();
+    println!("stops that took longer than {SETTLE_TARGET_S:.0} s to settle:");
+    for s in slow {
+        println!(
+            "- seed {} #{} ({:?}): {:.1} s, creep to first rest {:.1} s, {} re-approaches, true stop {:.1} mm",
+            s.seed,
+            s.seq,
+            s.direction,
+            s.settle_s.unwrap_or(f64::NAN),
+            s.creep_s.unwrap_or(f64::NAN),
+            s.restarts,
+            s.position_m * 1000.0
         );
     }
 }

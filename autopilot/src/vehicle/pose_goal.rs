@@ -314,7 +314,7 @@ impl Core {
     /// cannot be claimed within tolerance: the error is past it, or the
     /// estimate's uncertainty reaches past it (a GNSS whose wander is a good
     /// part of `WP_STOP_TOL_MM`). None: confirmed.
-    fn unconfirmed_because(&self, error_m: f64, yaw_error_rad: f64) -> Option<String> {
+    pub(super) fn unconfirmed_because(&self, error_m: f64, yaw_error_rad: f64) -> Option<String> {
         let tolerance = self.nav_config().stop;
         let sigma_m = self.estimator.estimate().horiz_sigma_m;
         let yaw_sigma_rad = self

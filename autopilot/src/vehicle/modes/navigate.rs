@@ -11,6 +11,10 @@ use crate::modes::Mode;
 use crate::vehicle::Core;
 use crate::vehicle::drive::Demand;
 
+/// A stop should settle within this long of first coming within
+/// `SETTLE_ZONE_M` of its point; one that takes longer says why.
+const SETTLE_TARGET_S: f64 = 8.0;
+
 impl Core {
     /// This tick's demand while no obstacle stops the vehicle.
     pub(super) fn navigate_demand(&mut self, dt_s: f64) -> Demand {
@@ -88,15 +92,33 @@ impl Core {
     }
 
     /// The achieved stop error, as the estimate has it once the vehicle
-    /// rests: what an integrator checks a docking against.
+    /// rests: what an integrator checks a docking against. A stop in
+    /// tolerance the estimate is not sure of says so, with the σ that keeps
+    /// it from being confirmed (AUTO still reports the item reached: the
+    /// estimate's verdict is its progress signal, as ArduPilot's); a stop
+    /// that took longer than [`SETTLE_TARGET_S`] to settle says what it
+    /// spent the time on.
     fn report_stop(&mut self, report: &StopReport) {
         self.log_stop_report(report);
         let which = report.seq.map_or(String::new(), |seq| format!(" #{seq}"));
-        let verdict = if report.within_tolerance {
+        let mut verdict = String::from(if report.within_tolerance {
             "in tolerance"
         } else {
             "OUT of tolerance"
-        };
+        });
+        if report.within_tolerance
+            && let Some(why) = self.unconfirmed_because(report.position_error_m(), report.yaw_error_rad)
+        {
+            verdict.push_str(&format!(", unconfirmed ({why})"));
+        }
+        if report.settle_s > SETTLE_TARGET_S {
+            let why = match report.reapproaches {
+                0 => String::from("slow final creep"),
+                1 => String::from("1 re-approach"),
+                n => format!("{n} re-approaches"),
+            };
+            verdict.push_str(&format!(", settled in {:.1} s: {why}", report.settle_s));
+        }
         let text = format!(
             "Stop{which}: {:.1} mm, yaw {:.3} deg, {verdict}",
             report.position_error_m() * 1000.0,
