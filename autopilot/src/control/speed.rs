@@ -14,6 +14,15 @@ pub struct SpeedControlConfig {
     pub decel_max_mps2: f64,
 }
 
+/// When braking to rest ends.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BrakeLimits {
+    /// At or below this measured speed the vehicle is at rest (m/s).
+    pub rest_mps: f64,
+    /// Braking ends after this long whatever the measurement says (s).
+    pub max_s: f64,
+}
+
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SpeedController {
     pid: PidState,
@@ -22,10 +31,17 @@ pub struct SpeedController {
     /// The last update's PID terms and feed-forward throttle (for the log).
     last_terms: PidTerms,
     last_feed_forward: f64,
+    /// Braking has brought the vehicle to rest: it stays without throttle
+    /// (speed noise at rest must not drive it) until driven again.
+    braked: bool,
+    /// How long the present braking has lasted (s).
+    braking_s: f64,
 }
 
 impl SpeedController {
     pub fn reset(&mut self, current_speed_mps: f64) {
+        self.braked = false;
+        self.braking_s = 0.0;
         self.pid.reset();
         self.limited_mps = current_speed_mps;
     }
@@ -49,6 +65,8 @@ impl SpeedController {
         measured_mps: Option<f64>,
         dt_s: f64,
     ) -> f64 {
+        self.braked = false;
+        self.braking_s = 0.0;
         let step = desired_mps - self.limited_mps;
         let slowing = desired_mps.abs() < self.limited_mps.abs() || desired_mps * self.limited_mps < 0.0;
         let limit = if slowing {
@@ -74,6 +92,44 @@ impl SpeedController {
         self.last_feed_forward = feed_forward;
         let correction = self.last_terms.output();
         (feed_forward + correction).clamp(-1.0, 1.0)
+    }
+
+    /// Throttle that brakes to rest: a demand of 0 at once (what a stop's
+    /// feed-forward asks) plus the P correction on the speed still measured,
+    /// so the drive's own lag does not leave the vehicle creeping. No
+    /// integrator: one wound up while braking would drive the vehicle the
+    /// other way once stopped. Nothing once the speed has been at or below
+    /// `limits.rest_mps` or the braking has lasted `limits.max_s` (a speed
+    /// measurement biased off zero must not keep it creeping), until driven
+    /// again; nothing without a measurement; never a push the way it is
+    /// moving.
+    pub fn brake(
+        &mut self,
+        config: &SpeedControlConfig,
+        measured_mps: Option<f64>,
+        limits: &BrakeLimits,
+        dt_s: f64,
+    ) -> f64 {
+        self.braking_s += dt_s.max(0.0);
+        if self.braking_s > limits.max_s {
+            self.braked = true;
+        }
+        self.pid.reset();
+        self.limited_mps = 0.0;
+        self.last_terms = PidTerms::default();
+        self.last_feed_forward = 0.0;
+        match measured_mps {
+            Some(v) if !self.braked && v.abs() > limits.rest_mps => {
+                let throttle = (-config.gains.kp * v).clamp(-1.0, 1.0);
+                // Braking opposes the motion; a NaN gain gives nothing.
+                if throttle * v < 0.0 { throttle } else { 0.0 }
+            }
+            Some(_) => {
+                self.braked = true;
+                0.0
+            }
+            None => 0.0,
+        }
     }
 }
 
@@ -111,6 +167,41 @@ mod tests {
             c.update(&config(), 2.0, Some(0.0), 0.02);
         }
         assert!((c.limited_demand_mps() - 1.0).abs() < 1e-9, "1 m/s² for 1 s");
+    }
+
+    #[test]
+    fn braking_opposes_the_motion_until_at_rest() {
+        let mut c = SpeedController::default();
+        c.reset(1.0);
+        c.update(&config(), 1.0, Some(1.0), 0.02);
+        // P 0.2 throttle per m/s against the speed measured.
+        let limits = BrakeLimits {
+            rest_mps: 0.02,
+            max_s: 3.0,
+        };
+        assert!((c.brake(&config(), Some(1.0), &limits, 0.02) + 0.2).abs() < 1e-12);
+        assert!((c.brake(&config(), Some(-0.5), &limits, 0.02) - 0.1).abs() < 1e-12);
+        assert_eq!(c.brake(&config(), None, &limits, 0.02), 0.0);
+        assert_eq!(c.brake(&config(), Some(0.015), &limits, 0.02), 0.0);
+        // At rest once, speed noise does not start it braking again.
+        assert_eq!(c.brake(&config(), Some(0.04), &limits, 0.02), 0.0);
+        // Nothing is left to drive on with afterwards.
+        assert_eq!(c.limited_demand_mps(), 0.0);
+        assert!(c.update(&config(), 0.0, Some(0.0), 0.02).abs() < 1e-12);
+    }
+
+    #[test]
+    fn braking_ends_after_its_time_whatever_the_measurement() {
+        let limits = BrakeLimits {
+            rest_mps: 0.005,
+            max_s: 1.0,
+        };
+        let mut c = SpeedController::default();
+        c.reset(0.0);
+        // A measurement stuck at 1 cm/s: braked against for 1 s, then not.
+        let throttles: Vec<f64> = (0..60).map(|_| c.brake(&config(), Some(0.01), &limits, 0.02)).collect();
+        assert!(throttles[..45].iter().all(|&t| t < 0.0), "{throttles:?}");
+        assert!(throttles[55..].iter().all(|&t| t == 0.0), "{throttles:?}");
     }
 
     #[test]

@@ -7,7 +7,7 @@ use super::Core;
 use crate::control::ackermann::{AckermannGeometry, curvature_from_steer, differential_wheel_speeds};
 use crate::control::mixer::{self, DriveTrain, WheelOutputs};
 use crate::control::pid::PidGains;
-use crate::control::speed::SpeedControlConfig;
+use crate::control::speed::{BrakeLimits, SpeedControlConfig};
 use crate::guidance::navigator::{NavConfig, NavDemand, StopTolerance};
 use crate::guidance::speed::SpeedConfig;
 use crate::guidance::tracker::{Direction, TrackerConfig};
@@ -15,6 +15,12 @@ use crate::modes::Mode;
 use crate::obstacles::policy::Verdict;
 
 const GRAVITY_MPS2: f64 = 9.80665;
+/// Braking for an obstacle ends at this speed, or after this long (from
+/// 2 m/s the drive stops within about 1.5 s).
+const BRAKE_LIMITS: BrakeLimits = BrakeLimits {
+    rest_mps: 0.005,
+    max_s: 3.0,
+};
 
 /// The normalised commands of the last tick and what went to the actuators.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,7 +51,12 @@ impl DriveState {
 /// What the mode asks of the drive train this tick.
 pub(super) enum Demand {
     Stop,
-    Manual { steering: f64, throttle: f64 },
+    /// An obstacle stop: brake to rest on the path being driven.
+    Brake,
+    Manual {
+        steering: f64,
+        throttle: f64,
+    },
     Navigate(NavDemand),
 }
 
@@ -179,6 +190,11 @@ impl Core {
                 self.speed_control.reset(0.0);
                 (0.0, 0.0)
             }
+            Demand::Brake => {
+                let config = self.speed_control_config();
+                let throttle = self.speed_control.brake(&config, measured, &BRAKE_LIMITS, dt_s);
+                (self.braking_steering(), throttle)
+            }
             Demand::Manual { steering, throttle } => {
                 self.speed_control.reset(measured.unwrap_or(0.0));
                 (steering, throttle)
@@ -213,6 +229,18 @@ impl Core {
             actuators: mixer::mix(self.drive_train, steering, throttle),
             wheels,
         };
+    }
+
+    /// Steering while braking for an obstacle: an Ackermann vehicle keeps
+    /// its wheels where they are, so it stops on the arc it was driving (the
+    /// path the obstacle checks swept), not on a straightening one. A
+    /// differential vehicle's steering is a wheel-speed difference, which
+    /// would turn it ever tighter as it slows: it brakes straight.
+    fn braking_steering(&self) -> f64 {
+        match self.drive_train {
+            DriveTrain::Ackermann => self.drive.steering,
+            DriveTrain::Differential => 0.0,
+        }
     }
 
     /// Normalised steering for a steering-angle demand. Skid steering turns

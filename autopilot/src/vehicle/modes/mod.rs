@@ -47,9 +47,9 @@ impl Core {
             Mode::Manual => self.manual_demand(),
             Mode::Guided | Mode::Rtl | Mode::Auto if obstacle_stop => {
                 self.maybe_plan_detour(true);
-                Demand::Stop
+                Demand::Brake
             }
-            Mode::Magnetic if obstacle_stop => Demand::Stop,
+            Mode::Magnetic if obstacle_stop => Demand::Brake,
             Mode::Guided | Mode::Rtl | Mode::Auto => self.navigate_demand(dt_s),
             Mode::Magnetic => self.magnetic_demand(dt_s).map_or(Demand::Stop, Demand::Navigate),
             // HOLD, and the modes Furrow refuses: stand still.
