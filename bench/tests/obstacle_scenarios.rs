@@ -101,13 +101,13 @@ fn person_beside_the_arc_is_passed() {
 }
 
 #[test]
-#[ignore = "a standing person's second track, born beside a coasting one, gets a birth velocity of 0.7 m/s within 0.2 s and is stopped for at 2 m/s (1-2 false stops)"]
+#[ignore = "at 2 m/s the standing person's track shrinks to a sliver (radius 0.04 m) as it leaves the scanner's field of view beside the body, its velocity is spoilt (~0.7 m/s) and a second track is born beside the coasting one and stopped for (1-2 false stops); treating a cluster cut by the field edge as occluded fixed it but hid slow walkers starting beside the body (collisions), so it was not kept"]
 fn person_beside_the_arc_entry_is_passed() {
     check(|f| *f == Family::BesideEntry);
 }
 
 #[test]
-#[ignore = "a standing person's second track, born beside a coasting one, gets a birth velocity of 0.7 m/s within 0.2 s and is stopped for at 2 m/s (1-2 false stops)"]
+#[ignore = "at 2 m/s the standing person's track shrinks to a sliver (radius 0.04 m) as it leaves the scanner's field of view beside the body, its velocity is spoilt (~0.7 m/s) and a second track is born beside the coasting one and stopped for (1-2 false stops); treating a cluster cut by the field edge as occluded fixed it but hid slow walkers starting beside the body (collisions), so it was not kept"]
 fn person_beside_the_arc_exit_is_passed() {
     check(|f| *f == Family::BesideExit);
 }
@@ -118,7 +118,7 @@ fn person_under_the_overhang_swing() {
 }
 
 #[test]
-#[ignore = "at 2 m/s in reverse the walker's estimated heading brings it within OA_MARGIN at the 3 s horizon where its true line passes 0.40-0.44 m clear (2 false stops)"]
+#[ignore = "at 2 m/s in reverse the walker's track velocity wobbles by about ±0.3 m/s about its true 1.0 m/s (σv 0.4 m/s): the heading it gives brings the walker within OA_MARGIN at 2.9 s of the 3 s horizon where its true line passes 0.37-0.43 m clear of the swept outline (2 false stops)"]
 fn person_walking_across_the_arc() {
     check(|f| *f == Family::CrossingArc);
 }
@@ -169,19 +169,17 @@ fn posts_outside_an_arc() {
 }
 
 #[test]
-#[ignore = "a parked car OA_MARGIN (0.3 m) beside is not always stopped for (seed 1: 5 of 8 beside a straight lane, 0 of 8 inside an arc): a car is too long to be tracked, and the fields reach only OA_FIELD_SIDE (0.15 m) beside the outline"]
 fn parked_cars_beside_a_straight_lane() {
     neighbours(Object::ParkedCar, Where::Straight);
 }
 
 #[test]
-#[ignore = "a parked car OA_MARGIN (0.3 m) beside is not always stopped for (seed 1: 5 of 8 beside a straight lane, 0 of 8 inside an arc): a car is too long to be tracked, and the fields reach only OA_FIELD_SIDE (0.15 m) beside the outline"]
+#[ignore = "a parked car OA_MARGIN (0.3 m) inside the arc is not stopped for forwards at 1.0 m/s, left and right (2 of the 8 runs of each seed; no collision, no false stop): structure's returns are kept OA_MARGIN from the swept outline by the protective field, which reaches only the stopping distance, and a return counts only once the outline will be 5 cm nearer it than now; probably the car's face beside the inner side never closes in that much within the 1 m/s field (not yet traced)"]
 fn parked_cars_inside_an_arc() {
     neighbours(Object::ParkedCar, Where::ArcInside);
 }
 
 #[test]
-#[ignore = "a parked car OA_MARGIN (0.3 m) beside is not always stopped for (seed 1: 5 of 8 beside a straight lane, 0 of 8 inside an arc): a car is too long to be tracked, and the fields reach only OA_FIELD_SIDE (0.15 m) beside the outline"]
 fn parked_cars_outside_an_arc() {
     neighbours(Object::ParkedCar, Where::ArcOutside);
 }

@@ -602,6 +602,19 @@ impl Navigator {
         self.leg.as_ref().map(|l| &l.target)
     }
 
+    /// The cruise speed of the current leg before any speed limit or boost:
+    /// its target's (or the default), capped on a manoeuvre.
+    pub fn leg_cruise_mps(&self, config: &NavConfig) -> Option<f64> {
+        self.target().map(|target| {
+            let cruise = target.speed_mps.unwrap_or(config.speed.cruise_mps);
+            if self.manoeuvre.is_some() {
+                cruise.min(config.manoeuvre_speed_mps)
+            } else {
+                cruise
+            }
+        })
+    }
+
     /// Where the current leg starts.
     pub fn leg_start(&self) -> Option<Ned> {
         self.leg.as_ref().map(|l| l.from)

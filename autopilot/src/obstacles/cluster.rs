@@ -163,6 +163,9 @@ pub struct Cluster {
     /// Estimated radius of the object, m.
     pub radius_m: f64,
     pub points: usize,
+    /// Index of its first return in the points it was grouped from (its
+    /// returns are the `points` from there on).
+    pub first_point: usize,
     /// Range and bearing (local frame, clockwise from north) of the centroid
     /// from the scanner.
     pub range_m: f64,
@@ -203,6 +206,7 @@ pub fn cluster_points(points: &[ScanPoint], config: &ClusterConfig, fit: &mut Fi
         if i == points.len() || splits(&points[i - 1], &points[i], config) {
             let before = start.checked_sub(1).and_then(|j| points.get(j));
             if let Some(mut cluster) = make_cluster(&points[start..i], config, fit) {
+                cluster.first_point = start;
                 cluster.occluded = hides(before, &points[start]) || hides(points.get(i), &points[i - 1]);
                 out.push(cluster);
             }
@@ -316,6 +320,7 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig, fit: &mut FitScrat
         extent_m,
         radius_m,
         points: points.len(),
+        first_point: 0,
         range_m: sensor.distance_to(&centroid),
         bearing_rad: sensor.bearing_to(&centroid),
         is_structure,

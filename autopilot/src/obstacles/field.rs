@@ -140,16 +140,16 @@ pub fn check_field(
 }
 
 /// Both field sets (sized for two speeds along the same path, e.g. now
-/// and at the resume speed) for local-frame returns, in one pass.
+/// and at the resume speed) for local-frame returns, each with the lateral
+/// margin the fields keep from it, in one pass.
 pub fn check_swept_fields(
     sets: [&Fields; 2],
     swept: &SweptPath,
-    lateral_margin_m: f64,
-    points: impl IntoIterator<Item = Ned>,
+    points: impl IntoIterator<Item = (Ned, f64)>,
 ) -> [FieldStatus; 2] {
     let mut status = [FieldStatus::default(); 2];
     let reach_m = sets[0].warning_length_m.max(sets[1].warning_length_m);
-    for p in points {
+    for (p, lateral_margin_m) in points {
         let Some(along_m) = swept.point_entry_m(p, lateral_margin_m, reach_m) else {
             continue;
         };

@@ -166,12 +166,14 @@ impl Core {
                 f64::from(self.p.nav.wp_speed_mps.get(&self.params)),
             ),
             Some(target) => {
-                let cruise = self.nav_config().speed.cruise_mps;
-                (
-                    active && !self.navigator.stopping(),
-                    target.direction,
-                    target.speed_mps.unwrap_or(cruise),
-                )
+                // A manoeuvre's strokes are driven at its capped speed, not
+                // the mission's: a start or resume is predicted at that.
+                let nav_config = self.nav_config();
+                let cruise = self
+                    .navigator
+                    .leg_cruise_mps(&nav_config)
+                    .unwrap_or(nav_config.speed.cruise_mps);
+                (active && !self.navigator.stopping(), target.direction, cruise)
             }
             None => (false, Direction::Forward, 0.0),
         };

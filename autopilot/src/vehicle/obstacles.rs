@@ -79,6 +79,9 @@ struct ScannerView {
     body_points: Vec<(f64, f64)>,
     /// The same returns in the local frame (detour planning).
     local_points: Vec<Ned>,
+    /// Whether each return belongs to structure (walls, parked cars: too
+    /// big or too straight to track), which only the fields see.
+    structure: Vec<bool>,
     /// Which OBSTACLE_DISTANCE sectors the scan's beams cover.
     covered: [bool; SECTORS],
 }
@@ -89,6 +92,7 @@ impl Default for ScannerView {
             t: None,
             body_points: Vec::new(),
             local_points: Vec::new(),
+            structure: Vec::new(),
             covered: [false; SECTORS],
         }
     }
@@ -312,6 +316,8 @@ impl Core {
             view.t = Some(input.scan.t);
             view.body_points.clear();
             view.local_points.clear();
+            view.structure.clear();
+            view.structure.resize(obs.points.len(), false);
             // Room for every beam: the buffers never grow as more echo.
             view.body_points.reserve(input.scan.ranges_m.len());
             view.local_points.reserve(input.scan.ranges_m.len());
@@ -322,6 +328,7 @@ impl Core {
             view.covered = covered_sectors(&input.scan, mount.yaw_rad);
             if located {
                 cluster_points(&obs.points, &cluster_config, &mut obs.fit_scratch, &mut obs.clusters);
+                mark_structure(&obs.clusters, &mut view.structure);
                 obs.tracker.update(input.scan.t, sensor, &obs.clusters, &tracking);
             }
         }
@@ -437,18 +444,23 @@ impl Core {
         field_config: &FieldConfig,
     ) -> [FieldStatus; 2] {
         let fresh_after = VIEW_TIMEOUT;
+        let side_m = field_config.lateral_margin_m;
+        // Structure is never tracked, so no prediction keeps OA_MARGIN from
+        // it: the fields do, for its returns (a parked car at the margin
+        // beside the lane is in the way).
+        let structure_side_m = side_m.max(f64::from(self.p.obstacles.avoidance.margin_m.get(&self.params)));
         let fresh_points = self
             .obstacles
             .views
             .iter()
             .filter(|v| v.t.is_some_and(|t| self.now.boot.saturating_sub(t) <= fresh_after))
-            .flat_map(|v| v.local_points.iter().copied());
-        check_swept_fields(
-            [here_fields, resume_fields],
-            &self.obstacles.swept,
-            field_config.lateral_margin_m,
-            fresh_points,
-        )
+            .flat_map(|v| {
+                v.local_points.iter().enumerate().map(move |(i, p)| {
+                    let structure = v.structure.get(i).copied().unwrap_or(false);
+                    (*p, if structure { structure_side_m } else { side_m })
+                })
+            });
+        check_swept_fields([here_fields, resume_fields], &self.obstacles.swept, fresh_points)
     }
 
     /// Announces the policy's events and reports its state; its verdict.
@@ -1137,6 +1149,17 @@ impl ViewChange {
 /// is the width across their motion or their depth, the larger for a
 /// person); anything else keeps the outline fitted to its returns (faces,
 /// not a disc of half its extent).
+/// Marks the returns of structure clusters (cleared by the caller, one
+/// flag per return the clusters were grouped from).
+fn mark_structure(clusters: &[Cluster], structure: &mut [bool]) {
+    for cluster in clusters.iter().filter(|c| c.is_structure) {
+        let end = (cluster.first_point + cluster.points).min(structure.len());
+        for flag in structure.iter_mut().take(end).skip(cluster.first_point) {
+            *flag = true;
+        }
+    }
+}
+
 fn track_shape(track: &Track, walking: bool) -> Shape<'_> {
     match &track.outline {
         Some(outline) if !walking => Shape::Polygon {
