@@ -8,6 +8,8 @@
 //!
 //! Pure; no clock.
 
+use std::cmp::Ordering;
+
 use vda5050::common::Trajectory;
 
 /// Beyond these the factsheet's protocol limits refuse a trajectory.
@@ -59,10 +61,11 @@ impl Nurbs {
                 points.len() + degree + 1
             ));
         }
-        if let Some(i) = knots.windows(2).position(|w| !(w[0] <= w[1])) {
+        let in_order = |a: f64, b: f64| a.partial_cmp(&b).is_some_and(|o| o != Ordering::Greater);
+        if let Some(i) = knots.windows(2).position(|w| !in_order(w[0], w[1])) {
             return Err(format!("knotVector decreases at index {}", i + 1));
         }
-        if !(knots[degree] < knots[points.len()]) {
+        if knots[degree].partial_cmp(&knots[points.len()]) != Some(Ordering::Less) {
             return Err("knotVector leaves the curve no domain".into());
         }
         let mut weighted = Vec::with_capacity(points.len());
@@ -114,9 +117,8 @@ impl Nurbs {
                 let left = self.knots[j + k - p];
                 let right = self.knots[j + 1 + k - r];
                 let alpha = if right > left { (u - left) / (right - left) } else { 0.0 };
-                for c in 0..3 {
-                    d[j][c] = (1.0 - alpha) * d[j - 1][c] + alpha * d[j][c];
-                }
+                let (before, here) = (d[j - 1], d[j]);
+                d[j] = std::array::from_fn(|c| (1.0 - alpha) * before[c] + alpha * here[c]);
             }
         }
         let [x, y, w] = d[p];
