@@ -124,6 +124,9 @@ struct SitlArgs {
     /// VDA 5050 map id: orders on another map are refused.
     #[arg(long, default_value = "local", requires = "vda5050")]
     map_id: String,
+    /// VDA 5050 map frame origin LAT,LON (degrees): the plant grid (GEO_FRAME, GEO_MAP_*) about this point, so every vehicle with the same one shares map coordinates (default: --home).
+    #[arg(long, value_name = "LAT,LON", value_parser = parse_map_origin, requires = "vda5050")]
+    map_origin: Option<(f64, f64)>,
     /// Run N vehicles in this process sharing one world (each sees the others with its scanners): instances I…I+N−1, data in DATA_DIR/vehicle-i, VDA 5050 serial SERIAL-i.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=250))]
     fleet: Option<u16>,
@@ -195,6 +198,20 @@ fn parse_home(s: &str) -> Result<Home, String> {
     })
 }
 
+fn parse_map_origin(s: &str) -> Result<(f64, f64), String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let [lat, lon] = parts[..] else {
+        return Err(format!("{s:?}: expected LAT,LON"));
+    };
+    let number = |name: &str, text: &str, limit: f64| {
+        text.parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite() && x.abs() <= limit)
+            .ok_or_else(|| format!("{s:?}: {name} {text:?} is not a number within ±{limit}"))
+    };
+    Ok((number("LAT", lat, 90.0)?, number("LON", lon, 180.0)?))
+}
+
 fn parse_endpoint(s: &str) -> Result<Endpoint, String> {
     s.parse()
 }
@@ -243,8 +260,19 @@ fn vda5050_options(args: &SitlArgs) -> Result<Option<(MqttConfig, AgentConfig)>,
         };
         format!("{flag}: {e}")
     })?;
+    // A simulated fleet shares --home: its map frame is about it unless
+    // told otherwise, so every vehicle gives the same map coordinates.
+    let map_origin = match args.map_origin {
+        Some((lat_deg, lon_deg)) => GeoPoint {
+            lat_deg,
+            lon_deg,
+            alt_m: args.home.point.alt_m,
+        },
+        None => args.home.point,
+    };
     let agent = AgentConfig {
         map_id: args.map_id.clone(),
+        map_origin: Some(map_origin),
         ..AgentConfig::default()
     };
     Ok(Some((mqtt, agent)))

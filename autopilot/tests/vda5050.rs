@@ -494,3 +494,53 @@ fn a_flight_termination_stops_and_holds_the_vehicle_as_a_remote_estop_until_clea
     let done = f.run_until(60.0, |f| f.idle() && f.last().last_node_id == "b");
     assert!(done, "the order did not go on: {:?}", f.h.texts());
 }
+
+/// a → b → c with b → c a quarter circle of radius 8 about (8, 8) (a
+/// rational quadratic), entered heading north as a → b leaves: the vehicle
+/// drives on the circle and stops at c.
+#[test]
+fn a_nurbs_trajectory_is_followed_through_the_navigator() {
+    let mut f = Fleet::new();
+    let nodes = [
+        N("a", 0.0, 0.0, true, None),
+        N("b", 0.0, 8.0, true, None),
+        N("c", 8.0, 16.0, true, None),
+    ];
+    let (x0, y0) = f.origin;
+    let mut value = order("job10", 0, 0, &nodes, &[]);
+    for node in value["nodes"].as_array_mut().unwrap() {
+        let position = &mut node["nodePosition"];
+        position["x"] = json!(position["x"].as_f64().unwrap() + x0);
+        position["y"] = json!(position["y"].as_f64().unwrap() + y0);
+    }
+    value["edges"][1]["trajectory"] = json!({
+        "degree": 2, "knotVector": [0, 0, 0, 1, 1, 1],
+        "controlPoints": [
+            {"x": x0, "y": y0 + 8.0},
+            {"x": x0, "y": y0 + 16.0, "weight": std::f64::consts::FRAC_1_SQRT_2},
+            {"x": x0 + 8.0, "y": y0 + 16.0},
+        ],
+    });
+    f.send(Topic::Order, &value);
+    let (mut worst_m, mut samples) = (0f64, 0);
+    let done = f.run_until(120.0, |f| f.idle() && f.last().last_node_id == "c");
+    assert!(done, "{:?}\n{:?}", f.states.last(), f.h.texts());
+    // The states' positions on the curve (1 Hz while driving, and on every
+    // change): their distance from the circle.
+    for s in &f.states {
+        let Some(p) = &s.agv_position else { continue };
+        let (x, y) = (p.x - x0, p.y - y0);
+        if x > 0.3 && y > 8.3 && x < 7.7 {
+            worst_m = worst_m.max(((x - 8.0).hypot(y - 8.0) - 8.0).abs());
+            samples += 1;
+        }
+    }
+    let (tx, ty) = f.truth_xy();
+    println!(
+        "trajectory: {samples} positions on the curve, worst {worst_m:.3} m off it; stopped at ({tx:.3}, {ty:.3})"
+    );
+    assert!(samples >= 3, "it did not drive the curve");
+    assert!(worst_m < 0.3, "{worst_m:.3} m off the curve");
+    assert!((tx - 8.0).hypot(ty - 16.0) < 0.3, "stopped at ({tx:.3}, {ty:.3})");
+    assert!(f.last().errors.is_empty(), "{:?}", f.last().errors);
+}

@@ -5,6 +5,7 @@
 //! a finding, like a panic, and libFuzzer saves the input that caused it.
 
 pub mod flight;
+pub mod order;
 
 use std::time::Duration;
 

@@ -136,6 +136,9 @@ def test_two_vehicles_meeting_head_on_in_a_corridor_both_stop_short_of_each_othe
         control.wait("fresh states", lambda c: all(c.localised(s) for s in serials), 5)
         starts = {s: (control.last(s)["agvPosition"]["x"], control.last(s)["agvPosition"]["y"]) for s in serials}
         # Map y is north: each is sent 40 m on, to where the other stands.
+        # The shared map frame: each reports where its home put it.
+        for serial, home in zip(serials, ((0.0, 0.0), (0.0, 40.0))):
+            assert abs(starts[serial][0] - home[0]) < 0.1 and abs(starts[serial][1] - home[1]) < 0.1, starts
         for serial, north in zip(serials, (40.0, -40.0)):
             x, y = starts[serial]
             control.order(serial, f"through-{serial}", (x, y), (x, y + north))
@@ -149,9 +152,9 @@ def test_two_vehicles_meeting_head_on_in_a_corridor_both_stop_short_of_each_othe
         control.wait("still stopped", both_stopped, 5)
         y = {s: control.last(s)["agvPosition"]["y"] for s in serials}
         travelled = {"F-0": y["F-0"] - starts["F-0"][1], "F-1": starts["F-1"][1] - y["F-1"]}
-        # Each vehicle's map frame is about its own first fix (no plant grid
-        # configured), so the gap comes from how far each drove.
-        gap = (40.0 - travelled["F-0"] - travelled["F-1"]) - 2 * NOSE_M
+        # One map frame for the fleet (about --home): the gap is where they
+        # say they are.
+        gap = (y["F-1"] - y["F-0"]) - 2 * NOSE_M
         print(f"travelled {travelled}, gap between noses {gap:.2f} m")
         assert all(d > 3.0 for d in travelled.values()), f"both drove: {travelled}"
         assert 0.1 < gap < 5.0, f"stopped {gap:.2f} m apart"

@@ -6,14 +6,20 @@
 //! Pure: payloads in, messages out, times given (docs/architecture.md §The
 //! pure core and its edges).
 
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
 use vda5050::common::Action;
 use vda5050::order::{Edge, Node, OrientationType};
 use vda5050::state::{ActionStatus, EStop, Error, Load, OperatingMode};
 use vda5050::{Order, Topic, parse_instant_actions, parse_order};
 
+use crate::geo::GeoPoint;
+
 use super::actions::{ActionMapping, ActionOutput, ActionRunner, Scope, mapping};
 use super::map::MapPose;
 use super::order::{OrderBook, OrderContext, Verdict, error};
+use super::trajectory::Nurbs;
 
 /// How the agent is set up.
 #[derive(Clone, Debug, PartialEq)]
@@ -22,6 +28,10 @@ pub struct AgentConfig {
     /// reported ENABLED in the state's `maps`.
     pub map_id: String,
     pub map_version: String,
+    /// Where the map frame's origin is (see [`super::map::MapFrame`]):
+    /// every vehicle of a fleet with the same one shares map coordinates.
+    /// `None`: the map frame is about this vehicle's first fix.
+    pub map_origin: Option<GeoPoint>,
     pub mappings: Vec<ActionMapping>,
     /// `state` at least this often while driving (default 1 s)…
     pub state_interval_driving_s: f64,
@@ -36,6 +46,7 @@ impl Default for AgentConfig {
         AgentConfig {
             map_id: "local".into(),
             map_version: "1".into(),
+            map_origin: None,
             mappings: super::actions::default_mappings(),
             state_interval_driving_s: 1.0,
             state_interval_idle_s: 30.0,
@@ -77,6 +88,9 @@ pub struct Leg {
     /// The node's allowed deviation, the stop tolerance (m, rad).
     pub allowed_deviation_m: Option<f64>,
     pub allowed_deviation_rad: Option<f64>,
+    /// The edge's trajectory as chords (map frame, `from` to `to`), when
+    /// the order gives one; else the straight line.
+    pub path: Option<Arc<[(f64, f64)]>>,
 }
 
 /// What the vehicle should do this tick.
@@ -128,6 +142,9 @@ pub struct Agent {
     last_fingerprint: Option<Fingerprint>,
     /// Bumped on every change of the order's progress.
     order_generation: u64,
+    /// The chords of the held edges' trajectories, by edge sequenceId
+    /// (cut once, when the edge comes).
+    paths: BTreeMap<u32, Arc<[(f64, f64)]>>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -175,6 +192,7 @@ impl Agent {
             last_visualization_wall_s: None,
             last_fingerprint: None,
             order_generation: 0,
+            paths: BTreeMap::new(),
         }
     }
 
@@ -274,12 +292,18 @@ impl Agent {
             node_sequence_id: node.sequence_id,
             from,
             to,
-            next: drive_through.and_then(|(_, n)| map_xy(n)),
+            // Round the corner onto the next edge's first chord when it
+            // follows a trajectory, else towards its end node.
+            next: drive_through.and_then(|(e, n)| {
+                let first_chord_end = self.paths.get(&e.sequence_id).and_then(|p| p.get(1).copied());
+                first_chord_end.or_else(|| map_xy(n))
+            }),
             reverse,
             max_speed_mps: edge.max_speed,
             stop: drive_through.is_none(),
             allowed_deviation_m: position.and_then(|p| p.allowed_deviation_x_y).filter(|d| *d > 0.0),
             allowed_deviation_rad: position.and_then(|p| p.allowed_deviation_theta).filter(|d| *d > 0.0),
+            path: self.paths.get(&edge.sequence_id).cloned(),
         })
     }
 
@@ -289,6 +313,7 @@ impl Agent {
         };
         if let Some(edge) = edge {
             self.actions.leave_edge(edge.sequence_id);
+            self.paths.remove(&edge.sequence_id);
         }
         self.actions.trigger(Scope::Node(node.sequence_id));
         if let Some(next) = self.order.edges.first().filter(|e| e.released) {
@@ -342,6 +367,7 @@ impl Agent {
             return;
         };
         self.errors.clear();
+        self.cut_trajectories(new_order);
         if new_order {
             self.actions.forget_done();
             self.paused = false;
@@ -360,6 +386,30 @@ impl Agent {
             self.add_order_actions(kept);
         }
         self.events.push(OrderEvent::Accepted { new_order });
+    }
+
+    /// The chords of every held edge's trajectory not cut yet (an update's
+    /// edges replace the horizon's, so those are cut again).
+    fn cut_trajectories(&mut self, new_order: bool) {
+        if new_order {
+            self.paths.clear();
+        }
+        let held: Vec<u32> = self.order.edges.iter().map(|e| e.sequence_id).collect();
+        self.paths.retain(|seq, _| held.contains(seq));
+        for edge in &self.order.edges {
+            let Some(trajectory) = &edge.trajectory else {
+                self.paths.remove(&edge.sequence_id);
+                continue;
+            };
+            if edge.released && self.paths.contains_key(&edge.sequence_id) {
+                continue;
+            }
+            // Checked when the order was accepted.
+            if let Ok(curve) = Nurbs::new(trajectory) {
+                let chords = curve.chords(super::trajectory::CHORD_TOLERANCE_M);
+                self.paths.insert(edge.sequence_id, chords.into());
+            }
+        }
     }
 
     /// Adds the actions of the nodes from index `from` on, and of their edges.
@@ -423,6 +473,7 @@ impl Agent {
             return;
         }
         self.order.cancel();
+        self.paths.clear();
         self.actions.cancel_all();
         self.actions.add_done(action, ActionStatus::Running, "stopping".into());
         self.cancelling = Some(action.action_id.clone());

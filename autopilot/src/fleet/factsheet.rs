@@ -5,6 +5,7 @@ use vda5050::factsheet::*;
 use vda5050::{Factsheet, Header};
 
 use super::agent::{AgentConfig, INSTANT_ACTIONS};
+use super::trajectory::{MAX_CONTROL_POINTS, MAX_DEGREE};
 
 /// The vehicle as its parameters describe it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -56,7 +57,11 @@ pub fn build_factsheet(vehicle: &VehicleDescription, config: &AgentConfig) -> Fa
                 msg_len: Some(MAX_MESSAGE_BYTES),
                 ..MaxStringLens::default()
             },
-            max_array_lens: MaxArrayLens::default(),
+            max_array_lens: MaxArrayLens {
+                trajectory_knot_vector: Some((MAX_CONTROL_POINTS + MAX_DEGREE as usize + 1) as u32),
+                trajectory_control_points: Some(MAX_CONTROL_POINTS as u32),
+                ..MaxArrayLens::default()
+            },
             timing: Timing {
                 min_order_interval: 0.0,
                 min_state_interval: 0.0,
@@ -113,6 +118,10 @@ fn optional_parameters() -> Vec<OptionalParameter> {
         ),
         supported("order.edges.maxSpeed", "caps the cruise speed on the edge"),
         supported("order.edges.orientation", "TANGENTIAL π drives the edge in reverse"),
+        supported(
+            "order.edges.trajectory",
+            "a NURBS of degree 1 to 10 is followed, as chords within 1 cm of it",
+        ),
     ]
 }
 

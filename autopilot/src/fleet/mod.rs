@@ -9,6 +9,7 @@
 //! - [`state`]: the `state` and `visualization` messages;
 //! - [`factsheet`]: the `factsheet` from the vehicle's parameters;
 //! - [`loads`]: the loads on the vehicle, from its pick and drop actions;
+//! - [`trajectory`]: an edge's NURBS, checked and cut into chords;
 //! - [`publish`]: headers stamped and topics, QoS and retain for each.
 //!
 //! All of it is pure; the core steps the agent (`vehicle/fleet.rs`) and the
@@ -22,6 +23,7 @@ pub mod map;
 pub mod order;
 pub mod publish;
 pub mod state;
+pub mod trajectory;
 
 pub use agent::{Agent, AgentConfig, Command, Leg, OrderEvent, Publish, VehicleView};
 pub use state::VehicleReport;

@@ -5,8 +5,11 @@
 //! Pure: no clock is needed, the caller says where the vehicle is.
 
 use vda5050::Order;
+use vda5050::common::Trajectory;
 use vda5050::order::{Edge, Node};
 use vda5050::state::{Error, ErrorLevel, ErrorReference};
+
+use super::trajectory::Nurbs;
 
 /// A new order's first node counts as reached within this distance when it
 /// gives no `allowedDeviationXY` of its own (m).
@@ -343,16 +346,56 @@ fn check_capabilities(order: &Order, ctx: &OrderContext) -> Result<(), Error> {
             return Err(error("orderError", text, refs));
         }
     }
-    for edge in &order.edges {
-        // A corridor and rotationAllowed only permit: staying on the edge's
-        // line obeys them. A trajectory would be ignored, so it is refused.
-        if edge.trajectory.is_some() {
-            let field = "trajectory";
-            let text = format!("edge {}: this vehicle cannot use {field}", edge.edge_id);
-            let mut refs = order_refs(order);
-            refs.push(("edgeId", edge.edge_id.clone()));
-            refs.push(("field", field.to_owned()));
-            return Err(error("orderError", text, refs));
+    // A corridor and rotationAllowed only permit: staying on the edge's
+    // line (or its trajectory) obeys them.
+    for (i, edge) in order.edges.iter().enumerate() {
+        if let Some(trajectory) = &edge.trajectory {
+            check_trajectory(order, i, trajectory)?;
+        }
+    }
+    Ok(())
+}
+
+/// A trajectory's ends may be this far from its nodes when the end node
+/// gives no `allowedDeviationXY` of its own (m).
+pub const TRAJECTORY_END_TOLERANCE_M: f64 = 0.1;
+
+/// An edge's NURBS (§6.6.6): well-formed (see [`Nurbs::new`]), from the
+/// edge's start node to its end node.
+fn check_trajectory(order: &Order, index: usize, trajectory: &Trajectory) -> Result<(), Error> {
+    let edge = &order.edges[index];
+    let fail = |text: String| {
+        let mut refs = order_refs(order);
+        refs.push(("edgeId", edge.edge_id.clone()));
+        Err(error(
+            "validationError",
+            format!("edge {} trajectory: {text}", edge.edge_id),
+            refs,
+        ))
+    };
+    let curve = match Nurbs::new(trajectory) {
+        Ok(curve) => curve,
+        Err(text) => return fail(text),
+    };
+    let (lo, hi) = curve.domain();
+    let ends = [
+        (&order.nodes[index], curve.point(lo)),
+        (&order.nodes[index + 1], curve.point(hi)),
+    ];
+    for (node, (x, y)) in ends {
+        let Some(position) = &node.node_position else {
+            continue;
+        };
+        let allowed = position
+            .allowed_deviation_x_y
+            .unwrap_or(0.0)
+            .max(TRAJECTORY_END_TOLERANCE_M);
+        let off = (position.x - x).hypot(position.y - y);
+        if off > allowed {
+            return fail(format!(
+                "it passes {off:.2} m from node {} (allowed {allowed:.2} m)",
+                node.node_id
+            ));
         }
     }
     Ok(())

@@ -88,7 +88,8 @@ pub fn build_state(agent: &Agent, report: &VehicleReport) -> State {
             sequence_id: e.sequence_id,
             edge_description: e.edge_description.clone(),
             released: e.released,
-            trajectory: None,
+            // The curve the vehicle follows is the one it was given.
+            trajectory: e.trajectory.clone(),
         })
         .collect();
     let mut errors = order.errors.clone();

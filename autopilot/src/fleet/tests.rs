@@ -109,7 +109,7 @@ fn malformed_and_invalid_orders_are_rejected_and_the_old_order_is_kept() {
 }
 
 #[test]
-fn unsupported_actions_other_maps_and_far_starts_are_refused_with_their_error_types() {
+fn unsupported_actions_other_maps_far_starts_and_bad_curves_are_refused_with_their_error_types() {
     type Change = fn(&mut Value);
     let cases: [(Change, &str); 4] = [
         (
@@ -122,8 +122,8 @@ fn unsupported_actions_other_maps_and_far_starts_are_refused_with_their_error_ty
         ),
         (|o| o["nodes"][0]["nodePosition"]["x"] = json!(5.0), "noRouteError"),
         (
-            |o| o["edges"][0]["trajectory"] = json!({"degree": 1, "knotVector": [0, 0, 1, 1], "controlPoints": [{"x": 0, "y": 0}, {"x": 10, "y": 0}]}),
-            "orderError",
+            |o| o["edges"][0]["trajectory"] = json!({"degree": 1, "knotVector": [0, 0.5, 0.2, 1], "controlPoints": [{"x": 0, "y": 0}, {"x": 10, "y": 0}]}),
+            "validationError",
         ),
     ];
     for (change, expected) in cases {
@@ -384,5 +384,66 @@ mod fuzzed {
                 prop_assert_eq!(a.order.edges.len(), count - 1);
             }
         }
+    }
+}
+
+/// b → c is a half circle of radius 5 bulging north (two rational
+/// quadratic quarters), a → b a straight NURBS of degree 1.
+fn with_trajectories() -> Value {
+    let mut o = three_nodes();
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    o["edges"][0]["trajectory"] = json!({
+        "degree": 1, "knotVector": [0, 0, 1, 1],
+        "controlPoints": [{"x": 0, "y": 0}, {"x": 10, "y": 0}],
+    });
+    o["edges"][1]["trajectory"] = json!({
+        "degree": 2, "knotVector": [0, 0, 0, 0.5, 0.5, 1, 1, 1],
+        "controlPoints": [
+            {"x": 10, "y": 0}, {"x": 10, "y": 5, "weight": h}, {"x": 15, "y": 5},
+            {"x": 20, "y": 5, "weight": h}, {"x": 20, "y": 0},
+        ],
+    });
+    o
+}
+
+#[test]
+fn a_trajectory_is_driven_as_chords_on_the_curve_and_a_bad_one_is_refused() {
+    let mut a = agent();
+    send(&mut a, Topic::Order, &with_trajectories());
+    let first = leg(&a.step(&view(0.0))).clone();
+    let straight = first.path.as_deref().expect("a trajectory's chords");
+    assert_eq!(straight, [(0.0, 0.0), (10.0, 0.0)]);
+    let mut arrived = view(1.0);
+    arrived.arrived_at = Some(2);
+    let second = leg(&a.step(&arrived)).clone();
+    let arc = second.path.as_deref().expect("a trajectory's chords");
+    assert!(arc.len() > 20, "{} chords for a half circle of 5 m", arc.len());
+    assert_eq!((arc[0], arc[arc.len() - 1]), ((10.0, 0.0), (20.0, 0.0)));
+    for &(x, y) in arc {
+        assert!(
+            ((x - 15.0).hypot(y) - 5.0).abs() < 1e-9 && y >= 0.0,
+            "({x}, {y}) is off the half circle"
+        );
+    }
+    assert_eq!(a.errors.len() + a.order.errors.len(), 0);
+
+    // Ends away from the nodes; a weight of 0.
+    let cases: [fn(&mut Value); 2] = [
+        |o| o["edges"][1]["trajectory"]["controlPoints"][4]["x"] = json!(19.5),
+        |o| o["edges"][1]["trajectory"]["controlPoints"][1]["weight"] = json!(0.0),
+    ];
+    for change in cases {
+        let mut a = agent();
+        let mut o = with_trajectories();
+        change(&mut o);
+        send(&mut a, Topic::Order, &o);
+        assert_eq!(a.step(&view(0.0)), Command::Hold);
+        assert_eq!(error_types(&a), vec!["validationError"]);
+        let refs = a.order.errors[0].error_references.clone().unwrap_or_default();
+        assert!(
+            refs.iter()
+                .any(|r| r.reference_key == "edgeId" && r.reference_value == "e3"),
+            "{refs:?}"
+        );
     }
 }

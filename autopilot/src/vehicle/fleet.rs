@@ -10,7 +10,7 @@ use vda5050::state::OperatingMode;
 use super::{Core, Inputs, Outputs};
 use crate::fleet::actions::ActionOutput;
 use crate::fleet::factsheet::{VehicleDescription, build_factsheet};
-use crate::fleet::map::{local_from_map, map_from_local};
+use crate::fleet::map::{MapFrame, MapPose};
 use crate::fleet::order::error;
 use crate::fleet::state::{build_state, build_visualization};
 use crate::fleet::{Agent, AgentConfig, Command, Leg, OrderEvent, Publish, VehicleView};
@@ -32,9 +32,14 @@ const DRIVING_SPEED_MPS: f64 = 0.03;
 /// The core's fleet state: the agent, and the leg being driven.
 pub(super) struct FleetState {
     agent: Agent,
+    /// Map coordinates ↔ local positions.
+    map: MapFrame,
     command: Command,
     /// The node sequenceId the navigator is driving to.
     leg: Option<u32>,
+    /// Along a trajectory: the chord being driven, and the last one.
+    chord: usize,
+    last_chord: usize,
     /// The stop tolerance of the leg being driven, when the node gives one.
     tolerance: Option<StopTolerance>,
     /// A ground station disarmed the vehicle during the order: a remote
@@ -46,10 +51,15 @@ impl Core {
     /// Makes this vehicle a VDA 5050 AGV: orders and instant actions come in
     /// `Inputs::vda5050`, messages go out in `Outputs::vda5050`.
     pub fn enable_vda5050(&mut self, config: AgentConfig) {
+        let (kind, transform) = self.p.geo.settings(&self.params);
+        let map = MapFrame::new(config.map_origin, kind, transform);
         self.fleet = Some(Box::new(FleetState {
+            map,
             agent: Agent::new(config),
             command: Command::Hold,
             leg: None,
+            chord: 0,
+            last_chord: 0,
             tolerance: None,
             remote_stop: false,
         }));
@@ -92,7 +102,9 @@ impl Core {
         }
     }
 
-    /// Once a tick, after the tasks: the agent's step and what follows.
+    /// Once a tick, before the tasks: the agent's step and what follows.
+    /// The pose is worked out only when an order or an instant action needs
+    /// it, the vehicle's report only when a message goes out.
     pub(super) fn fleet_tick(&mut self, inputs: &Inputs, out: &mut Outputs) {
         let armed = self.armed;
         let Some(fleet) = self.fleet.as_mut() else {
@@ -100,10 +112,7 @@ impl Core {
         };
         fleet.remote_stop &= !armed;
         let remote_stop = fleet.remote_stop;
-        let mut view = self.fleet_view();
-        let report = self.vehicle_report(view.driving, remote_stop);
-        view.e_stop = report.e_stop;
-        let description = self.vehicle_description();
+        let view = self.fleet_view(!inputs.vda5050.is_empty(), remote_stop);
         let Some(fleet) = self.fleet.as_mut() else {
             return;
         };
@@ -113,16 +122,9 @@ impl Core {
         fleet.command = fleet.agent.step(&view);
         let events = fleet.agent.take_events();
         let outputs = fleet.agent.take_outputs();
-        for publish in fleet.agent.take_publish() {
-            out.vda5050.push(match publish {
-                Publish::State => FleetMessage::State(Box::new(build_state(&fleet.agent, &report))),
-                Publish::Visualization => {
-                    FleetMessage::Visualization(Box::new(build_visualization(&fleet.agent, &report)))
-                }
-                Publish::Factsheet => {
-                    FleetMessage::Factsheet(Box::new(build_factsheet(&description, &fleet.agent.config)))
-                }
-            });
+        let publish = fleet.agent.take_publish();
+        if !publish.is_empty() {
+            self.fleet_publish(&publish, view.driving, remote_stop, out);
         }
         for event in events {
             self.fleet_event(event);
@@ -132,23 +134,60 @@ impl Core {
         }
     }
 
-    fn fleet_view(&self) -> VehicleView {
+    fn fleet_publish(&self, publish: &[Publish], driving: bool, remote_stop: bool, out: &mut Outputs) {
+        let Some(fleet) = self.fleet.as_ref() else {
+            return;
+        };
+        let report = self.vehicle_report(driving, remote_stop);
+        for publish in publish {
+            out.vda5050.push(match publish {
+                Publish::State => FleetMessage::State(Box::new(build_state(&fleet.agent, &report))),
+                Publish::Visualization => {
+                    FleetMessage::Visualization(Box::new(build_visualization(&fleet.agent, &report)))
+                }
+                Publish::Factsheet => FleetMessage::Factsheet(Box::new(build_factsheet(
+                    &self.vehicle_description(),
+                    &fleet.agent.config,
+                ))),
+            });
+        }
+    }
+
+    /// The vehicle's pose in the map frame, when it knows where it is.
+    pub(super) fn fleet_pose(&self) -> Option<MapPose> {
         let estimate = self.estimator.estimate();
+        let map = &self.fleet.as_ref()?.map;
+        if !estimate.position_valid {
+            return None;
+        }
+        map.pose(self.estimator.frame(), &estimate.position, estimate.yaw_rad)
+    }
+
+    fn fleet_view(&self, with_pose: bool, remote_stop: bool) -> VehicleView {
         let fleet = self.fleet.as_ref();
-        let leg = fleet.and_then(|f| f.leg);
+        // Along a trajectory, only the last chord's end is the node.
+        let leg = fleet.filter(|f| f.chord == f.last_chord).and_then(|f| f.leg);
         let arrived = self.mode == Mode::Auto && self.navigator.arrived() && !self.obstacles.detouring();
         VehicleView {
             boot_s: self.now.boot.as_secs_f64(),
             wall_s: self.now.wall.as_secs_f64(),
-            pose: estimate
-                .position_valid
-                .then(|| map_from_local(&estimate.position, estimate.yaw_rad)),
+            // Only orders and initPosition look at it.
+            pose: if with_pose { self.fleet_pose() } else { None },
             arrived_at: leg.filter(|_| arrived),
-            driving: self.armed && estimate.speed_mps.abs() > DRIVING_SPEED_MPS,
+            driving: self.fleet_driving(),
             operating_mode: self.operating_mode(),
-            // Set from the report once it is built.
-            e_stop: vda5050::state::EStop::None,
+            e_stop: self.fleet_e_stop(remote_stop),
         }
+    }
+
+    /// Driving or rotating (§6.10.6's `driving`): the drive is commanded to
+    /// move (the motors push from this tick on; the speed estimate lags the
+    /// wheels by a few hundred milliseconds), or the estimate still moves.
+    fn fleet_driving(&self) -> bool {
+        let pivoting =
+            self.drive_train == crate::control::mixer::DriveTrain::Differential && self.drive.steering != 0.0;
+        let commanded = self.drive.throttle != 0.0 || pivoting;
+        self.armed && (commanded || self.estimator.estimate().speed_mps.abs() > DRIVING_SPEED_MPS)
     }
 
     fn vehicle_description(&self) -> VehicleDescription {
@@ -246,8 +285,20 @@ impl Core {
                 if let Some(fleet) = self.fleet.as_mut() {
                     fleet.leg = Some(leg.node_sequence_id);
                     fleet.tolerance = tolerance;
+                    fleet.chord = 0;
+                    fleet.last_chord = leg.path.as_ref().map_or(0, |p| p.len().saturating_sub(2));
                 }
-                self.drive_leg(&leg);
+                self.drive_leg(&leg, 0);
+            }
+            // Along a trajectory: round one chord's corner, onto the next.
+            Command::Drive(leg) if self.navigator.arrived() => {
+                let next = self.fleet.as_mut().filter(|f| f.chord < f.last_chord).map(|f| {
+                    f.chord += 1;
+                    f.chord
+                });
+                if let Some(chord) = next {
+                    self.drive_leg(&leg, chord);
+                }
             }
             _ => {}
         }
@@ -268,21 +319,40 @@ impl Core {
         })
     }
 
-    fn drive_leg(&mut self, leg: &Leg) {
+    /// Drives chord `chord` of the leg's trajectory, or the leg's straight
+    /// line: each chord but the last is driven through, onto the next.
+    fn drive_leg(&mut self, leg: &Leg, chord: usize) {
+        let Some(fleet) = self.fleet.as_ref() else {
+            return;
+        };
+        let frame = self.estimator.frame();
+        let local = |(x, y): (f64, f64)| fleet.map.to_local(frame, x, y);
+        let (from, to, next, stop) = match leg.path.as_deref() {
+            Some(points) if chord + 2 < points.len() => {
+                (points[chord], points[chord + 1], Some(points[chord + 2]), false)
+            }
+            Some(points) if chord + 1 < points.len() => (points[chord], points[chord + 1], leg.next, leg.stop),
+            _ => (leg.from, leg.to, leg.next, leg.stop),
+        };
+        let (Some(from), Some(to)) = (local(from), local(to)) else {
+            // No local frame yet (no fix): nothing to drive along.
+            self.navigator.clear();
+            return;
+        };
+        let next = next.and_then(local);
         let cruise_mps = f64::from(self.p.nav.wp_speed_mps.get(&self.params));
         let target = NavTarget {
-            point: local_from_map(leg.to.0, leg.to.1),
+            point: to,
             speed_mps: leg.max_speed_mps.map(|max| max.min(cruise_mps)),
             direction: if leg.reverse {
                 Direction::Reverse
             } else {
                 Direction::Forward
             },
-            stop: leg.stop,
-            next: leg.next.map(|(x, y)| local_from_map(x, y)),
+            stop,
+            next,
             seq: None,
         };
-        self.navigator
-            .set_target(local_from_map(leg.from.0, leg.from.1), target);
+        self.navigator.set_target(from, target);
     }
 }

@@ -10,7 +10,6 @@ use vda5050::state::{EStop, Error, ErrorLevel, InfoLevel, Information};
 use super::Core;
 use super::failsafe::{Failsafe, FailsafeAction};
 use crate::fleet::VehicleReport;
-use crate::fleet::map::map_from_local;
 use crate::fleet::order::error;
 use crate::obstacles::policy::StopCause;
 
@@ -59,9 +58,7 @@ impl Core {
         let estimate = self.estimator.estimate();
         let obstacle_stop = self.obstacles.status().stop_cause;
         VehicleReport {
-            pose: estimate
-                .position_valid
-                .then(|| map_from_local(&estimate.position, estimate.yaw_rad)),
+            pose: self.fleet_pose(),
             position_initialized: estimate.position_valid && estimate.heading_valid,
             localization_score: localization_score(self.estimator.gnss().quality),
             // 2σ: the standard's range holds the position with ~95 %.
@@ -76,16 +73,21 @@ impl Core {
             errors: self.fleet_errors(),
             information: self.fleet_information(remote_stop),
             field_violation: in_path(obstacle_stop),
-            // Both are cleared only from a ground station (the REMOTE
-            // acknowledgement of the standard's eStop).
-            e_stop: if self.terminated || remote_stop {
-                EStop::Remote
-            } else if in_path(obstacle_stop) {
-                // The stop ends by itself once the path is clear.
-                EStop::AutoAck
-            } else {
-                EStop::None
-            },
+            e_stop: self.fleet_e_stop(remote_stop),
+        }
+    }
+
+    /// The e-stop the state reports: REMOTE while a ground station's
+    /// termination or disarm holds the vehicle (both are cleared only from
+    /// a ground station), AUTOACK while something in the path stops it (the
+    /// stop ends by itself once the path is clear).
+    pub(super) fn fleet_e_stop(&self, remote_stop: bool) -> EStop {
+        if self.terminated || remote_stop {
+            EStop::Remote
+        } else if in_path(self.obstacles.status().stop_cause) {
+            EStop::AutoAck
+        } else {
+            EStop::None
         }
     }
 

@@ -204,7 +204,7 @@ impl Bench<'_> {
         println!("latency, one vehicle at speedup 1, {orders} orders of 3 nodes (wall ms: median / max):");
         println!("  order sent -> state with the order   {}", median_max(&accepted_ms));
         println!(
-            "  order sent -> state with driving     {} (arming, then past 0.03 m/s)",
+            "  order sent -> state with driving     {} (armed, AUTO, the drive commanded)",
             median_max(&moving_ms)
         );
         println!(

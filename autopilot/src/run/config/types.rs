@@ -95,6 +95,16 @@ impl Vda5050Settings {
             self.agent.map_id,
             self.agent.map_version
         )];
+        match self.agent.map_origin {
+            Some(o) => lines.push(format!(
+                "vda5050      map frame: the plant grid about {:.7},{:.7} (shared by every vehicle configured so)",
+                o.lat_deg, o.lon_deg
+            )),
+            None => lines.push(
+                "vda5050      map frame: about this vehicle's first fix (no map_origin: a fleet's vehicles do not share coordinates)"
+                    .to_owned(),
+            ),
+        }
         if self.broker.tls {
             let ca = self
                 .tls

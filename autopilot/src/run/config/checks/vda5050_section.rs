@@ -14,6 +14,7 @@ use crate::edge::mqtt_tls::{TlsFile, TlsFiles, client_config};
 use crate::fleet::AgentConfig;
 use crate::fleet::actions::{ActionMapping, ActionOutput, default_mappings};
 use crate::fleet::agent::INSTANT_ACTIONS;
+use crate::geo::GeoPoint;
 use crate::run::config::error::ConfigError;
 use crate::run::config::types::{SERVO_CHANNELS, Vda5050Settings};
 
@@ -39,6 +40,7 @@ pub(super) struct RawVda5050 {
     serial_number: Spanned<String>,
     map_id: Option<Spanned<String>>,
     map_version: Option<Spanned<String>>,
+    map_origin: Option<Spanned<Vec<f64>>>,
     state_interval_s: Option<Spanned<f64>>,
     state_idle_interval_s: Option<Spanned<f64>>,
     visualization_interval_s: Option<Spanned<f64>>,
@@ -89,6 +91,7 @@ impl Checker<'_> {
         let agent = AgentConfig {
             map_id: text("vda5050.map_id", &raw.map_id, &defaults.map_id)?,
             map_version: text("vda5050.map_version", &raw.map_version, &defaults.map_version)?,
+            map_origin: self.map_origin(&raw.map_origin)?,
             mappings: self.action_mappings(&raw.action)?,
             state_interval_driving_s: interval(
                 "vda5050.state_interval_s",
@@ -117,6 +120,26 @@ impl Checker<'_> {
             prefix,
             agent,
         })
+    }
+
+    /// `map_origin = [LAT, LON]`: the map frame's fixed origin (degrees).
+    fn map_origin(&self, value: &Option<Spanned<Vec<f64>>>) -> Result<Option<GeoPoint>, ConfigError> {
+        let Some(value) = value else {
+            return Ok(None);
+        };
+        let key = "vda5050.map_origin";
+        match value.get_ref()[..] {
+            [lat_deg, lon_deg] if lat_deg.abs() <= 90.0 && lon_deg.abs() <= 180.0 => Ok(Some(GeoPoint {
+                lat_deg,
+                lon_deg,
+                alt_m: 0.0,
+            })),
+            _ => Err(self.error(
+                key,
+                value.span(),
+                "expected [LAT, LON] in degrees, latitude within ±90 and longitude within ±180",
+            )),
+        }
     }
 
     /// The TLS files (relative to the config file), read and checked now.
