@@ -7,7 +7,7 @@ use mission::MissionType;
 use tokio::sync::mpsc::UnboundedReceiver;
 
 use crate::storage::data_dir::DataDir;
-use crate::storage::file_writer::FileWriter;
+use crate::storage::file_writer::{FileWriter, FileWriterThread};
 use crate::storage::missions;
 use crate::storage::session::SessionParams;
 use crate::vehicle::{Core, Inputs, SaveDone, SaveRequest, SaveWhat, Storage};
@@ -40,7 +40,13 @@ pub struct Persistence {
 impl Persistence {
     /// Opens the data directory's storage for `core`: durable when it can
     /// be written, else read-only (the vehicle runs on what it loaded).
-    pub fn start(data_dir: &DataDir, session: SessionParams, core: &mut Core) -> Persistence {
+    /// Its files are written on `writers` (a fleet's vehicles share one).
+    pub fn start(
+        data_dir: &DataDir,
+        session: SessionParams,
+        core: &mut Core,
+        writers: &FileWriterThread,
+    ) -> Persistence {
         match data_dir.read_only() {
             Some(why) => {
                 tracing::error!("data directory {}: {why}; changes refused", data_dir.path().display());
@@ -48,7 +54,7 @@ impl Persistence {
             }
             None => core.set_storage(Storage::Durable),
         }
-        let (writer, done) = FileWriter::start();
+        let (writer, done) = writers.writer();
         Persistence {
             dir: data_dir.path().to_path_buf(),
             session,

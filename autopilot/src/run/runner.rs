@@ -26,6 +26,7 @@ use crate::link::endpoint::Endpoint;
 use crate::link::sockets::{self, LinkEndpoints, LinkSockets};
 use crate::sitl::simulation::ModelKind;
 use crate::storage::data_dir::{DataDir, Profile};
+use crate::storage::file_writer::FileWriterThread;
 use crate::storage::session::SessionParams;
 use crate::telemetry::statustext::statustext;
 use crate::time::Now;
@@ -74,7 +75,7 @@ pub fn run(config_path: &Path) -> Result<(), String> {
         edge = edge.with_vda5050(vda5050.mqtt()?);
         core.enable_vda5050(vda5050.agent.clone());
     }
-    let persistence = Persistence::start(&data_dir, session, &mut core);
+    let persistence = Persistence::start(&data_dir, session, &mut core, &FileWriterThread::start());
     let sockets = LinkSockets::bind(&link_endpoints(&config)).map_err(|e| format!("MAVLink links: {e}"))?;
 
     let devices = Devices::start(&config, edge.origin(), edge.handle())?;

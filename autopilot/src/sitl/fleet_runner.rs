@@ -19,6 +19,7 @@ use crate::edge::mqtt::MqttConfig;
 use crate::edge::runner::{EdgeRunner, LinkServed};
 use crate::edge::shutdown;
 use crate::fleet::AgentConfig;
+use crate::storage::file_writer::FileWriterThread;
 use crate::vehicle::{Core, Inbound, Inputs, Outbound, Outputs};
 
 /// One SYSID_THISMAV each, 1 to 250.
@@ -41,9 +42,12 @@ pub fn run(options: &SitlOptions, fleet: &FleetOptions) -> Result<(), String> {
     let mut members = Vec::with_capacity(count);
     // Each vehicle's data directory stays locked while the fleet runs.
     let mut data_dir_locks = Vec::with_capacity(count);
+    // One thread writes every vehicle's files (a thread per vehicle would
+    // mostly sleep).
+    let writers = FileWriterThread::start();
     for (index, home) in homes.into_iter().enumerate() {
         let slot = slot(options, index, home)?;
-        let prepared = runner::prepare(options, &slot)?;
+        let prepared = runner::prepare(options, &slot, &writers)?;
         println!("furrow sitl ready: vehicle {index}: {}", prepared.ready);
         vehicles.push(prepared.sim);
         data_dir_locks.push(prepared.data_dir);

@@ -15,6 +15,7 @@ use crate::fleet::AgentConfig;
 use crate::link::endpoint::Endpoint;
 use crate::link::sockets::{self, LinkEndpoints, LinkSockets};
 use crate::storage::data_dir::{DataDir, Profile};
+use crate::storage::file_writer::FileWriterThread;
 use crate::storage::session::SessionParams;
 use crate::vehicle::{Core, Inputs, Outputs};
 
@@ -76,7 +77,7 @@ pub fn run(options: SitlOptions) -> Result<(), String> {
         place: None,
         vda5050: options.vda5050.clone(),
     };
-    let prepared = prepare(&options, &slot)?;
+    let prepared = prepare(&options, &slot, &FileWriterThread::start())?;
     let mut edge = EdgeRunner::new()?;
     if let Some((mqtt, _)) = options.vda5050.clone() {
         edge = edge.with_vda5050(mqtt);
@@ -126,9 +127,13 @@ pub(super) struct Prepared {
     pub data_dir: DataDir,
 }
 
-/// The vehicle of `slot`: its data directory opened, its simulation
-/// built, its links bound.
-pub(super) fn prepare(options: &SitlOptions, slot: &VehicleSlot) -> Result<Prepared, String> {
+/// The vehicle of `slot`: its data directory opened (its files written on
+/// `writers`), its simulation built, its links bound.
+pub(super) fn prepare(
+    options: &SitlOptions,
+    slot: &VehicleSlot,
+    writers: &FileWriterThread,
+) -> Result<Prepared, String> {
     let data_dir = DataDir::open(&slot.data_dir, Profile::Sitl(options.sim.model))?;
     let mut params = SimulationParams::new(options.sim.model);
     if let Some(sysid) = slot.sysid {
@@ -155,7 +160,7 @@ pub(super) fn prepare(options: &SitlOptions, slot: &VehicleSlot) -> Result<Prepa
     }
     lay_tape_and_world(options, &mut sim)?;
     persistence::restore(&data_dir, &mut session, sim.core_mut());
-    let persistence = Persistence::start(&data_dir, session, sim.core_mut());
+    let persistence = Persistence::start(&data_dir, session, sim.core_mut(), writers);
 
     let offset = 10 * slot.instance;
     let tcp_port = slot.tcp_port.unwrap_or(5760 + offset);
