@@ -71,6 +71,15 @@ def goto(m, lat, lon):
         0, 0, 0, 0, 0, 0, 0, 0)
 
 
+def reposition(m, lat, lon, yaw_deg=0):
+    """DO_REPOSITION as a COMMAND_INT, switching to GUIDED as QGC's "go
+    here" does; the yaw is the heading to arrive with. Returns its ACK."""
+    m.mav.command_int_send(
+        m.target_system, m.target_component, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_DO_REPOSITION, 0, 0,
+        -1, mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, 0, yaw_deg, int(lat * 1e7), int(lon * 1e7), 0)
+    return recv(m, "COMMAND_ACK", 5, lambda a: a.command == mavlink.MAV_CMD_DO_REPOSITION)
+
+
 def wait_mode(m, name, timeout=10):
     deadline = time.time() + timeout
     while time.time() < deadline:

@@ -5,7 +5,7 @@ import time
 
 import pytest
 from conftest import udp_port
-from gcs import command, distance, goto, home, mavlink, offset, position, recv, wait_mode
+from gcs import command, distance, goto, home, mavlink, offset, position, recv, reposition, wait_mode
 
 WP_RADIUS_M = 2.0
 
@@ -70,10 +70,7 @@ def test_do_reposition_switches_to_guided_and_drives(start_sitl):
     ack = command(m, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
     assert ack.result == mavlink.MAV_RESULT_ACCEPTED
     target = offset(lat0, lon0, 25, 0)
-    m.mav.command_int_send(
-        m.target_system, m.target_component, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_DO_REPOSITION, 0, 0,
-        -1, mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, 0, 0, int(target[0] * 1e7), int(target[1] * 1e7), 0)
-    ack = recv(m, "COMMAND_ACK", 5, lambda a: a.command == mavlink.MAV_CMD_DO_REPOSITION)
+    ack = reposition(m, *target)
     assert ack.result == mavlink.MAV_RESULT_ACCEPTED
     assert wait_mode(m, "GUIDED")
     deadline = time.time() + 30

@@ -8,7 +8,8 @@ simulator's GNSS wanders 5 mm per axis against a 10 mm tolerance)."""
 import math
 import time
 
-from gcs import command, distance, mavlink, mission_item, offset, param_set, position, recv, upload_mission, wait_mode
+from gcs import (command, distance, mavlink, mission_item, offset, param_set, position, recv, reposition,
+                 upload_mission, wait_mode)
 
 
 def wait_verdict(m, seconds):
@@ -38,10 +39,7 @@ def test_rtl_with_home_behind_ends_on_home_facing_the_start_heading(start_sitl):
 
     # 4 m ahead and 5 m to the right, facing east: beside the rover.
     target = offset(lat0, lon0, 4, 5)
-    m.mav.command_int_send(
-        m.target_system, m.target_component, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_DO_REPOSITION, 0, 0,
-        -1, mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, 0, 90, int(target[0] * 1e7), int(target[1] * 1e7), 0)
-    ack = recv(m, "COMMAND_ACK", 5, lambda a: a.command == mavlink.MAV_CMD_DO_REPOSITION)
+    ack = reposition(m, *target, yaw_deg=90)
     assert ack.result == mavlink.MAV_RESULT_ACCEPTED
     assert wait_mode(m, "GUIDED")
     verdict, texts = wait_verdict(m, 120)

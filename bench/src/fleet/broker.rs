@@ -1,9 +1,10 @@
-//! The real broker the benchmark runs against (Mosquitto on a free port)
+//! The real broker the benchmark runs against (Mosquitto on a port from the OS)
 //! and the master control's side: one MQTT client subscribed to every
 //! vehicle's topics, stamping what arrives with the wall clock, and every
 //! message checked against the official VDA 5050 schema of its topic.
 
 use std::collections::BTreeMap;
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
@@ -19,47 +20,86 @@ pub struct Mosquitto {
 
 impl Mosquitto {
     /// Mosquitto from the distribution (`mosquitto` on PATH or in
-    /// /usr/sbin), anonymous, no persistence, on a free loopback port.
+    /// /usr/sbin), anonymous, no persistence, on a loopback port the OS
+    /// handed out. Mosquitto cannot bind port 0 and say which port it got,
+    /// so it is given a port the OS chose a moment ago, and the broker's own
+    /// log says whether it bound it: a port taken in between makes it exit,
+    /// and another is tried. Nothing else listening there is ever talked to.
     pub fn start(dir: &Path) -> Result<Mosquitto, String> {
-        let exe = ["mosquitto", "/usr/sbin/mosquitto"]
-            .into_iter()
-            .find(|exe| {
-                Command::new(exe)
-                    .arg("-h")
-                    .stdout(Stdio::null())
-                    .stderr(Stdio::null())
-                    .status()
-                    .is_ok()
-            })
-            .ok_or("mosquitto is not installed (apt-get install mosquitto; tests/run installs it)")?;
-        let port = std::net::TcpListener::bind("127.0.0.1:0")
-            .and_then(|l| l.local_addr())
-            .map_err(|e| format!("a free port: {e}"))?
-            .port();
-        let conf = dir.join("mosquitto.conf");
-        let text =
-            format!("listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\nmax_queued_messages 10000\n");
-        std::fs::write(&conf, text).map_err(|e| format!("{}: {e}", conf.display()))?;
-        let child = Command::new(exe)
-            .arg("-c")
-            .arg(&conf)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .map_err(|e| format!("starting mosquitto: {e}"))?;
-        let broker = Mosquitto { child, port };
-        let deadline = Instant::now() + Duration::from_secs(10);
-        while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
-            if Instant::now() > deadline {
-                return Err("mosquitto did not start listening".into());
+        let exe = mosquitto_exe()?;
+        let mut failures = Vec::new();
+        for _ in 0..5 {
+            let port = std::net::TcpListener::bind("127.0.0.1:0")
+                .and_then(|l| l.local_addr())
+                .map_err(|e| format!("a port from the OS: {e}"))?
+                .port();
+            match start_on(exe, dir, port) {
+                Ok(child) => return Ok(Mosquitto { child, port }),
+                Err(e) => failures.push(e),
             }
-            std::thread::sleep(Duration::from_millis(50));
         }
-        Ok(broker)
+        Err(failures.join("; "))
     }
 
     pub fn pid(&self) -> u32 {
         self.child.id()
+    }
+}
+
+fn mosquitto_exe() -> Result<&'static str, String> {
+    ["mosquitto", "/usr/sbin/mosquitto"]
+        .into_iter()
+        .find(|exe| {
+            Command::new(exe)
+                .arg("-h")
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .status()
+                .is_ok()
+        })
+        .ok_or_else(|| "mosquitto is not installed (apt-get install mosquitto; tests/run installs it)".to_string())
+}
+
+/// Mosquitto listening on `port`, once its log says it runs (every
+/// listener bound); its log is drained to the end on a thread of its own.
+fn start_on(exe: &str, dir: &Path, port: u16) -> Result<Child, String> {
+    let conf = dir.join("mosquitto.conf");
+    let text = format!(
+        "listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\nmax_queued_messages 10000\nlog_dest stderr\n"
+    );
+    std::fs::write(&conf, text).map_err(|e| format!("{}: {e}", conf.display()))?;
+    let mut child = Command::new(exe)
+        .arg("-c")
+        .arg(&conf)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("starting mosquitto: {e}"))?;
+    let log = child.stderr.take().expect("piped");
+    let (running_tx, running_rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let mut lines = Vec::new();
+        for line in BufReader::new(log).lines().map_while(Result::ok) {
+            if line.contains(" running") {
+                let _ = running_tx.send(Ok(()));
+            }
+            if lines.len() < 20 {
+                lines.push(line);
+            }
+        }
+        // The log ended before the broker ran: what it said is the reason.
+        let _ = running_tx.send(Err(lines.join(" / ")));
+    });
+    match running_rx.recv_timeout(Duration::from_secs(10)) {
+        Ok(Ok(())) => Ok(child),
+        outcome => {
+            let _ = child.kill();
+            let _ = child.wait();
+            Err(match outcome {
+                Ok(Err(log)) => format!("mosquitto on port {port} exited: {log}"),
+                _ => format!("mosquitto on port {port} did not start within 10 s"),
+            })
+        }
     }
 }
 
@@ -229,5 +269,22 @@ impl Schemas {
         if self.examples.len() < 5 {
             self.examples.push(text);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_port_taken_before_the_broker_binds_it_is_refused_not_used() {
+        let dir = tempfile::tempdir().expect("scratch");
+        let taken = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
+        let port = taken.local_addr().expect("addr").port();
+        let error = start_on(mosquitto_exe().unwrap(), dir.path(), port).expect_err("the port is taken");
+        assert!(error.contains("exited"), "{error}");
+        let broker = Mosquitto::start(dir.path()).expect("a broker");
+        assert_ne!(broker.port, port);
+        std::net::TcpStream::connect(("127.0.0.1", broker.port)).expect("it listens");
     }
 }
