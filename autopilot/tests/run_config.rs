@@ -98,8 +98,8 @@ fn ackermann_example_loads_with_every_device() {
         "the summary shows the broker password:\n{summary}"
     );
     // One line per device: vehicle, gnss, heading, corrections, ntrip, 2 scanners, magnetic, imu, 8 outputs, 2 links;
-    // VDA 5050: the broker, its user, 3 actions.
-    assert_eq!(summary.lines().count(), 24, "{summary}");
+    // VDA 5050: the broker, its map frame, its user, 3 actions.
+    assert_eq!(summary.lines().count(), 25, "{summary}");
     let fleet = agv.vda5050.as_ref().unwrap_or_else(|| panic!("no [vda5050]"));
     assert_eq!(fleet.broker.to_string(), "mqtt://fleet.example.net:1883");
     assert_eq!(fleet.prefix.topic(vda5050::Topic::State), "uagv/v2/Furrow/agv07/state");

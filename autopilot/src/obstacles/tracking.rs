@@ -155,9 +155,10 @@ pub struct ObstacleTracker {
     scratch: UpdateScratch,
 }
 
-/// Tracks room is made for up front: a yard that fills up does not
-/// reallocate the tracker while driving (more still fit, by growing).
-const EXPECTED_TRACKS: usize = 32;
+/// Tracks room is made for up front, here and in the core's per-track
+/// buffers: a yard that fills up does not reallocate while driving (more
+/// still fit, by growing).
+pub const EXPECTED_TRACKS: usize = 32;
 
 impl Default for ObstacleTracker {
     fn default() -> Self {

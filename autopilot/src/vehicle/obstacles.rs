@@ -24,7 +24,7 @@ use crate::obstacles::policy::{
 };
 use crate::obstacles::prediction::CollisionPrediction;
 use crate::obstacles::swept::{Contact, Drive, PathAhead, Shape, SweptPath};
-use crate::obstacles::tracking::{ObstacleTracker, TrackingConfig};
+use crate::obstacles::tracking::{EXPECTED_TRACKS, ObstacleTracker, TrackingConfig};
 use crate::obstacles::{Footprint, Pose, ScannerMount, Track, TrackStatus};
 
 /// How many scanners the core reads (SCAN1 front, SCAN2 rear).
@@ -546,6 +546,9 @@ impl Core {
     ) {
         predictions.clear();
         predictions_at_resume.clear();
+        // Sized once for a full scene: a second object in view must not grow them mid-drive.
+        predictions.reserve(EXPECTED_TRACKS);
+        predictions_at_resume.reserve(EXPECTED_TRACKS);
         let passing = self.obstacles.detour.as_ref().map(|d| d.obstacle);
         let velocity_gate_mps = f64::from(self.p.obstacles.avoidance.velocity_gate_mps.get(&self.params));
         let accel_mps2 = self.policy_config().accel_mps2;
@@ -668,6 +671,10 @@ impl Core {
     /// been gone `HIDDEN_MAX_S`.
     fn remember_hidden_tracks(&mut self, now_s: f64, pose: &Pose, footprint: &Footprint, margin_m: f64, gate_mps: f64) {
         let obs = &mut self.obstacles;
+        if obs.hidden.capacity() == 0 {
+            // Sized once: the first person lost beside the body mid-drive must not allocate.
+            obs.hidden.reserve(EXPECTED_TRACKS);
+        }
         let tracks = obs.tracker.tracks();
         let gap_m = |at: Ned, radius_m: f64| {
             let (x, y) = crate::obstacles::prediction::to_body(
