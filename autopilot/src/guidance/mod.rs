@@ -4,7 +4,6 @@
 
 pub mod magnetic;
 pub mod magnetic_estimate;
-pub mod magnetic_turn;
 pub mod manoeuvre;
 pub mod navigator;
 pub mod path;
