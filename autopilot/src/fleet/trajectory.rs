@@ -12,6 +12,8 @@ use std::cmp::Ordering;
 
 use vda5050::common::Trajectory;
 
+use crate::obstacles::outline::segment_distance;
+
 /// Beyond these the factsheet's protocol limits refuse a trajectory.
 pub const MAX_CONTROL_POINTS: usize = 100;
 pub const MAX_DEGREE: u32 = 10;
@@ -154,7 +156,7 @@ impl Nurbs {
         let (a, b) = (self.point(u0), self.point(u1));
         let off = [0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875]
             .iter()
-            .map(|f| distance_to_segment(self.point(u0 + f * (u1 - u0)), a, b))
+            .map(|f| segment_distance(a, b, self.point(u0 + f * (u1 - u0))))
             .fold(0.0, f64::max);
         if off > tolerance_m && depth > 0 {
             let mid = 0.5 * (u0 + u1);
@@ -180,7 +182,7 @@ fn simplify(points: &[(f64, f64)], tolerance_m: f64) -> Vec<(f64, f64)> {
             None => true,
             Some(&after) => points[anchor + 1..=i]
                 .iter()
-                .any(|&p| distance_to_segment(p, points[anchor], after) > tolerance_m),
+                .any(|&p| segment_distance(points[anchor], after, p) > tolerance_m),
         };
         if keep {
             kept.push(points[i]);
@@ -189,17 +191,6 @@ fn simplify(points: &[(f64, f64)], tolerance_m: f64) -> Vec<(f64, f64)> {
     }
     kept.dedup_by(|a, b| (a.0 - b.0).hypot(a.1 - b.1) < 1e-9);
     kept
-}
-
-fn distance_to_segment(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
-    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-    let length2 = dx * dx + dy * dy;
-    let t = if length2 > 0.0 {
-        (((p.0 - a.0) * dx + (p.1 - a.1) * dy) / length2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p.0 - a.0 - t * dx).hypot(p.1 - a.1 - t * dy)
 }
 
 #[cfg(test)]
@@ -350,7 +341,7 @@ mod tests {
                 let q = curve.point(f64::from(i) / 400.0);
                 let nearest = chords
                     .windows(2)
-                    .map(|w| distance_to_segment(q, w[0], w[1]))
+                    .map(|w| segment_distance(w[0], w[1], q))
                     .fold(f64::MAX, f64::min);
                 proptest::prop_assert!(nearest <= 2.0 * CHORD_TOLERANCE_M, "{:?} is {} m from the chords", q, nearest);
             }
