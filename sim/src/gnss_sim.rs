@@ -71,6 +71,25 @@ impl GnssSim {
         self.next_epoch = first_epoch_from(now.max(after_last), cfg.rate_hz);
     }
 
+    /// The walk's σ changed from `old_sigma_m` to `new_sigma_m`: the walk
+    /// so far is scaled to the new σ, so it is at once as large as a
+    /// receiver with that σ would have it. Kept, it would take the time
+    /// constant (a minute) to fade, and a filter told the new σ would be
+    /// over-confident all that while. From a zero walk it starts afresh
+    /// from the stationary distribution at the next epoch.
+    pub(crate) fn rescale_walk(&mut self, old_sigma_m: f64, new_sigma_m: f64) {
+        if new_sigma_m == old_sigma_m {
+            return;
+        }
+        self.walk_m = match self.walk_m {
+            Some((n, e, t)) if old_sigma_m > 0.0 => {
+                let scale = new_sigma_m / old_sigma_m;
+                Some((n * scale, e * scale, t))
+            }
+            _ => None,
+        };
+    }
+
     /// Emit the epoch at `epoch_t` for the vehicle in state `truth`.
     pub(crate) fn emit(
         &mut self,

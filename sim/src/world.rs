@@ -296,9 +296,12 @@ impl World {
         &self.config
     }
 
-    /// Takes effect at the next epoch (a new rate starts its grid from now).
+    /// Takes effect at the next epoch (a new rate starts its grid from now;
+    /// a new walk σ describes the receiver's slow error from then on).
     pub fn set_gnss_config(&mut self, gnss: GnssSimConfig) {
         self.gnss.reschedule(&gnss, self.time);
+        self.gnss
+            .rescale_walk(self.config.gnss.pos_walk_sigma_m, gnss.pos_walk_sigma_m);
         self.config.gnss = gnss;
     }
 

@@ -28,7 +28,7 @@ declare_params! {
         },
         gps_walk_m: f32 = "SIM_GPS_WALK" => {
             default: 0.005, range: 0.0, 10.0, unit: "m",
-            desc: "Simulated GNSS slow random walk per axis (1 sigma, 60 s correlation)",
+            desc: "Simulated GNSS slow random walk per axis (1 sigma, 60 s correlation; a change rescales the walk at once)",
         },
         gps_quality: i8 = "SIM_GPS_QUALITY" => {
             default: 4, range: 0, 5, unit: "",

@@ -176,3 +176,47 @@ fn walk_is_a_gauss_markov_process() {
         );
     }
 }
+
+/// The north error of the fix a receiver sends one epoch after its walk σ
+/// changed from `from_m` to `to_m` (white noise off), for one seed.
+fn walk_after_change(from_m: f64, to_m: f64, seed: u64) -> f64 {
+    let gnss = |walk_m: f64| GnssSimConfig {
+        pos_sigma_m: 0.0,
+        pos_walk_sigma_m: walk_m,
+        ..GnssSimConfig::default()
+    };
+    let config = WorldConfig {
+        gnss: gnss(from_m),
+        ..WorldConfig::default()
+    };
+    let mut world = World::new(config, seed);
+    let mut reader = NmeaReader::new();
+    world.step(Duration::ZERO, &ActuatorDemand::STOP);
+    read_gnss(&mut world, &mut reader);
+    world.set_gnss_config(gnss(to_m));
+    world.step(Duration::from_millis(100), &ActuatorDemand::STOP);
+    let (true_n, _) = antenna_truth(&world);
+    let fix = read_gnss(&mut world, &mut reader)
+        .into_iter()
+        .find_map(|s| match s {
+            GnssSample::Fix(fix) => Some(fix),
+            _ => None,
+        })
+        .expect("an epoch at 0.1 s");
+    let p = GeoPoint {
+        lat_deg: fix.lat_deg,
+        lon_deg: fix.lon_deg,
+        alt_m: fix.alt_msl_m,
+    };
+    world.geodetic_to_local(&p).0 - true_n
+}
+
+#[test]
+fn a_new_walk_sigma_describes_the_receiver_at_once() {
+    // Left at the old σ the walk would fade over a minute: a receiver set to
+    // 1 mm would still wander by 5 mm, and a filter told 1 mm would trust it.
+    for (from_m, to_m) in [(0.005, 0.001), (0.0, 0.001), (0.001, 0.005)] {
+        let errors: Vec<f64> = (1..=400).map(|seed| walk_after_change(from_m, to_m, seed)).collect();
+        assert_within_20_pct(rms(&errors), to_m, &format!("walk {from_m} m → {to_m} m"));
+    }
+}
