@@ -19,7 +19,7 @@ mod params;
 
 use std::time::Duration;
 
-use drivers::gnss::{FixQuality, GnssSample, HeadingReference};
+use drivers::gnss::{FixQuality, GnssFix, GnssHeading, GnssSample, GnssVelocity, HeadingReference};
 
 use crate::geo::{FrameKind, GeoPoint, LocalFrame, Ned, PlaneTransform, wrap_pi};
 use ekf::{Ekf, EkfConfig, EkfStatus, Fusion};
@@ -262,81 +262,10 @@ impl Estimator {
 
     fn fuse(&mut self, ekf: &mut Ekf, config: &EstimatorConfig, sample: &GnssSample) {
         match sample {
-            GnssSample::Fix(fix) => {
-                let p = GeoPoint::new(fix.lat_deg, fix.lon_deg, fix.alt_msl_m);
-                if fix.quality == FixQuality::NoFix || !p.is_valid() {
-                    return;
-                }
-                let frame = match self.frame {
-                    Some(frame) => frame,
-                    None => self.build_frame(config, p),
-                };
-                let antenna = frame.to_local(&p);
-                let sigma = self.position_sigma(fix.t);
-                Self::advance(ekf, fix.t);
-                if self.fix_quality != Some(fix.quality) {
-                    self.events.push(EstimatorEvent::FixQuality {
-                        from: self.fix_quality,
-                        to: fix.quality,
-                    });
-                    let had_fix = self.fix_quality.is_some();
-                    self.fix_quality = Some(fix.quality);
-                    // A different kind of fix is a different error, mostly a
-                    // slow one: model it so, and start the position from the
-                    // fix rather than gate it against the old one.
-                    let _ = ekf.set_config(self.tuning(config));
-                    if ekf.is_initialised() && had_fix {
-                        let _ = ekf.reset_position_to_gnss(antenna.north_m, antenna.east_m, sigma.0, sigma.1);
-                    }
-                }
-                let fusion = ekf.update_gnss_position(antenna.north_m, antenna.east_m, sigma.0, sigma.1);
-                self.position_fusion(ekf, fusion);
-            }
+            GnssSample::Fix(fix) => self.fuse_fix(ekf, config, fix),
             GnssSample::Accuracy(a) => self.accuracy_t = Some(a.t),
-            GnssSample::Velocity(v) if v.speed_mps.is_finite() => {
-                let frame = self.frame;
-                let at = GeoPoint::new(self.gnss.lat_deg, self.gnss.lon_deg, self.gnss.alt_msl_m);
-                let course = v
-                    .course_deg
-                    .filter(|c| c.is_finite())
-                    .map(|c| to_frame_heading(frame.as_ref(), &at, c.to_radians()));
-                Self::advance(ekf, v.t);
-                let _ = ekf.update_gnss_velocity(v.speed_mps.max(0.0), course, config.velocity_sigma_mps);
-                // No heading sensor: the course stands in while driving,
-                // turned round when the filter knows the vehicle reverses.
-                let sensor_quiet = self
-                    .last_heading_sensor
-                    .is_none_or(|t| v.t.saturating_sub(t) > HEADING_SENSOR_TIMEOUT);
-                if let (true, Some(course)) = (sensor_quiet, course)
-                    && v.speed_mps >= COURSE_AS_HEADING_MIN_MPS
-                {
-                    let reversing = ekf.is_initialised() && ekf.state().speed_mps < 0.0;
-                    let yaw = if reversing {
-                        wrap_pi(course + std::f64::consts::PI)
-                    } else {
-                        course
-                    };
-                    let sigma = (config.velocity_sigma_mps / v.speed_mps).max(2f64.to_radians());
-                    let fusion = ekf.update_heading(yaw, sigma);
-                    self.heading_fusion(fusion);
-                }
-            }
-            GnssSample::Heading(h) if h.heading_deg.is_finite() => {
-                let true_heading = match h.reference {
-                    HeadingReference::True => h.heading_deg.to_radians(),
-                    HeadingReference::Magnetic => h.heading_deg.to_radians() + config.declination_rad,
-                };
-                let at = GeoPoint::new(self.gnss.lat_deg, self.gnss.lon_deg, self.gnss.alt_msl_m);
-                let yaw = to_frame_heading(self.frame.as_ref(), &at, true_heading);
-                self.last_heading_sensor = Some(h.t);
-                self.heading_reading = match self.heading_reading {
-                    Some((value, since)) if value == h.heading_deg => Some((value, since)),
-                    _ => Some((h.heading_deg, h.t)),
-                };
-                Self::advance(ekf, h.t);
-                let fusion = ekf.update_heading(yaw, config.heading_sigma_rad);
-                self.heading_fusion(fusion);
-            }
+            GnssSample::Velocity(v) if v.speed_mps.is_finite() => self.fuse_velocity(ekf, config, v),
+            GnssSample::Heading(h) if h.heading_deg.is_finite() => self.fuse_heading_sensor(ekf, config, h),
             GnssSample::Imu(imu) => {
                 Self::advance(ekf, imu.t);
                 let can_pivot = config.ekf.pivot_yaw_accel_sigma_radps2 > 0.0;
@@ -346,6 +275,88 @@ impl Estimator {
             }
             _ => {}
         }
+    }
+
+    /// A position fix: the antenna's position in the frame (built at the
+    /// first fix), with a change of fix quality reported and modelled.
+    fn fuse_fix(&mut self, ekf: &mut Ekf, config: &EstimatorConfig, fix: &GnssFix) {
+        let p = GeoPoint::new(fix.lat_deg, fix.lon_deg, fix.alt_msl_m);
+        if fix.quality == FixQuality::NoFix || !p.is_valid() {
+            return;
+        }
+        let frame = match self.frame {
+            Some(frame) => frame,
+            None => self.build_frame(config, p),
+        };
+        let antenna = frame.to_local(&p);
+        let sigma = self.position_sigma(fix.t);
+        Self::advance(ekf, fix.t);
+        if self.fix_quality != Some(fix.quality) {
+            self.events.push(EstimatorEvent::FixQuality {
+                from: self.fix_quality,
+                to: fix.quality,
+            });
+            let had_fix = self.fix_quality.is_some();
+            self.fix_quality = Some(fix.quality);
+            // A different kind of fix is a different error, mostly a
+            // slow one: model it so, and start the position from the
+            // fix rather than gate it against the old one.
+            let _ = ekf.set_config(self.tuning(config));
+            if ekf.is_initialised() && had_fix {
+                let _ = ekf.reset_position_to_gnss(antenna.north_m, antenna.east_m, sigma.0, sigma.1);
+            }
+        }
+        let fusion = ekf.update_gnss_position(antenna.north_m, antenna.east_m, sigma.0, sigma.1);
+        self.position_fusion(ekf, fusion);
+    }
+
+    /// GNSS speed and course; without a heading sensor the course stands
+    /// in for the heading while driving, turned round when the filter
+    /// knows the vehicle reverses.
+    fn fuse_velocity(&mut self, ekf: &mut Ekf, config: &EstimatorConfig, v: &GnssVelocity) {
+        let frame = self.frame;
+        let at = GeoPoint::new(self.gnss.lat_deg, self.gnss.lon_deg, self.gnss.alt_msl_m);
+        let course = v
+            .course_deg
+            .filter(|c| c.is_finite())
+            .map(|c| to_frame_heading(frame.as_ref(), &at, c.to_radians()));
+        Self::advance(ekf, v.t);
+        let _ = ekf.update_gnss_velocity(v.speed_mps.max(0.0), course, config.velocity_sigma_mps);
+        let sensor_quiet = self
+            .last_heading_sensor
+            .is_none_or(|t| v.t.saturating_sub(t) > HEADING_SENSOR_TIMEOUT);
+        if let (true, Some(course)) = (sensor_quiet, course)
+            && v.speed_mps >= COURSE_AS_HEADING_MIN_MPS
+        {
+            let reversing = ekf.is_initialised() && ekf.state().speed_mps < 0.0;
+            let yaw = if reversing {
+                wrap_pi(course + std::f64::consts::PI)
+            } else {
+                course
+            };
+            let sigma = (config.velocity_sigma_mps / v.speed_mps).max(2f64.to_radians());
+            let fusion = ekf.update_heading(yaw, sigma);
+            self.heading_fusion(fusion);
+        }
+    }
+
+    /// A heading sensor's reading (dual antenna, or a compass plus the
+    /// declination), remembered to tell a frozen sensor.
+    fn fuse_heading_sensor(&mut self, ekf: &mut Ekf, config: &EstimatorConfig, h: &GnssHeading) {
+        let true_heading = match h.reference {
+            HeadingReference::True => h.heading_deg.to_radians(),
+            HeadingReference::Magnetic => h.heading_deg.to_radians() + config.declination_rad,
+        };
+        let at = GeoPoint::new(self.gnss.lat_deg, self.gnss.lon_deg, self.gnss.alt_msl_m);
+        let yaw = to_frame_heading(self.frame.as_ref(), &at, true_heading);
+        self.last_heading_sensor = Some(h.t);
+        self.heading_reading = match self.heading_reading {
+            Some((value, since)) if value == h.heading_deg => Some((value, since)),
+            _ => Some((h.heading_deg, h.t)),
+        };
+        Self::advance(ekf, h.t);
+        let fusion = ekf.update_heading(yaw, config.heading_sigma_rad);
+        self.heading_fusion(fusion);
     }
 
     /// The local frame about the first fix, saying so when its kind cannot
@@ -501,7 +512,6 @@ fn to_frame_heading(frame: Option<&LocalFrame>, at: &GeoPoint, true_heading_rad:
 #[cfg(test)]
 mod tests {
     use super::*;
-    use drivers::gnss::{GnssFix, GnssHeading, GnssVelocity};
 
     fn fix(t_ms: u64, lat: f64, lon: f64, quality: FixQuality) -> GnssSample {
         GnssSample::Fix(GnssFix {

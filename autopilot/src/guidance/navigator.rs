@@ -9,7 +9,7 @@ use std::collections::VecDeque;
 use crate::estimation::Estimate;
 use crate::geo::{Ned, wrap_pi};
 use crate::guidance::manoeuvre::{Manoeuvre, stroke_start_yaw};
-use crate::guidance::path::{Arc, LegPath, fit_corner};
+use crate::guidance::path::{Arc, LegPath, PathProjection, fit_corner};
 use crate::guidance::reeds_shepp::{Pose, Stroke};
 use crate::guidance::speed::{SpeedConfig, SpeedInputs, SpeedState, SpeedStatus, scheduled_speed};
 use crate::guidance::tracker::{Direction, TrackInput, TrackerConfig, TrackerState, TrackerStatus, VehiclePose, track};
@@ -679,77 +679,31 @@ impl Navigator {
             // Done after the last turn on the spot: resting on the goal.
             return NavDemand::default();
         }
-        let Some(leg) = &mut self.leg else {
+        let Some((projection, remaining)) = self.project(&est.position) else {
             return NavDemand::default();
         };
-        let Some(path) = &leg.path else {
-            return NavDemand::default();
-        };
-        let pose = VehiclePose {
-            position: est.position,
-            yaw_rad: est.yaw_rad,
-        };
-        let projection = path.project(&est.position, leg.piece);
-        leg.piece = projection.piece;
-        let remaining = path.end_m() - projection.along_m;
-        // Far past a stop (it braked too late): backing up steers with the
-        // law for driving forward along the leg and runs away (found by the
-        // mission_flight fuzz target). Drive to the stop again from here.
         let cusp = self.manoeuvre.as_ref().is_some_and(|m| !m.rest.is_empty());
         // A stroke with a turn on the spot after it (the last of a
         // manoeuvre with pivots) ends in a precision stop too.
         let more = cusp || self.manoeuvre.as_ref().is_some_and(|m| m.pivots);
+        // Far past a stop (it braked too late): backing up steers with the
+        // law for driving forward along the leg and runs away (found by the
+        // mission_flight fuzz target). Drive to the stop again from here.
         if target.stop && remaining < -OVERSHOOT_REPLAN_M && self.settling.is_none() && self.manoeuvre.is_none() {
             self.restart_leg(est.position);
             return NavDemand::default();
         }
         let wp_dist = est.position.distance_to(&target.point);
-        let exit_rest = path.exit_arc_rest();
-        let tracker = track(
-            &config.tracker,
-            &mut self.tracker,
-            &pose,
-            est.speed_mps,
-            TrackInput {
-                path,
-                projection,
-                direction: target.direction,
-                min_preview_m: stop_preview_m(&target, config, cusp, remaining),
-            },
-            dt_s,
-        );
-        self.arcs_ahead.clear();
-        self.arcs_ahead.extend(path.arcs_from(projection.along_m));
-        let speed = scheduled_speed(
-            &cruise_speed_config(&target, config, self.manoeuvre.is_some()),
-            &mut self.speed,
-            &SpeedInputs {
-                along_m: projection.along_m,
-                stop_at_m: target.stop.then_some(path.end_m()),
-                arcs: &self.arcs_ahead,
-                heading_error_rad: tracker.yaw_error_rad,
-            },
-            dt_s,
-        );
-
+        let Some((tracker, speed, exit_rest)) = self.steer_and_speed(est, config, &target, projection, cusp, dt_s)
+        else {
+            return NavDemand::default();
+        };
         if target.stop && !self.arrived {
             self.tick_settle_clock(remaining, dt_s);
         }
         let half_tol = 0.5 * stop_tolerance_m(config, cusp);
         self.note_leg_end(est, &target, remaining, wp_dist, exit_rest, half_tol, config, dt_s);
-        let (wp_dist_m, goal) = self.destination(&target, remaining, wp_dist);
-        self.status = NavStatus {
-            active: true,
-            wp_dist_m,
-            target_bearing_rad: est.position.bearing_to(&goal),
-            nav_bearing_rad: wrap_pi(pose.yaw_rad + tracker.steer_rad),
-            crosstrack_m: tracker.crosstrack_m,
-            along_m: projection.along_m,
-            remaining_m: remaining,
-            reached: self.status.reached || (self.manoeuvre.is_none() && wp_dist <= config.wp_radius_m) || self.arrived,
-            tracker,
-            speed,
-        };
+        self.publish_status(est, &target, config, projection, wp_dist, tracker, speed);
 
         let resolvable_m = REAPPROACH_SIGMAS * est.horiz_sigma_m / std::f64::consts::SQRT_2;
         let retry_m = if self.reapproaches == 0 {
@@ -768,6 +722,92 @@ impl Navigator {
             return NavDemand::default();
         }
         self.demand(tracker.steer_rad, speed.speed_mps * target.direction.sign(), dt_s)
+    }
+
+    /// Where `position` is along the leg's path (moving the leg on to that
+    /// piece), and how much of the path is left; `None` before the path is
+    /// built.
+    fn project(&mut self, position: &Ned) -> Option<(PathProjection, f64)> {
+        let leg = self.leg.as_mut()?;
+        let path = leg.path.as_ref()?;
+        let projection = path.project(position, leg.piece);
+        leg.piece = projection.piece;
+        Some((projection, path.end_m() - projection.along_m))
+    }
+
+    /// The tracker's steering and the scheduled speed along the path this
+    /// tick, and the rest of the corner's arc the path ends in (a
+    /// pass-through leg's).
+    fn steer_and_speed(
+        &mut self,
+        est: &Estimate,
+        config: &NavConfig,
+        target: &NavTarget,
+        projection: PathProjection,
+        cusp: bool,
+        dt_s: f64,
+    ) -> Option<(TrackerStatus, SpeedStatus, Option<Arc>)> {
+        let path = self.leg.as_ref()?.path.as_ref()?;
+        let remaining = path.end_m() - projection.along_m;
+        let pose = VehiclePose {
+            position: est.position,
+            yaw_rad: est.yaw_rad,
+        };
+        let tracker = track(
+            &config.tracker,
+            &mut self.tracker,
+            &pose,
+            est.speed_mps,
+            TrackInput {
+                path,
+                projection,
+                direction: target.direction,
+                min_preview_m: stop_preview_m(target, config, cusp, remaining),
+            },
+            dt_s,
+        );
+        self.arcs_ahead.clear();
+        self.arcs_ahead.extend(path.arcs_from(projection.along_m));
+        let speed = scheduled_speed(
+            &cruise_speed_config(target, config, self.manoeuvre.is_some()),
+            &mut self.speed,
+            &SpeedInputs {
+                along_m: projection.along_m,
+                stop_at_m: target.stop.then_some(path.end_m()),
+                arcs: &self.arcs_ahead,
+                heading_error_rad: tracker.yaw_error_rad,
+            },
+            dt_s,
+        );
+        Some((tracker, speed, path.exit_arc_rest()))
+    }
+
+    /// The status for NAV_CONTROLLER_OUTPUT after this tick's steering.
+    #[allow(clippy::too_many_arguments)]
+    fn publish_status(
+        &mut self,
+        est: &Estimate,
+        target: &NavTarget,
+        config: &NavConfig,
+        projection: PathProjection,
+        wp_dist: f64,
+        tracker: TrackerStatus,
+        speed: SpeedStatus,
+    ) {
+        let remaining = self.path().map_or(0.0, |p| p.end_m() - projection.along_m);
+        let (wp_dist_m, goal) = self.destination(target, remaining, wp_dist);
+        self.status = NavStatus {
+            active: true,
+            wp_dist_m,
+            target_bearing_rad: est.position.bearing_to(&goal),
+            nav_bearing_rad: wrap_pi(est.yaw_rad + tracker.steer_rad),
+            crosstrack_m: tracker.crosstrack_m,
+            along_m: projection.along_m,
+            remaining_m: remaining,
+            reached: self.status.reached || (self.manoeuvre.is_none() && wp_dist <= config.wp_radius_m) || self.arrived,
+            tracker,
+            speed,
+        };
     }
 
     /// Whether the leg's end is reached this tick: a stop once the vehicle
