@@ -51,6 +51,10 @@ struct Outcome {
     duration_s: f64,
     /// The truth's error at the verdict (before the bench's extra second).
     verdict_mm: f64,
+    /// How far the truth moved and turned in the second after the verdict:
+    /// a verdict is to be given on a vehicle at rest.
+    moved_after_mm: f64,
+    turned_after_deg: f64,
     /// The estimate's distance from the truth at the verdict.
     estimate_error_mm: f64,
     /// The estimator's 1-σ horizontal position and heading at the verdict.
@@ -63,6 +67,19 @@ struct Outcome {
     /// The vehicle's last texts.
     texts: Vec<String>,
 }
+
+impl Outcome {
+    /// The truth moved or turned after the verdict: it was given before the
+    /// vehicle came to rest (the simulated vehicle at rest stands exactly
+    /// still).
+    fn moved_after(&self) -> bool {
+        self.moved_after_mm > MOVED_AFTER_MM || self.turned_after_deg > MOVED_AFTER_DEG
+    }
+}
+
+/// Movement after a verdict beyond these is listed.
+const MOVED_AFTER_MM: f64 = 0.05;
+const MOVED_AFTER_DEG: f64 = 0.001;
 
 /// Where the vehicle is to stop, in the simulator's frame, and facing
 /// (true, radians).
@@ -186,6 +203,7 @@ impl Run {
         };
         let (texts, direction_changes, pivots) = self.drive_until(TIMEOUT_S, verdict);
         let (verdict_mm, _) = self.error(&goal);
+        let at_verdict = *self.sim.world().truth();
         let [north_m, east_m] = self.estimate_error_m();
         let estimate_error_mm = north_m.hypot(east_m) * 1000.0;
         let normalised_error = self.normalised_error();
@@ -199,6 +217,9 @@ impl Run {
         // Let the claim's stop be measured at rest.
         self.drive_until(1.0, |_| false);
         let (position_mm, yaw_deg) = self.error(&goal);
+        let after = self.sim.world().truth();
+        let moved_after_mm = (after.north_m - at_verdict.north_m).hypot(after.east_m - at_verdict.east_m) * 1000.0;
+        let turned_after_deg = wrap_pi(after.yaw_rad - at_verdict.yaw_rad).to_degrees().abs();
         Outcome {
             label,
             within: position_mm <= TOL_M * 1000.0 && yaw_deg.abs() <= TOL_DEG,
@@ -211,6 +232,8 @@ impl Run {
             failsafes: texts.iter().filter(|t| t.contains("ailsafe")).count(),
             duration_s: self.sim.time().as_secs_f64() - start_s,
             verdict_mm,
+            moved_after_mm,
+            turned_after_deg,
             estimate_error_mm,
             sigma_mm,
             normalised_error,
@@ -266,9 +289,9 @@ pub fn report(seeds: u64) {
     );
     println!();
     println!(
-        "| model | GNSS | leg | goals | reached within 10 mm & 0.05° | \"Reached\" claimed | false \"Reached\" | stopped, unconfirmed | most direction changes | most turns on the spot | failsafes | p95 mm | worst mm | worst yaw ° | median s | estimate error > 2σ / > 3σ (axes) |"
+        "| model | GNSS | leg | goals | reached within 10 mm & 0.05° | \"Reached\" claimed | false \"Reached\" | stopped, unconfirmed | most direction changes | most turns on the spot | failsafes | p95 mm | worst mm | worst yaw ° | median s | estimate error > 2σ / > 3σ (axes) | most moved after the verdict mm / ° |"
     );
-    println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     let mut misses = Vec::new();
     for model in [ModelKind::Ackermann, ModelKind::Differential] {
         for (receiver, walk_m) in RECEIVERS {
@@ -303,20 +326,29 @@ fn drive_goals(model: ModelKind, receiver: &str, walk_m: Option<f64>, seeds: u64
     }
     print_row(model, receiver, "GUIDED", &guided);
     print_row(model, receiver, "RTL", &rtl);
-    misses.extend(guided.into_iter().chain(rtl).filter(|o| !o.within || o.failsafes > 0));
+    misses.extend(
+        guided
+            .into_iter()
+            .chain(rtl)
+            .filter(|o| !o.within || o.failsafes > 0 || o.moved_after()),
+    );
 }
 
 fn print_misses(misses: &[Outcome]) {
     println!();
-    println!("Misses (truth out of tolerance 1 s after the verdict) and failsafes:");
+    println!(
+        "Misses (truth out of tolerance 1 s after the verdict), failsafes, and verdicts on a vehicle still moving (the truth moved after it):"
+    );
     println!();
     for o in misses {
         println!(
-            "- {}: {:.1} mm, yaw {:.3}° ({:.1} mm at the verdict; estimate {:.1} mm from the truth, σ {:.1} mm, error {:+.1}σ north {:+.1}σ east, {:.3}°){}{}: {}",
+            "- {}: {:.1} mm, yaw {:.3}° ({:.1} mm at the verdict, then moved {:.1} mm and {:.3}°; estimate {:.1} mm from the truth, σ {:.1} mm, error {:+.1}σ north {:+.1}σ east, {:.3}°){}{}: {}",
             o.label,
             o.position_mm,
             o.yaw_deg,
             o.verdict_mm,
+            o.moved_after_mm,
+            o.turned_after_deg,
             o.estimate_error_mm,
             o.sigma_mm,
             o.normalised_error[0],
@@ -356,12 +388,14 @@ fn print_row(model: ModelKind, receiver: &str, leg: &str, outcomes: &[Outcome]) 
         100.0 * axes.filter(|z| z.is_nan() || z.abs() > k).count() as f64 / (2 * n) as f64
     };
     println!(
-        "| {model:?} | {receiver} | {leg} | {n} | {within} ({:.0} %) | {claims} | {false_claims} | {unconfirmed} | {changes} | {pivots} | {failsafes} | {:.1} | {:.1} | {worst_yaw:.3} | {:.0} | {:.1} % / {:.1} % |",
+        "| {model:?} | {receiver} | {leg} | {n} | {within} ({:.0} %) | {claims} | {false_claims} | {unconfirmed} | {changes} | {pivots} | {failsafes} | {:.1} | {:.1} | {worst_yaw:.3} | {:.0} | {:.1} % / {:.1} % | {:.1} / {:.3} |",
         100.0 * within as f64 / n as f64,
         at(&mm, 0.95),
         mm[n - 1],
         at(&secs, 0.5),
         beyond(2.0),
         beyond(3.0),
+        outcomes.iter().map(|o| o.moved_after_mm).fold(0.0, f64::max),
+        outcomes.iter().map(|o| o.turned_after_deg).fold(0.0, f64::max),
     );
 }

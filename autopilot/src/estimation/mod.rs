@@ -185,6 +185,12 @@ impl Estimator {
         &self.imu
     }
 
+    /// Held still (no drive demand for a moment) with the GNSS speed
+    /// agreeing, as of the last update: a stop's verdict waits for it.
+    pub fn at_rest(&self) -> bool {
+        self.at_rest
+    }
+
     /// Whether the filter's variances are within bounds (its position is
     /// usable).
     pub fn healthy(&self) -> bool {

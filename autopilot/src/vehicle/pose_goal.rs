@@ -282,10 +282,11 @@ impl Core {
     }
 
     /// A stop in tolerance by the estimate, resting: "Reached destination"
-    /// once the estimate is sure of it (its error plus its uncertainty
-    /// within tolerance); after `CONFIRM_WAIT_S` without, "Stopped at
-    /// destination … unconfirmed" with the σ that kept it from a claim
-    /// (another approach would end as uncertain, so there is no retry).
+    /// once the vehicle is at rest (held still, the GNSS agreeing) and the
+    /// estimate is sure of it (its error plus its uncertainty within
+    /// tolerance); after `CONFIRM_WAIT_S` without, "Stopped at destination
+    /// … unconfirmed" with what kept it from a claim (the σ, or no rest;
+    /// another approach would end as uncertain, so there is no retry).
     pub(super) fn confirm_arrival(&mut self, dt_s: f64) {
         let Some(mut confirming) = self.goals.confirming.filter(|c| c.mode == self.mode) else {
             self.goals.confirming = None;
@@ -296,7 +297,13 @@ impl Core {
         let error_m = estimate.position.distance_to(&confirming.point);
         let yaw_error_rad = wrap_pi(estimate.yaw_rad - confirming.yaw_rad);
         let error_mm = error_m * 1000.0;
-        let text = match (self.unconfirmed_because(error_m, yaw_error_rad), self.mode) {
+        // A verdict on a vehicle still moving could be undone by the motion.
+        let why = if self.estimator.at_rest() {
+            self.unconfirmed_because(error_m, yaw_error_rad)
+        } else {
+            Some(String::from("not at rest"))
+        };
+        let text = match (why, self.mode) {
             (None, Mode::Rtl) => "Reached destination: home".to_string(),
             (None, _) => format!("Reached destination: {error_mm:.1} mm"),
             (Some(_), _) if confirming.waited_s < CONFIRM_WAIT_S => {
