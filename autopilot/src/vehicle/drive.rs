@@ -109,6 +109,8 @@ impl Core {
                 ),
                 min_mps: 0.1,
                 approach_gain_per_s: f64::from(nav.approach_gain.get(t)),
+                wheelbase_m: wheelbase,
+                steer_rate_rad_s: f64::from(self.p.vehicle.steer_rate_deg_s.get(t)).to_radians(),
             },
             speed_limit_mps: match (self.degraded_fix_speed_limit(), self.obstacles.status().speed_limit_mps) {
                 (Some(a), Some(b)) => Some(a.min(b)),
