@@ -144,6 +144,7 @@ fn vehicle(u: &mut Unstructured) -> Result<Vehicle> {
             preview_min_m: 2.0,
             preview_s: 0.5,
             feedforward_s: 0.3,
+            feedforward_exit_s: 0.3,
             steer_max_rad,
             steer_rate_rad_s,
             wheelbase_m,

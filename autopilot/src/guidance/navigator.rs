@@ -1056,6 +1056,7 @@ mod tests {
                 preview_min_m: 2.0,
                 preview_s: 0.5,
                 feedforward_s: 0.3,
+                feedforward_exit_s: 0.3,
                 steer_max_rad: 30f64.to_radians(),
                 steer_rate_rad_s: 30f64.to_radians(),
                 wheelbase_m: 2.9,

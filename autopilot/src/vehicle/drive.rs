@@ -91,6 +91,7 @@ impl Core {
                 preview_min_m: f64::from(pv.dist_m.get(t)),
                 preview_s: f64::from(pv.dist_k_s.get(t)),
                 feedforward_s: f64::from(pv.ff_time_s.get(t)),
+                feedforward_exit_s: f64::from(pv.ff_exit_s.get(t)),
                 steer_max_rad: steer_max,
                 steer_rate_rad_s: f64::from(self.p.vehicle.steer_rate_deg_s.get(t)).to_radians(),
                 wheelbase_m: wheelbase,
