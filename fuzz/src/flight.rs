@@ -136,6 +136,7 @@ fn vehicle(u: &mut Unstructured) -> Result<Vehicle> {
         kp,
         ..PidGains::default()
     };
+    let steer_rate_rad_s = in_range(u, 0.0, 90.0)?.to_radians();
     let config = NavConfig {
         tracker: TrackerConfig {
             lateral: gains(1.0),
@@ -143,8 +144,9 @@ fn vehicle(u: &mut Unstructured) -> Result<Vehicle> {
             preview_min_m: 2.0,
             preview_s: 0.5,
             feedforward_s: 0.3,
+            feedforward_exit_s: 0.3,
             steer_max_rad,
-            steer_rate_rad_s: in_range(u, 0.0, 90.0)?.to_radians(),
+            steer_rate_rad_s,
             wheelbase_m,
         },
         speed: SpeedConfig {
@@ -154,6 +156,8 @@ fn vehicle(u: &mut Unstructured) -> Result<Vehicle> {
             heading: gains(2.0),
             min_mps: 0.1,
             approach_gain_per_s: in_range(u, 0.1, 2.0)?,
+            wheelbase_m,
+            steer_rate_rad_s,
         },
         speed_limit_mps: None,
         speed_boost_mps: None,

@@ -9,7 +9,7 @@ use std::collections::VecDeque;
 use crate::estimation::Estimate;
 use crate::geo::{Ned, wrap_pi};
 use crate::guidance::manoeuvre::{Manoeuvre, stroke_start_yaw};
-use crate::guidance::path::{Arc, LegPath, PathProjection, fit_corner};
+use crate::guidance::path::{Arc, ArcSpan, LegPath, PathProjection, fit_corner};
 use crate::guidance::reeds_shepp::{Pose, Stroke};
 use crate::guidance::speed::{SpeedConfig, SpeedInputs, SpeedState, SpeedStatus, scheduled_speed};
 use crate::guidance::tracker::{Direction, TrackInput, TrackerConfig, TrackerState, TrackerStatus, VehiclePose, track};
@@ -315,9 +315,9 @@ pub struct Navigator {
     tracker: TrackerState,
     speed: SpeedState,
     status: NavStatus,
-    /// The arcs ahead on the path, refilled every update: kept so the
+    /// The path's arcs, refilled every update: kept so the
     /// update allocates nothing.
-    arcs_ahead: Vec<(f64, f64)>,
+    arcs_ahead: Vec<ArcSpan>,
 }
 
 impl Navigator {
@@ -767,7 +767,7 @@ impl Navigator {
             dt_s,
         );
         self.arcs_ahead.clear();
-        self.arcs_ahead.extend(path.arcs_from(projection.along_m));
+        self.arcs_ahead.extend(path.arcs());
         let speed = scheduled_speed(
             &cruise_speed_config(target, config, self.manoeuvre.is_some()),
             &mut self.speed,
@@ -1096,6 +1096,7 @@ mod tests {
                 preview_min_m: 2.0,
                 preview_s: 0.5,
                 feedforward_s: 0.3,
+                feedforward_exit_s: 0.3,
                 steer_max_rad: 30f64.to_radians(),
                 steer_rate_rad_s: 30f64.to_radians(),
                 wheelbase_m: 2.9,
@@ -1110,6 +1111,8 @@ mod tests {
                 },
                 min_mps: 0.1,
                 approach_gain_per_s: 0.6,
+                wheelbase_m: 2.9,
+                steer_rate_rad_s: 30f64.to_radians(),
             },
             speed_limit_mps: None,
             speed_boost_mps: None,

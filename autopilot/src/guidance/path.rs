@@ -203,6 +203,15 @@ impl Piece {
     }
 }
 
+/// Where an arc lies along a path (m from the path's start) and its
+/// curvature (1/m, positive turning right).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ArcSpan {
+    pub start_m: f64,
+    pub end_m: f64,
+    pub curvature: f64,
+}
+
 /// A rounded corner: the arc tangent to both legs, and where it leaves and
 /// rejoins them.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -403,16 +412,19 @@ impl LegPath {
         self.pieces.iter().map(|p| p.curvature().abs()).fold(0.0, f64::max)
     }
 
-    /// Arcs from `along_m` on: (where each starts along the path, its
-    /// curvature), for the speed schedule.
-    pub fn arcs_from(&self, along_m: f64) -> impl Iterator<Item = (f64, f64)> + '_ {
+    /// The path's arcs, in order, for the speed schedule.
+    pub fn arcs(&self) -> impl Iterator<Item = ArcSpan> + '_ {
         let mut start = 0.0;
         self.pieces.iter().filter_map(move |piece| {
-            let (s0, len) = (start, piece.length_m());
-            start += len;
+            let (start_m, length_m) = (start, piece.length_m());
+            start += length_m;
             match piece {
-                Piece::Arc(a) if s0 + len > along_m => Some((s0, a.curvature())),
-                _ => None,
+                Piece::Arc(a) => Some(ArcSpan {
+                    start_m,
+                    end_m: start_m + length_m,
+                    curvature: a.curvature(),
+                }),
+                Piece::Line(_) => None,
             }
         })
     }
@@ -586,8 +598,14 @@ mod tests {
             1e-12
         ));
         assert!(close(first.max_curvature(), 1.0 / 6.0, 1e-12));
-        let arcs: Vec<_> = first.arcs_from(0.0).collect();
-        assert_eq!(arcs, vec![(24.0, 1.0 / 6.0)]);
-        assert_eq!(first.arcs_from(40.0).count(), 0);
+        let arcs: Vec<_> = first.arcs().collect();
+        assert_eq!(
+            arcs,
+            vec![ArcSpan {
+                start_m: 24.0,
+                end_m: 24.0 + arc_len,
+                curvature: 1.0 / 6.0
+            }]
+        );
     }
 }

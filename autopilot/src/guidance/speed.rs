@@ -7,6 +7,7 @@
 //! Sources: docs/references.md §Seed 002.
 
 use crate::control::pid::{PidGains, PidState};
+use crate::guidance::path::ArcSpan;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SpeedConfig {
@@ -24,6 +25,10 @@ pub struct SpeedConfig {
     /// Final approach to a stop: speed = gain × distance to go
     /// (`WP_APPR_GAIN`), which also backs up after an overshoot.
     pub approach_gain_per_s: f64,
+    /// With the steering rate (`VEH_STEER_RATE`, 0 for none): how long the
+    /// wheels take to turn to an arc's angle, which the arc's speed covers.
+    pub wheelbase_m: f64,
+    pub steer_rate_rad_s: f64,
 }
 
 /// What set the speed, for telemetry and tuning.
@@ -64,14 +69,29 @@ pub struct SpeedInputs<'a> {
     pub along_m: f64,
     /// Along-track position of the stop, when the leg ends in one.
     pub stop_at_m: Option<f64>,
-    /// (start along the path, curvature) of each arc not yet left behind.
-    pub arcs: &'a [(f64, f64)],
+    /// The leg's arcs.
+    pub arcs: &'a [ArcSpan],
     /// The tracker's heading error relative to the path.
     pub heading_error_rad: f64,
 }
 
 fn braking_limit(speed_at_mps: f64, distance_m: f64, decel_mps2: f64) -> f64 {
     (speed_at_mps * speed_at_mps + 2.0 * decel_mps2 * distance_m.max(0.0)).sqrt()
+}
+
+/// How far the vehicle drives, at `speed_mps`, while the steering turns
+/// between straight and an arc of `curvature` at the rate limit. The
+/// tracker turns the wheels half of it before the arc and half on it (and
+/// the same at the arc's end), so the arc's speed holds from one such
+/// distance before the arc to one after it: the steering ramp is planned
+/// at the speed it is driven at, and the vehicle is not still braking into
+/// it or already speeding out of it.
+fn steering_transition_m(config: &SpeedConfig, curvature: f64, speed_mps: f64) -> f64 {
+    if config.steer_rate_rad_s > 0.0 {
+        (config.wheelbase_m * curvature.abs()).atan() / config.steer_rate_rad_s * speed_mps
+    } else {
+        0.0
+    }
 }
 
 pub fn scheduled_speed(
@@ -95,11 +115,15 @@ pub fn scheduled_speed(
         }
     };
 
-    for &(start_m, curvature) in inputs.arcs {
-        if curvature.abs() > 1e-9 && config.lateral_accel_mps2 > 0.0 {
-            let on_arc = (config.lateral_accel_mps2 / curvature.abs()).sqrt().max(floor);
+    for arc in inputs.arcs {
+        if arc.curvature.abs() > 1e-9 && config.lateral_accel_mps2 > 0.0 {
+            let on_arc = (config.lateral_accel_mps2 / arc.curvature.abs()).sqrt().max(floor);
+            let transition_m = steering_transition_m(config, arc.curvature, on_arc);
+            if inputs.along_m > arc.end_m + transition_m {
+                continue;
+            }
             limit(
-                braking_limit(on_arc, start_m - inputs.along_m, decel),
+                braking_limit(on_arc, arc.start_m - transition_m - inputs.along_m, decel),
                 SpeedLimit::Curvature,
                 &mut status,
             );
@@ -145,11 +169,23 @@ mod tests {
         },
         min_mps: 0.1,
         approach_gain_per_s: 1.0,
+        wheelbase_m: 2.0,
+        steer_rate_rad_s: 0.0,
     };
 
-    fn speed(along_m: f64, stop_at_m: Option<f64>, arcs: &[(f64, f64)], heading_error_rad: f64) -> SpeedStatus {
+    fn speed(along_m: f64, stop_at_m: Option<f64>, arcs: &[ArcSpan], heading_error_rad: f64) -> SpeedStatus {
+        speed_with(&CONFIG, along_m, stop_at_m, arcs, heading_error_rad)
+    }
+
+    fn speed_with(
+        config: &SpeedConfig,
+        along_m: f64,
+        stop_at_m: Option<f64>,
+        arcs: &[ArcSpan],
+        heading_error_rad: f64,
+    ) -> SpeedStatus {
         scheduled_speed(
-            &CONFIG,
+            config,
             &mut SpeedState::default(),
             &SpeedInputs {
                 along_m,
@@ -187,13 +223,44 @@ mod tests {
     #[test]
     fn slows_for_an_arc_in_time_and_on_it() {
         // 0.5 m/s² on a 2 m radius: 1 m/s on the arc.
-        let arcs = [(20.0, -0.5)];
+        let arcs = [ArcSpan {
+            start_m: 20.0,
+            end_m: 23.0,
+            curvature: -0.5,
+        }];
         let on_arc = speed(21.0, None, &arcs, 0.0);
         assert_eq!(on_arc.limit, SpeedLimit::Curvature);
         assert!((on_arc.speed_mps - 1.0).abs() < 1e-12);
         let before = speed(17.0, None, &arcs, 0.0);
         assert!((before.speed_mps - 4f64.sqrt()).abs() < 1e-12, "{before:?}");
         assert_eq!(speed(0.0, None, &arcs, 0.0).speed_mps, 2.0);
+        assert_eq!(speed(23.01, None, &arcs, 0.0).speed_mps, 2.0, "the arc is behind");
+    }
+
+    /// With a steering rate limit the arc's speed covers the wheels'
+    /// turning in and out: 1 s at 1 m/s either side for a 45° angle at
+    /// 45°/s (wheelbase 2 m, radius 2 m).
+    #[test]
+    fn the_arc_speed_covers_the_steering_transitions() {
+        let config = SpeedConfig {
+            steer_rate_rad_s: 45f64.to_radians(),
+            ..CONFIG
+        };
+        let arcs = [ArcSpan {
+            start_m: 20.0,
+            end_m: 23.0,
+            curvature: 0.5,
+        }];
+        for along_m in [19.0, 21.0, 23.9] {
+            let st = speed_with(&config, along_m, None, &arcs, 0.0);
+            assert!((st.speed_mps - 1.0).abs() < 1e-9, "{along_m} m: {st:?}");
+        }
+        let before = speed_with(&config, 16.0, None, &arcs, 0.0);
+        assert!(
+            (before.speed_mps - 4f64.sqrt()).abs() < 1e-9,
+            "braking ends 1 m early: {before:?}"
+        );
+        assert_eq!(speed_with(&config, 24.01, None, &arcs, 0.0).speed_mps, 2.0);
     }
 
     #[test]

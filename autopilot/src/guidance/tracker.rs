@@ -59,8 +59,10 @@ pub struct TrackerConfig {
     /// Added preview per m/s of speed (`PVW_DIST_K`).
     pub preview_s: f64,
     /// How far ahead, in seconds of travel, the path's curvature is fed
-    /// forward (`PVW_FF_TIME`).
+    /// forward where a turn begins or tightens (`PVW_FF_TIME`)…
     pub feedforward_s: f64,
+    /// …and where it ends or eases (`PVW_FF_EXIT`).
+    pub feedforward_exit_s: f64,
     pub steer_max_rad: f64,
     /// Steering rate limit (`VEH_STEER_RATE`); 0 for none.
     pub steer_rate_rad_s: f64,
@@ -261,9 +263,16 @@ fn update_capture(state: &mut TrackerState, yaw_error: f64, offset: f64, preview
 
 /// The path's curvature as a ramp the steering gear can follow: averaged
 /// over the distance the wheels need to turn to the path's sharpest arc
-/// at the rate limit, and centred `feedforward_s` ahead for the lags, so
-/// the vehicle enters and leaves an arc half early, half late, and the
-/// error either side cancels rather than all landing on the outside.
+/// at the rate limit, and centred ahead for the lags, so the vehicle
+/// enters and leaves an arc half early, half late, and the error either
+/// side cancels rather than all landing on the outside.
+///
+/// The lead differs where a turn is taken out: a skid-steer vehicle
+/// unwinds a turn by speeding its inner wheels up while it also speeds up
+/// out of the corner, which lags more than slowing them down into one.
+/// Which lead applies follows from the two windows: if the farther one
+/// sees the sharper curvature the turn is growing (`feedforward_s`),
+/// otherwise it is easing (`feedforward_exit_s`).
 fn curvature_feedforward_rad(
     config: &TrackerConfig,
     path: &LegPath,
@@ -277,9 +286,18 @@ fn curvature_feedforward_rad(
     } else {
         0.0
     };
-    let centre = s_ref + config.feedforward_s * speed;
     let half = 0.5 * ramp_s * speed;
-    let curvature = path.mean_curvature(centre - half, centre + half);
+    let window = |lead_s: f64| {
+        let centre = s_ref + lead_s * speed;
+        path.mean_curvature(centre - half, centre + half)
+    };
+    let (growing, easing) = (window(config.feedforward_s), window(config.feedforward_exit_s));
+    let (near, far) = if config.feedforward_s <= config.feedforward_exit_s {
+        (growing, easing)
+    } else {
+        (easing, growing)
+    };
+    let curvature = if far.abs() > near.abs() { growing } else { easing };
     // Reversing, the yaw rate is v·tan δ / L with v < 0: the opposite lock
     // turns the direction of travel the same way.
     direction.sign() * (config.wheelbase_m * curvature).atan()
@@ -337,6 +355,7 @@ mod tests {
             preview_min_m: 2.0,
             preview_s: 0.5,
             feedforward_s: 0.0,
+            feedforward_exit_s: 0.0,
             steer_max_rad: 30f64.to_radians(),
             steer_rate_rad_s: 0.0,
             wheelbase_m: 2.9,
@@ -542,6 +561,36 @@ mod tests {
         };
         let st = step(&cfg, &mut state, &far_left, 1.0, &path, Direction::Forward);
         assert!((st.steer_rad - 0.6f64.to_radians()).abs() < 1e-12, "30°/s × 20 ms");
+    }
+
+    /// With a longer lead for easing, the feed-forward turns in where it
+    /// did and unwinds earlier: at 1 m/s, 0.5 s more lead takes the turn
+    /// out 0.5 m sooner.
+    #[test]
+    fn an_arc_is_taken_out_with_the_exit_lead() {
+        let (a, b, c) = (Ned::new(0.0, 0.0), Ned::new(40.0, 0.0), Ned::new(40.0, 40.0));
+        let corner = fit_corner(a, b, c, 8.0, 5.0, 40.0, 20.0).unwrap();
+        let path = LegPath::new(None, a, b, Some((&corner, c)));
+        let (arc_start, arc_end) = (path.piece_start_m(1), path.piece_start_m(2));
+        let ff_at = |exit_s: f64, along_m: f64| {
+            let cfg = TrackerConfig {
+                feedforward_exit_s: exit_s,
+                ..config()
+            };
+            curvature_feedforward_rad(&cfg, &path, along_m, 1.0, Direction::Forward)
+        };
+        let on_arc = (2.9f64 / 8.0).atan();
+        for exit_s in [0.0, 0.5] {
+            assert_eq!(
+                ff_at(exit_s, arc_start - 0.01),
+                0.0,
+                "exit lead {exit_s}: not before the arc"
+            );
+            assert!((ff_at(exit_s, arc_start + 0.01) - on_arc).abs() < 1e-12);
+        }
+        assert!((ff_at(0.0, arc_end - 0.3) - on_arc).abs() < 1e-12);
+        assert_eq!(ff_at(0.5, arc_end - 0.3), 0.0, "taken out 0.5 m early");
+        assert_eq!(ff_at(0.0, arc_end + 0.01), 0.0);
     }
 
     /// Drives a kinematic bicycle (rear-axle reference) along `path`.

@@ -91,6 +91,7 @@ impl Core {
                 preview_min_m: f64::from(pv.dist_m.get(t)),
                 preview_s: f64::from(pv.dist_k_s.get(t)),
                 feedforward_s: f64::from(pv.ff_time_s.get(t)),
+                feedforward_exit_s: f64::from(pv.ff_exit_s.get(t)),
                 steer_max_rad: steer_max,
                 steer_rate_rad_s: f64::from(self.p.vehicle.steer_rate_deg_s.get(t)).to_radians(),
                 wheelbase_m: wheelbase,
@@ -109,6 +110,8 @@ impl Core {
                 ),
                 min_mps: 0.1,
                 approach_gain_per_s: f64::from(nav.approach_gain.get(t)),
+                wheelbase_m: wheelbase,
+                steer_rate_rad_s: f64::from(self.p.vehicle.steer_rate_deg_s.get(t)).to_radians(),
             },
             speed_limit_mps: match (self.degraded_fix_speed_limit(), self.obstacles.status().speed_limit_mps) {
                 (Some(a), Some(b)) => Some(a.min(b)),

@@ -233,7 +233,11 @@ declare_params! {
         },
         ff_time_s: f32 = "PVW_FF_TIME" => {
             default: 0.12, range: 0.0, 3.0, unit: "s",
-            desc: "The path's curvature is fed forward to the steering this far ahead in travel time",
+            desc: "The path's curvature is fed forward to the steering this far ahead in travel time where a turn begins or tightens",
+        },
+        ff_exit_s: f32 = "PVW_FF_EXIT" => {
+            default: 0.12, range: 0.0, 3.0, unit: "s",
+            desc: "As PVW_FF_TIME where a turn ends or eases (a skid-steer vehicle unwinds a turn more slowly than it winds one)",
         },
         spd_p: f32 = "PVW_SPD_P" => {
             default: 2.0, range: 0.0, 20.0, unit: "m/s/rad",
