@@ -3,14 +3,23 @@
 //! reports the save; a failed save answers with the old value or
 //! MISSION_ACK ERROR and a STATUSTEXT, and the old value or plan stays in
 //! force; read-only storage refuses every change and says so at connect.
+//! A flight termination stops at once, is acknowledged once saved, and is
+//! still in force after a restart on the same data directory.
 
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use autopilot::edge::persistence::{Persistence, restore};
 use autopilot::sitl::gcs;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
+use autopilot::storage::data_dir::{DataDir, Profile};
+use autopilot::storage::file_writer::FileWriterThread;
+use autopilot::storage::session::SessionParams;
 use autopilot::time::FrozenTimer;
 use autopilot::vehicle::{LinkEvent, LinkId, Outbound, SaveDone, SaveRequest, SaveWhat, Storage};
 use mavlink::dialects::ardupilotmega::{
     MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType,
-    MavParamType, PARAM_SET_DATA,
+    MavParamType, MavResult, PARAM_SET_DATA,
 };
 
 struct Vehicle {
@@ -271,4 +280,155 @@ fn read_only_storage_refuses_changes_and_says_so_at_connect() {
     });
     v.step();
     assert!(texts(&v.take()).contains("read-only"));
+}
+
+/// A vehicle on a data directory, its saves written by the edge's
+/// persistence on a file writer thread, as `furrow sitl` runs one.
+struct DiskVehicle {
+    sim: Simulation,
+    persistence: Persistence,
+    received: Vec<MavMessage>,
+    // Dropped last: the writer thread, then the directory's lock.
+    _writers: FileWriterThread,
+    _data_dir: DataDir,
+}
+
+impl DiskVehicle {
+    fn open(dir: &Path) -> DiskVehicle {
+        let model = ModelKind::Ackermann;
+        let data_dir = DataDir::open(dir, Profile::Sitl(model)).expect("data directory");
+        let mut params = SimulationParams::new(model);
+        let mut session = SessionParams::load(data_dir.path(), &mut params.table).expect("parameters");
+        let config = SimulationConfig {
+            model,
+            ..SimulationConfig::default()
+        };
+        let mut sim = Simulation::new(&config, params);
+        restore(&data_dir, &mut session, sim.core_mut());
+        let writers = FileWriterThread::start();
+        let persistence = Persistence::start(&data_dir, session, sim.core_mut(), &writers);
+        gcs::connect(&mut sim);
+        let mut v = DiskVehicle {
+            sim,
+            persistence,
+            received: Vec::new(),
+            _writers: writers,
+            _data_dir: data_dir,
+        };
+        v.settle();
+        v
+    }
+
+    /// Steps until no change waits for its save.
+    fn settle(&mut self) {
+        let deadline = Instant::now() + Duration::from_secs(10);
+        loop {
+            self.persistence.collect(self.sim.inputs_mut());
+            let wall = self.sim.time();
+            let out = self.sim.step(wall, &mut FrozenTimer);
+            self.received.extend(out.mavlink.drain(..).map(|o| o.message));
+            let saves = std::mem::take(&mut out.saves);
+            self.persistence.save(saves, self.sim.core());
+            if !self.sim.core().is_waiting_for_saves() {
+                return;
+            }
+            assert!(Instant::now() < deadline, "a save never finished");
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    fn command(&mut self, command: MavCmd, p1: f32) {
+        gcs::send(
+            &mut self.sim,
+            gcs::command_long(command, [p1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        );
+    }
+
+    fn take(&mut self) -> Vec<MavMessage> {
+        std::mem::take(&mut self.received)
+    }
+}
+
+fn command_acks(messages: &[MavMessage], command: MavCmd) -> Vec<MavResult> {
+    messages
+        .iter()
+        .filter_map(|m| match m {
+            MavMessage::COMMAND_ACK(a) if a.command == command => Some(a.result),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_flight_termination_is_saved_before_its_ack_and_kept_across_a_restart() {
+    let dir = tempfile::tempdir().unwrap();
+    let terminate = MavCmd::MAV_CMD_DO_FLIGHTTERMINATION;
+    {
+        let mut v = DiskVehicle::open(dir.path());
+        v.take();
+        v.command(terminate, 1.0);
+        // In force at once; the ACK waits for the file.
+        let wall = v.sim.time();
+        let out = v.sim.step(wall, &mut FrozenTimer);
+        let first: Vec<MavMessage> = out.mavlink.drain(..).map(|o| o.message).collect();
+        let saves = std::mem::take(&mut out.saves);
+        assert!(v.sim.core().is_terminated());
+        assert!(
+            command_acks(&first, terminate).is_empty(),
+            "acknowledged before the save"
+        );
+        assert!(matches!(
+            &saves[..],
+            [SaveRequest {
+                what: SaveWhat::Termination { terminated: true },
+                ..
+            }]
+        ));
+        v.persistence.save(saves, v.sim.core());
+        v.settle();
+        assert_eq!(command_acks(&v.take(), terminate), [MavResult::MAV_RESULT_ACCEPTED]);
+        assert_eq!(autopilot::storage::termination::load(dir.path()), Ok(true));
+    }
+    // The restart: still terminated, and says so; arming is refused.
+    let mut v = DiskVehicle::open(dir.path());
+    assert!(v.sim.core().is_terminated());
+    assert!(texts(&v.take()).contains("Flight terminated before the restart"));
+    v.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0);
+    v.settle();
+    assert!(!v.sim.core().is_armed());
+    // Cleared: in force once saved, and the next restart is not terminated.
+    v.command(terminate, 0.0);
+    v.settle();
+    assert!(!v.sim.core().is_terminated());
+    assert_eq!(command_acks(&v.take(), terminate), [MavResult::MAV_RESULT_ACCEPTED]);
+    drop(v);
+    let v = DiskVehicle::open(dir.path());
+    assert!(!v.sim.core().is_terminated());
+}
+
+#[test]
+fn a_termination_not_saved_still_stops_and_a_clear_not_saved_keeps_it() {
+    let terminate = MavCmd::MAV_CMD_DO_FLIGHTTERMINATION;
+    let mut v = Vehicle::new(Storage::Durable);
+    v.report_all(Ok(()));
+    v.take();
+    v.send(gcs::command_long(terminate, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]));
+    assert!(v.sim.core().is_terminated(), "in force before the save");
+    v.report_all(Err("terminated: No space left on device (os error 28)".into()));
+    let messages = v.take();
+    assert_eq!(command_acks(&messages, terminate), [MavResult::MAV_RESULT_FAILED]);
+    assert!(
+        texts(&messages).contains("a restart would clear it"),
+        "{}",
+        texts(&messages)
+    );
+    assert!(v.sim.core().is_terminated());
+    v.send(gcs::command_long(terminate, [0.0; 7]));
+    assert!(v.sim.core().is_terminated(), "cleared before the save");
+    v.report_all(Err("terminated: No space left on device (os error 28)".into()));
+    assert_eq!(command_acks(&v.take(), terminate), [MavResult::MAV_RESULT_FAILED]);
+    assert!(
+        v.sim.core().is_terminated(),
+        "a clear that is not saved is not in force"
+    );
 }

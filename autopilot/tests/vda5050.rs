@@ -14,6 +14,7 @@ use autopilot::vehicle::FleetMessage;
 use common::Harness;
 use mavlink::dialects::ardupilotmega::MavCmd;
 use serde_json::{Value, json};
+use sim::{ObstacleWorld, Shape};
 use test_support::vda5050::{N, instant, order};
 use vda5050::state::{ActionStatus, EStop, MapStatus, OperatingMode, State};
 use vda5050::{Topic, TopicPrefix};
@@ -495,32 +496,40 @@ fn a_flight_termination_stops_and_holds_the_vehicle_as_a_remote_estop_until_clea
     assert!(done, "the order did not go on: {:?}", f.h.texts());
 }
 
-/// a → b → c with b → c a quarter circle of radius 8 about (8, 8) (a
-/// rational quadratic), entered heading north as a → b leaves: the vehicle
-/// drives on the circle and stops at c.
-#[test]
-fn a_nurbs_trajectory_is_followed_through_the_navigator() {
-    let mut f = Fleet::new();
+/// a → b → c with b → c a quarter circle of radius `r` about (r, 8) (a
+/// rational quadratic, its degree written as a float), entered heading
+/// north as a → b leaves; positions relative to where the vehicle started.
+fn quarter_circle_order(f: &Fleet, order_id: &str, r: f64) -> Value {
     let nodes = [
         N("a", 0.0, 0.0, true, None),
         N("b", 0.0, 8.0, true, None),
-        N("c", 8.0, 16.0, true, None),
+        N("c", r, 8.0 + r, true, None),
     ];
     let (x0, y0) = f.origin;
-    let mut value = order("job10", 0, 0, &nodes, &[]);
+    let mut value = order(order_id, 0, 0, &nodes, &[]);
     for node in value["nodes"].as_array_mut().unwrap() {
         let position = &mut node["nodePosition"];
         position["x"] = json!(position["x"].as_f64().unwrap() + x0);
         position["y"] = json!(position["y"].as_f64().unwrap() + y0);
     }
     value["edges"][1]["trajectory"] = json!({
-        "degree": 2, "knotVector": [0, 0, 0, 1, 1, 1],
+        "degree": 2.0, "knotVector": [0, 0, 0, 1, 1, 1],
         "controlPoints": [
             {"x": x0, "y": y0 + 8.0},
-            {"x": x0, "y": y0 + 16.0, "weight": std::f64::consts::FRAC_1_SQRT_2},
-            {"x": x0 + 8.0, "y": y0 + 16.0},
+            {"x": x0, "y": y0 + 8.0 + r, "weight": std::f64::consts::FRAC_1_SQRT_2},
+            {"x": x0 + r, "y": y0 + 8.0 + r},
         ],
     });
+    value
+}
+
+/// The quarter circle of radius 8: the vehicle drives on the circle and
+/// stops at c.
+#[test]
+fn a_nurbs_trajectory_is_followed_through_the_navigator() {
+    let mut f = Fleet::new();
+    let (x0, y0) = f.origin;
+    let value = quarter_circle_order(&f, "job10", 8.0);
     f.send(Topic::Order, &value);
     let (mut worst_m, mut samples) = (0f64, 0);
     let done = f.run_until(120.0, |f| f.idle() && f.last().last_node_id == "c");
@@ -543,4 +552,96 @@ fn a_nurbs_trajectory_is_followed_through_the_navigator() {
     assert!(worst_m < 0.3, "{worst_m:.3} m off the curve");
     assert!((tx - 8.0).hypot(ty - 16.0) < 0.3, "stopped at ({tx:.3}, {ty:.3})");
     assert!(f.last().errors.is_empty(), "{:?}", f.last().errors);
+}
+
+/// A quarter circle of 4 m is tighter than the simulated car turns
+/// (VEH_WHEELBASE 2.9 m / tan 30°, 5.0 m): refused as a field it cannot
+/// use, and the vehicle stays where it is.
+#[test]
+fn a_trajectory_tighter_than_the_vehicle_turns_is_refused() {
+    let mut f = Fleet::new();
+    let value = quarter_circle_order(&f, "job11", 4.0);
+    f.send(Topic::Order, &value);
+    assert!(f.run_until(3.0, |f| !f.last().errors.is_empty()), "no verdict");
+    let state = f.last().clone();
+    assert_eq!(error_types(&state), ["orderError"], "{:?}", state.errors);
+    let text = state.errors[0].error_description.clone().unwrap_or_default();
+    assert!(
+        text.contains("4.00 m radius") && text.contains("no tighter than 5."),
+        "{text}"
+    );
+    assert!(state.order_id.is_empty() && !state.driving);
+    f.run_for_seconds(2.0);
+    assert!(f.speed() < 0.01, "it moved");
+}
+
+/// The quarter circle of 8 m with a round obstacle of `radius_m` at map
+/// (x, y) relative to the start. Returns whether the order finished, the
+/// obstacle stops, and the least clearance between the true outline and
+/// the obstacle while moving.
+fn drive_the_curve_past((x, y): (f64, f64), radius_m: f64, limit_s: f64) -> (bool, usize, f64, Vec<String>) {
+    let mut f = Fleet::new();
+    // The world is north, east about home; the map x east, y north.
+    let (east0, north0) = f.truth_origin;
+    let shape = Shape::Circle {
+        center: [north0 + y, east0 + x],
+        radius_m,
+    };
+    let world = ObstacleWorld::new(vec![shape], Vec::new());
+    f.h.sim.world_mut().set_obstacles(Some(world.clone()));
+    let value = quarter_circle_order(&f, "job12", 8.0);
+    f.send(Topic::Order, &value);
+    let outline = f.h.sim.outline();
+    let mut clearance_m = f64::INFINITY;
+    let done = f.run_until(limit_s, |f| {
+        let t = f.h.sim.time().as_secs_f64();
+        if f.speed() > 0.02 {
+            clearance_m = clearance_m.min(world.clearance_m(&f.h.sim.world().outline_now(&outline), t));
+        }
+        f.idle() && f.last().last_node_id == "c"
+    });
+    let texts = f.h.texts();
+    let stops = texts.iter().filter(|t| t.starts_with("Obstacle stop:")).count();
+    (done, stops, clearance_m, texts)
+}
+
+/// Obstacle protection looks along the curve beyond the chord being
+/// driven. A post 0.7 m outside the band the car's outline sweeps round
+/// the curve, 70° into it, lies on the tangent from 30° in (where a sweep
+/// that went straight on past the chord would run into it): it costs no
+/// stop. A person standing on the curve is stopped for short of contact.
+#[test]
+fn protection_looks_along_the_trajectory_beyond_the_chord() {
+    // The curve's centre is (8, 8), its radius 8 m; the outer front corner
+    // sweeps out to √(9² + 3.6²) = 9.7 m from the centre.
+    let (sin70, cos70) = 70f64.to_radians().sin_cos();
+    let post = (8.0 - 10.6 * cos70, 8.0 + 10.6 * sin70);
+    let (done, stops, clearance_m, texts) = drive_the_curve_past(post, 0.2, 120.0);
+    println!("post outside the curve: {stops} stops, clearance {clearance_m:.2} m");
+    assert!(done, "{texts:?}");
+    assert_eq!(stops, 0, "a false stop: {texts:?}");
+    assert!(clearance_m > 0.3, "{clearance_m:.2} m");
+
+    let (sin60, cos60) = 60f64.to_radians().sin_cos();
+    let person = (8.0 - 8.0 * cos60, 8.0 + 8.0 * sin60);
+    let (done, stops, clearance_m, texts) = drive_the_curve_past(person, 0.25, 40.0);
+    println!("person on the curve: {stops} stops, clearance while moving {clearance_m:.2} m");
+    assert!(!done, "drove through the person");
+    assert!(stops >= 1, "{texts:?}");
+    assert!(clearance_m > 0.0, "touched the person: {clearance_m:.2} m");
+}
+
+/// The state of the tick an order is accepted in goes out after that
+/// tick's mode update: it already says the vehicle drives (armed, AUTO,
+/// the drive commanded), rather than a tick later.
+#[test]
+fn the_state_of_the_tick_an_order_starts_in_says_driving() {
+    let mut f = Fleet::new();
+    let nodes = [N("a", 0.0, 0.0, true, None), N("b", 0.0, 10.0, true, None)];
+    f.send_order("job13", 0, 0, &nodes, &[]);
+    f.step();
+    let state = f.last();
+    assert_eq!(state.order_id, "job13", "no state in the order's tick");
+    assert!(state.driving, "{state:?}");
+    assert_eq!(state.operating_mode, OperatingMode::Automatic);
 }

@@ -39,6 +39,9 @@ const DT_S: f64 = 0.1;
 const CRUISE_MPS: f64 = 1.5;
 /// A node counts as reached within this when it gives no deviation (m).
 const ARRIVAL_M: f64 = 0.1;
+/// The point vehicle's tightest turn (m): tight fuzzed curves are refused
+/// (the rejection is fuzzed too), gentle ones driven.
+const MIN_TURN_RADIUS_M: f64 = 2.0;
 /// Node positions lie within this of the start (m).
 const AREA_M: f64 = 30.0;
 const ORDER_IDS: [&str; 3] = ["o1", "o2", "o3"];
@@ -98,6 +101,7 @@ impl PointVehicle {
             driving: self.driving,
             operating_mode: self.operating_mode,
             e_stop: EStop::None,
+            min_turn_radius_m: Some(MIN_TURN_RADIUS_M),
         }
     }
 

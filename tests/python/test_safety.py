@@ -102,3 +102,33 @@ def test_an_injected_gnss_drop_stops_the_vehicle(start_sitl):
     text = recv(m, "STATUSTEXT", 5, lambda t: t.text.startswith("Failsafe:"))
     assert text is not None and text.text.endswith(": HOLD"), text
     assert wait_mode(m, "HOLD")
+
+
+def test_a_flight_termination_is_kept_across_a_restart_until_cleared(start_sitl, tmp_path):
+    """DO_FLIGHTTERMINATION is acknowledged once saved: killed right after
+    the ACK, the vehicle restarts terminated (arming refused, the reason
+    said) until the command with param1 0 clears it."""
+    data = tmp_path / "data"
+    sitl = start_sitl(data_dir=data)
+    m = sitl.tcp()
+    ack = command(m, mavlink.MAV_CMD_DO_FLIGHTTERMINATION, 1)
+    assert ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED
+    sitl.proc.kill()
+    sitl.proc.wait()
+
+    sitl = start_sitl(data_dir=data)
+    m = sitl.tcp()
+    ack, texts = arm_collecting_texts(m, 1, FORCE_ARM_MAGIC)
+    assert ack is not None and ack.result == mavlink.MAV_RESULT_FAILED
+    assert not m.motors_armed()
+    ack, texts = arm_collecting_texts(m, 1)
+    assert ack is not None and ack.result == mavlink.MAV_RESULT_FAILED
+    assert "PreArm: Flight terminated" in texts, texts
+
+    ack = command(m, mavlink.MAV_CMD_DO_FLIGHTTERMINATION, 0)
+    assert ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED
+    deadline = time.time() + 30
+    while not prearm_healthy(m):
+        assert time.time() < deadline, "never ready to arm after the clear"
+    ack = command(m, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+    assert ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED

@@ -285,6 +285,43 @@ def test_an_order_with_a_reverse_edge_and_pick_drop_is_driven_and_every_node_rep
     assert sitl.alive()
 
 
+def quarter_circle(master, origin, order_id, r):
+    """a -> b north 8 m, then b -> c a quarter circle of radius r turning
+    east (a NURBS: rational quadratic, its degree written as a float)."""
+    x0, y0 = origin
+    body = order(master, origin, order_id, [("a", 0, 0, None), ("b", 0, 8, None), ("c", r, 8 + r, None)])
+    body["edges"][1]["trajectory"] = {
+        "degree": 2.0, "knotVector": [0, 0, 0, 1, 1, 1],
+        "controlPoints": [{"x": x0, "y": y0 + 8}, {"x": x0, "y": y0 + 8 + r, "weight": math.sqrt(0.5)},
+                          {"x": x0 + r, "y": y0 + 8 + r}]}
+    return body
+
+
+def test_an_order_with_a_nurbs_edge_is_driven_on_the_curve_and_a_too_tight_one_refused(fleet):
+    master, sitl, origin = fleet
+    x0, y0 = origin
+    # 4 m is tighter than the simulated car turns (2.9 m wheelbase, 30 degree steering: 5 m).
+    master.publish("order", quarter_circle(master, origin, "tight", 4.0))
+    master.wait("the refusal", lambda m: [e["errorType"] for e in m.last()["errors"]] == ["orderError"], 10)
+    assert "radius" in master.last()["errors"][0]["errorDescription"]
+    assert master.last()["orderId"] == "" and not master.last()["driving"]
+
+    master.publish("order", quarter_circle(master, origin, "curve", 8.0))
+    master.wait("c reached", lambda m: m.last()["orderId"] == "curve" and m.last()["lastNodeId"] == "c"
+                and not m.last()["nodeStates"] and not m.last()["driving"], 120)
+    assert master.nodes_reported()[-3:] == ["a", "b", "c"]
+    assert master.last()["errors"] == []
+    on_curve = [(s["agvPosition"]["x"] - x0, s["agvPosition"]["y"] - y0) for s in master.states
+                if s["orderId"] == "curve" and s["lastNodeId"] == "b"]
+    on_curve = [(x, y) for x, y in on_curve if 0.5 < x < 7.5 and y > 8.5]
+    assert on_curve, "no state from the curve"
+    for x, y in on_curve:
+        assert abs(math.hypot(x - 8, y - 8) - 8) < 0.3, f"({x:.2f}, {y:.2f}) is off the curve"
+    x, y = (master.last()["agvPosition"][k] for k in ("x", "y"))
+    assert math.hypot(x - x0 - 8, y - y0 - 16) < 0.3, f"stopped at ({x - x0:.2f}, {y - y0:.2f})"
+    assert sitl.alive()
+
+
 def test_cancel_mid_edge_stops_and_a_malformed_order_is_rejected_beside_the_running_one(fleet):
     master, sitl, origin = fleet
     master.publish("order", order(master, origin, "job2", [("a", 0, 0, None), ("b", 0, 40, None)]))

@@ -66,9 +66,26 @@ pub struct ControlPoint {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
 pub struct Trajectory {
+    /// Written as a float64 in the standard's table and an integer in its
+    /// schema: a whole number either way (2 or 2.0), never 2.5.
+    #[serde(deserialize_with = "whole_number")]
     pub degree: u32,
     pub knot_vector: Vec<f64>,
     pub control_points: Vec<ControlPoint>,
+}
+
+/// A JSON number that is a whole number from 0 to `u32::MAX`, whether
+/// written as an integer or a float.
+fn whole_number<'de, D: serde::Deserializer<'de>>(deserializer: D) -> Result<u32, D::Error> {
+    let value = f64::deserialize(deserializer)?;
+    if value.fract() == 0.0 && (0.0..=f64::from(u32::MAX)).contains(&value) {
+        Ok(value as u32)
+    } else {
+        Err(serde::de::Error::custom(format!(
+            "{value} is not a whole number from 0 to {}",
+            u32::MAX
+        )))
+    }
 }
 
 /// The vehicle's position in the map frame (m, rad).

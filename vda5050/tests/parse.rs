@@ -149,6 +149,20 @@ fn schema_bounds_are_checked_with_the_field_named() {
     assert!(text.contains("not an ISO 8601"), "{text}");
 }
 
+/// The standard's table gives `degree` as float64, its schema as integer:
+/// a whole number written either way is read, a fraction is refused.
+#[test]
+fn a_trajectory_degree_is_a_whole_number_written_as_integer_or_float() {
+    let mut order = spec_like_order();
+    order["edges"][1]["trajectory"]["degree"] = json!(1.0);
+    let parsed = parse_value(&order).expect("1.0 is a whole number");
+    assert_eq!(parsed.edges[1].trajectory.as_ref().unwrap().degree, 1);
+    let text = error_after(|o| o["edges"][1]["trajectory"]["degree"] = json!(2.5));
+    assert!(text.contains("2.5 is not a whole number"), "{text}");
+    let text = error_after(|o| o["edges"][1]["trajectory"]["degree"] = json!(1e12));
+    assert!(text.contains("is not a whole number"), "{text}");
+}
+
 #[test]
 fn every_rejected_bound_is_also_rejected_by_the_official_schema() {
     let schema = order_schema();

@@ -8,12 +8,12 @@ use tokio::sync::mpsc::UnboundedReceiver;
 
 use crate::storage::data_dir::DataDir;
 use crate::storage::file_writer::{FileWriter, FileWriterThread};
-use crate::storage::missions;
 use crate::storage::session::SessionParams;
+use crate::storage::{missions, termination};
 use crate::vehicle::{Core, Inputs, SaveDone, SaveRequest, SaveWhat, Storage};
 
-/// Gives the core the stored plans and the notices loading them (and the
-/// parameters) left for the ground stations.
+/// Gives the core the stored plans, a flight termination in force, and the
+/// notices loading them (and the parameters) left for the ground stations.
 pub fn restore(data_dir: &DataDir, session: &mut SessionParams, core: &mut Core) {
     for (severity, text) in session.notices.drain(..) {
         core.add_startup_notice(severity, text);
@@ -24,6 +24,11 @@ pub fn restore(data_dir: &DataDir, session: &mut SessionParams, core: &mut Core)
     }
     for (severity, text) in plan_notices {
         core.add_startup_notice(severity, text);
+    }
+    match termination::load(data_dir.path()) {
+        Ok(false) => {}
+        Ok(true) => core.restore_termination(None),
+        Err(why) => core.restore_termination(Some(why)),
     }
 }
 
@@ -84,6 +89,9 @@ impl Persistence {
                 ),
                 SaveWhat::Plan { mission_type, plan } => {
                     (missions::path(&self.dir, mission_type), missions::contents(&plan))
+                }
+                SaveWhat::Termination { terminated } => {
+                    (termination::path(&self.dir), termination::contents(terminated))
                 }
             };
             writer.save(token, path, bytes);

@@ -69,6 +69,9 @@ pub struct VehicleView {
     pub operating_mode: OperatingMode,
     /// The e-stop the state reports (a change sends a state).
     pub e_stop: EStop,
+    /// The tightest turn the vehicle follows (m), `None` when it turns on
+    /// the spot: a trajectory that needs tighter is refused.
+    pub min_turn_radius_m: Option<f64>,
 }
 
 /// One leg to drive: along an edge to its end node.
@@ -231,9 +234,18 @@ impl Agent {
         self.order.has_horizon() && (self.order.next_is_decision_point() || self.order.next_leg().is_none())
     }
 
-    /// One step: the payloads received, node arrivals, actions, and the
-    /// command for the vehicle.
+    /// One step: the payloads received, node arrivals, actions, the
+    /// command for the vehicle, and the messages due.
     pub fn step(&mut self, view: &VehicleView) -> Command {
+        let command = self.advance(view);
+        self.schedule_messages(view);
+        command
+    }
+
+    /// [`Self::step`] without the messages: the core schedules them after
+    /// its mode update, so the `state` of the tick an order starts in says
+    /// what the vehicle does in it.
+    pub fn advance(&mut self, view: &VehicleView) -> Command {
         for (topic, payload) in std::mem::take(&mut self.inbox) {
             self.handle(topic, &payload, view);
         }
@@ -264,9 +276,7 @@ impl Agent {
                 .finish(&id, ActionStatus::Finished, "order cancelled, vehicle stopped");
             self.cancelling = None;
         }
-        let command = self.command(view);
-        self.schedule_messages(view);
-        command
+        self.command(view)
     }
 
     fn command(&self, view: &VehicleView) -> Command {
@@ -359,6 +369,7 @@ impl Agent {
             position: view.pose.map(|p| (p.x_m, p.y_m)),
             actions_busy: self.actions.busy(),
             supports_action: &supports,
+            min_turn_radius_m: view.min_turn_radius_m,
         };
         let known_nodes = self.order.nodes.len();
         let verdict = self.order.receive(order, &ctx);
@@ -532,7 +543,7 @@ impl Agent {
     }
 
     /// `state` on every change and at its interval; `visualization` at its.
-    fn schedule_messages(&mut self, view: &VehicleView) {
+    pub fn schedule_messages(&mut self, view: &VehicleView) {
         let fingerprint = self.fingerprint(view);
         let interval = if view.driving {
             self.config.state_interval_driving_s

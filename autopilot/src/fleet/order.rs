@@ -25,6 +25,9 @@ pub struct OrderContext<'a> {
     pub actions_busy: bool,
     /// Whether the vehicle can carry out an action type in an order.
     pub supports_action: &'a dyn Fn(&str) -> bool,
+    /// The tightest turn the vehicle follows (m); `None` when it can turn
+    /// on the spot (a differential drive).
+    pub min_turn_radius_m: Option<f64>,
 }
 
 /// The verdict on a received order.
@@ -350,7 +353,7 @@ fn check_capabilities(order: &Order, ctx: &OrderContext) -> Result<(), Error> {
     // line (or its trajectory) obeys them.
     for (i, edge) in order.edges.iter().enumerate() {
         if let Some(trajectory) = &edge.trajectory {
-            check_trajectory(order, i, trajectory)?;
+            check_trajectory(order, i, trajectory, ctx.min_turn_radius_m)?;
         }
     }
     Ok(())
@@ -361,8 +364,15 @@ fn check_capabilities(order: &Order, ctx: &OrderContext) -> Result<(), Error> {
 pub const TRAJECTORY_END_TOLERANCE_M: f64 = 0.1;
 
 /// An edge's NURBS (§6.6.6): well-formed (see [`Nurbs::new`]), from the
-/// edge's start node to its end node.
-fn check_trajectory(order: &Order, index: usize, trajectory: &Trajectory) -> Result<(), Error> {
+/// edge's start node to its end node (else a `validationError`), and no
+/// tighter than the vehicle turns (else an `orderError`: a field the
+/// vehicle cannot use, §6.6.4.2).
+fn check_trajectory(
+    order: &Order,
+    index: usize,
+    trajectory: &Trajectory,
+    min_turn_radius_m: Option<f64>,
+) -> Result<(), Error> {
     let edge = &order.edges[index];
     let fail = |text: String| {
         let mut refs = order_refs(order);
@@ -397,6 +407,17 @@ fn check_trajectory(order: &Order, index: usize, trajectory: &Trajectory) -> Res
                 node.node_id
             ));
         }
+    }
+    let radius_m = curve.min_radius_m();
+    if let Some(min_m) = min_turn_radius_m.filter(|min_m| radius_m < *min_m) {
+        let mut refs = order_refs(order);
+        refs.push(("edgeId", edge.edge_id.clone()));
+        refs.push(("trajectory", "controlPoints".to_owned()));
+        let text = format!(
+            "edge {} trajectory turns on a {radius_m:.2} m radius; this vehicle turns no tighter than {min_m:.2} m",
+            edge.edge_id
+        );
+        return Err(error("orderError", text, refs));
     }
     Ok(())
 }

@@ -29,6 +29,7 @@ fn view(t: f64) -> VehicleView {
         driving: false,
         operating_mode: OperatingMode::Automatic,
         e_stop: EStop::None,
+        min_turn_radius_m: None,
     }
 }
 

@@ -24,6 +24,9 @@ pub const CHORD_TOLERANCE_M: f64 = 0.01;
 const SAMPLES_PER_SPAN: usize = 4;
 /// A chord is split at most this many times over.
 const MAX_SPLIT_DEPTH: u32 = 12;
+/// The radius of curvature is measured through this many points per knot
+/// span (plenty for a span of degree 10, which bends at most 9 times).
+const RADIUS_SAMPLES_PER_SPAN: usize = 64;
 
 /// A checked NURBS curve.
 #[derive(Clone, Debug, PartialEq)]
@@ -127,6 +130,30 @@ impl Nurbs {
         (x / w, y / w)
     }
 
+    /// The tightest radius of curvature along the curve (m; infinite for a
+    /// straight one), measured as the radius of the circle through three
+    /// neighbouring points, within each knot span: there the curve is
+    /// smooth. At a knot where the curve has a corner (degree 1, or a knot
+    /// repeated `degree` times) the navigator rounds it as it rounds the
+    /// corner between two edges, so a corner is not a turn asked for.
+    pub fn min_radius_m(&self) -> f64 {
+        let (lo, hi) = self.domain();
+        let mut knots: Vec<f64> = self.knots.iter().copied().filter(|k| *k >= lo && *k <= hi).collect();
+        knots.dedup();
+        let mut tightest = f64::INFINITY;
+        for span in knots.windows(2) {
+            let (start, end) = (span[0], span[1]);
+            let at = |i: usize| self.point(start + (end - start) * i as f64 / RADIUS_SAMPLES_PER_SPAN as f64);
+            let (mut a, mut b) = (at(0), at(1));
+            for i in 2..=RADIUS_SAMPLES_PER_SPAN {
+                let c = at(i);
+                tightest = tightest.min(circumradius(a, b, c));
+                (a, b) = (b, c);
+            }
+        }
+        tightest
+    }
+
     /// Points along the curve, first to last, whose chords stay within
     /// `tolerance_m` of it (half for the splitting, half for dropping the
     /// points a straight stretch does not need). Every knot is a sample:
@@ -166,6 +193,22 @@ impl Nurbs {
             points.push(b);
         }
     }
+}
+
+/// The radius of the circle through three points: infinite when they are
+/// in a line, or when two of them coincide (a pause in the parameter's
+/// pace says nothing of the bend).
+fn circumradius(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> f64 {
+    let (ab, bc, ca) = (
+        (b.0 - a.0).hypot(b.1 - a.1),
+        (c.0 - b.0).hypot(c.1 - b.1),
+        (a.0 - c.0).hypot(a.1 - c.1),
+    );
+    let twice_area = ((b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0)).abs();
+    if ab.min(bc) < 1e-9 || twice_area < 1e-15 {
+        return f64::INFINITY;
+    }
+    ab * bc * ca / (2.0 * twice_area)
 }
 
 /// Drops the points the chords would pass within `tolerance_m` of anyway
@@ -244,6 +287,32 @@ mod tests {
         }
         assert_eq!(chords.first(), Some(&(5.0, 0.0)));
         assert_eq!(chords.last(), Some(&(0.0, 5.0)));
+    }
+
+    #[test]
+    fn the_tightest_radius_is_the_circle_s_and_a_polyline_s_corners_are_not_turns() {
+        let radius = quarter_circle().min_radius_m();
+        assert!((radius - 5.0).abs() < 1e-6, "{radius}");
+        let t = trajectory(
+            1,
+            &[0.0, 0.0, 0.5, 1.0, 1.0],
+            &[(0.0, 0.0, None), (4.0, 0.0, None), (4.0, 3.0, None)],
+        );
+        assert_eq!(Nurbs::new(&t).expect("valid").min_radius_m(), f64::INFINITY);
+        // An S of two quarter circles, 5 m then 2 m: the tighter one counts.
+        let t = trajectory(
+            2,
+            &[0.0, 0.0, 0.0, 0.5, 0.5, 1.0, 1.0, 1.0],
+            &[
+                (5.0, 0.0, None),
+                (5.0, 5.0, Some(FRAC_1_SQRT_2)),
+                (0.0, 5.0, None),
+                (-2.0, 5.0, Some(FRAC_1_SQRT_2)),
+                (-2.0, 7.0, None),
+            ],
+        );
+        let radius = Nurbs::new(&t).expect("valid").min_radius_m();
+        assert!((radius - 2.0).abs() < 1e-6, "{radius}");
     }
 
     #[test]

@@ -9,9 +9,11 @@
 //!   loaded at start and saved atomically.
 //! - [`session`]: a run's table: defaults, stored values, command-line
 //!   overrides that are not saved.
+//! - [`termination`]: whether a flight termination is in force.
 
 pub mod data_dir;
 pub mod file_writer;
 pub mod missions;
 pub mod session;
 pub mod signing_key;
+pub mod termination;

@@ -13,7 +13,7 @@ use mavlink::dialects::ardupilotmega::{
 };
 
 use super::modes::ModeRefusal;
-use super::{Core, Destination, Inbound};
+use super::{Core, Destination, Inbound, LinkId};
 use crate::geo::GeoPoint;
 use crate::modes::Mode;
 use crate::telemetry::streams::{MessageInterval, StreamMsg};
@@ -44,6 +44,15 @@ enum CommandPosition {
     Int { lat_e7: i32, lon_e7: i32, frame: MavFrame },
     /// COMMAND_LONG: params 5 and 6 in degrees.
     Float { lat_deg: f32, lon_deg: f32 },
+}
+
+/// Where a command's COMMAND_ACK goes (kept when it waits for a save).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct AckTo {
+    link: LinkId,
+    command: MavCmd,
+    target_system: u8,
+    target_component: u8,
 }
 
 /// COMMAND_LONG and COMMAND_INT in one shape.
@@ -125,19 +134,37 @@ impl Core {
     fn run_command(&mut self, inbound: &Inbound, command: Command) {
         self.counters.commands += 1;
         let mut follow_up = Vec::new();
-        let result = self.execute(inbound, &command, &mut follow_up);
-        let ack = COMMAND_ACK_DATA {
+        let ack_to = AckTo {
+            link: inbound.link,
             command: command.command,
-            result,
-            progress: 0,
-            result_param2: 0,
             target_system: inbound.header.system_id as u8,
             target_component: inbound.header.component_id,
         };
-        self.send(Destination::Link(inbound.link), MavMessage::COMMAND_ACK(ack));
+        let result = match command.command {
+            MavCmd::MAV_CMD_DO_FLIGHTTERMINATION => match self.flight_termination(command.params[0], ack_to) {
+                Some(result) => result,
+                // Acknowledged once saved.
+                None => return,
+            },
+            _ => self.execute(inbound, &command, &mut follow_up),
+        };
+        self.send_ack(ack_to, result);
         for (dest, message) in follow_up {
             self.send(dest, message);
         }
+    }
+
+    /// The one COMMAND_ACK of a command.
+    pub(super) fn send_ack(&mut self, to: AckTo, result: MavResult) {
+        let ack = COMMAND_ACK_DATA {
+            command: to.command,
+            result,
+            progress: 0,
+            result_param2: 0,
+            target_system: to.target_system,
+            target_component: to.target_component,
+        };
+        self.send(Destination::Link(to.link), MavMessage::COMMAND_ACK(ack));
     }
 
     fn execute(&mut self, inbound: &Inbound, c: &Command, follow_up: &mut Vec<(Destination, MavMessage)>) -> MavResult {
@@ -145,7 +172,6 @@ impl Core {
         match c.command {
             MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => self.arm_disarm(p1, p2),
             MavCmd::MAV_CMD_DO_SET_MODE => self.do_set_mode(p1, p2),
-            MavCmd::MAV_CMD_DO_FLIGHTTERMINATION => self.flight_termination(p1),
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => self.set_mode_result(Mode::Rtl.number()),
             MavCmd::MAV_CMD_MISSION_START => {
                 // First/last item selection is not supported (as ArduPilot).

@@ -14,7 +14,9 @@ use crate::fleet::map::{MapFrame, MapPose};
 use crate::fleet::order::error;
 use crate::fleet::state::{build_state, build_visualization};
 use crate::fleet::{Agent, AgentConfig, Command, Leg, OrderEvent, Publish, VehicleView};
+use crate::geo::LocalFrame;
 use crate::guidance::navigator::{NavTarget, StopTolerance};
+use crate::guidance::path::{LegPath, Piece, Segment};
 use crate::guidance::tracker::Direction;
 use crate::modes::Mode;
 
@@ -45,6 +47,67 @@ pub(super) struct FleetState {
     /// A ground station disarmed the vehicle during the order: a remote
     /// e-stop until the vehicle is armed again.
     remote_stop: bool,
+    /// Along a trajectory: the path obstacle protection looks along, built
+    /// once per chord (see [`FleetState::trajectory_ahead`]).
+    ahead: Option<TrajectoryAhead>,
+}
+
+/// The navigator's path for one chord of a trajectory, then the chords
+/// after it, in the local frame.
+struct TrajectoryAhead {
+    /// The leg (node sequenceId), the chord, and the navigator path's
+    /// length (a re-approach rebuilds that path).
+    key: (u32, usize, u64),
+    path: LegPath,
+    /// The path ends at a node the vehicle stops at.
+    stop: bool,
+}
+
+impl FleetState {
+    /// Along a trajectory, the path the vehicle is about to drive: the
+    /// navigator's path for the chord being driven (`chord_path`, which
+    /// already runs on to the next chord's end), then the chords after it
+    /// to the node, and on to the next node when the vehicle drives
+    /// through. Obstacle protection looks along it, so it sees the curve
+    /// beyond the chord. Returns it and whether it ends at a stop; `None`
+    /// off a trajectory.
+    pub(super) fn trajectory_ahead(
+        &mut self,
+        chord_path: &LegPath,
+        frame: Option<&LocalFrame>,
+    ) -> Option<(&LegPath, bool)> {
+        let Command::Drive(leg) = &self.command else {
+            return None;
+        };
+        let points = leg.path.as_deref()?;
+        if self.leg != Some(leg.node_sequence_id) || self.chord + 2 >= points.len() {
+            return None;
+        }
+        let key = (leg.node_sequence_id, self.chord, chord_path.end_m().to_bits());
+        if self.ahead.as_ref().is_none_or(|a| a.key != key) {
+            let following = points[self.chord + 2..]
+                .iter()
+                .chain(leg.next.iter().filter(|_| !leg.stop));
+            let mut pieces = chord_path.pieces().to_vec();
+            let mut at = chord_path
+                .pieces()
+                .last()
+                .map_or(chord_path.end(), |p| p.point_at(p.length_m()));
+            for &(x, y) in following {
+                let point = self.map.to_local(frame, x, y)?;
+                if point.distance_to(&at) > 1e-6 {
+                    pieces.push(Piece::Line(Segment::new(at, point)));
+                    at = point;
+                }
+            }
+            self.ahead = Some(TrajectoryAhead {
+                key,
+                path: LegPath::from_pieces(pieces),
+                stop: leg.stop,
+            });
+        }
+        self.ahead.as_ref().map(|a| (&a.path, a.stop))
+    }
 }
 
 impl Core {
@@ -62,6 +125,7 @@ impl Core {
             last_chord: 0,
             tolerance: None,
             remote_stop: false,
+            ahead: None,
         }));
     }
 
@@ -102,10 +166,10 @@ impl Core {
         }
     }
 
-    /// Once a tick, before the tasks: the agent's step and what follows.
-    /// The pose is worked out only when an order or an instant action needs
-    /// it, the vehicle's report only when a message goes out.
-    pub(super) fn fleet_tick(&mut self, inputs: &Inputs, out: &mut Outputs) {
+    /// Once a tick, before the tasks: the agent's step and what follows
+    /// (the messages wait for [`Core::fleet_messages`]). The pose is worked
+    /// out only when an order or an instant action needs it.
+    pub(super) fn fleet_tick(&mut self, inputs: &Inputs) {
         let armed = self.armed;
         let Some(fleet) = self.fleet.as_mut() else {
             return;
@@ -119,18 +183,32 @@ impl Core {
         for (topic, payload) in &inputs.vda5050 {
             fleet.agent.receive(*topic, payload.clone());
         }
-        fleet.command = fleet.agent.step(&view);
+        fleet.command = fleet.agent.advance(&view);
         let events = fleet.agent.take_events();
         let outputs = fleet.agent.take_outputs();
-        let publish = fleet.agent.take_publish();
-        if !publish.is_empty() {
-            self.fleet_publish(&publish, view.driving, remote_stop, out);
-        }
         for event in events {
             self.fleet_event(event);
         }
         for output in outputs {
             self.apply_action_output(output);
+        }
+    }
+
+    /// Once a tick, after the tasks: the messages due, from what the tick
+    /// did (the state of the tick an order starts in says `driving`). The
+    /// vehicle's report is worked out only when a message goes out.
+    pub(super) fn fleet_messages(&mut self, out: &mut Outputs) {
+        let Some(remote_stop) = self.fleet.as_ref().map(|f| f.remote_stop) else {
+            return;
+        };
+        let view = self.fleet_view(false, remote_stop);
+        let Some(fleet) = self.fleet.as_mut() else {
+            return;
+        };
+        fleet.agent.schedule_messages(&view);
+        let publish = fleet.agent.take_publish();
+        if !publish.is_empty() {
+            self.fleet_publish(&publish, view.driving, remote_stop, out);
         }
     }
 
@@ -177,7 +255,17 @@ impl Core {
             driving: self.fleet_driving(),
             operating_mode: self.operating_mode(),
             e_stop: self.fleet_e_stop(remote_stop),
+            // Only orders look at it.
+            min_turn_radius_m: if with_pose { self.min_turn_radius_m() } else { None },
         }
+    }
+
+    /// The tightest turn the navigator drives (its smallest arc, with room
+    /// for the tracker's corrections); none for a differential drive, which
+    /// turns on the spot.
+    fn min_turn_radius_m(&self) -> Option<f64> {
+        let differential = self.drive_train == crate::control::mixer::DriveTrain::Differential;
+        (!differential).then(|| self.nav_config().min_arc_radius_m)
     }
 
     /// Driving or rotating (§6.10.6's `driving`): the drive is commanded to
@@ -286,6 +374,7 @@ impl Core {
                     fleet.leg = Some(leg.node_sequence_id);
                     fleet.tolerance = tolerance;
                     fleet.chord = 0;
+                    fleet.ahead = None;
                     fleet.last_chord = leg.path.as_ref().map_or(0, |p| p.len().saturating_sub(2));
                 }
                 self.drive_leg(&leg, 0);

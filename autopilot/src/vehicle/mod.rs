@@ -207,7 +207,7 @@ impl Core {
         self.saves_done(&inputs.saved);
         // Before the tasks: an order that arrived starts (armed, AUTO) in
         // this tick's mode update, not the next one's.
-        self.fleet_tick(inputs, out);
+        self.fleet_tick(inputs);
         for (i, spec) in TASKS.iter().enumerate() {
             if !self.sched.is_due(i, now.boot, now.wall) {
                 continue;
@@ -229,6 +229,7 @@ impl Core {
             }
             self.sched.record(i, timer.now_ns().saturating_sub(started));
         }
+        self.fleet_messages(out);
         self.log_tick(inputs.gnss.len());
         self.request_param_save();
         out.saves.append(&mut self.persist.take_requests());

@@ -733,6 +733,8 @@ impl Core {
         let nav_config = self.nav_config();
         let pivot = self.navigator.pivot_target().filter(|_| self.mode != Mode::Magnetic);
         let target = self.navigator.target().copied();
+        let frame = self.estimator.frame();
+        let fleet = self.fleet.as_deref_mut();
         let leg = (self.mode != Mode::Magnetic)
             .then(|| self.navigator.path_ahead(pose.position, &nav_config).zip(target))
             .flatten()
@@ -744,14 +746,21 @@ impl Core {
                 };
                 let heading_off = wrap_pi(pose.yaw_rad - path.heading_at(*along_m) - flip).abs();
                 path.point_at(*along_m).distance_to(&pose.position) <= ON_PATH_M && heading_off <= ON_PATH_RAD
-            });
+            })
+            // Along a fleet order's trajectory: on over the chords after this one.
+            .map(
+                |((path, along_m), target)| match fleet.and_then(|f| f.trajectory_ahead(path, frame)) {
+                    Some((whole, stop)) => (whole, along_m, stop, target),
+                    None => (path, along_m, target.stop, target),
+                },
+            );
         let ahead = match (pivot, leg) {
             // Turning on the spot: the outline swept round to the heading.
             (Some(to_yaw_rad), _) => PathAhead::Pivot { to_yaw_rad },
-            (None, Some(((path, along_m), target))) => PathAhead::Leg {
+            (None, Some((path, along_m, stop, target))) => PathAhead::Leg {
                 path,
                 along_m,
-                stop_at_m: target.stop.then(|| path.end_m()),
+                stop_at_m: stop.then(|| path.end_m()),
                 reverse: target.direction == Direction::Reverse,
             },
             (None, None) => {

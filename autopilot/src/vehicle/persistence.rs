@@ -3,7 +3,8 @@
 //! core as a [`SaveRequest`] with a token; the edge writes it (fsynced,
 //! renamed, directory fsynced) and hands back a [`SaveDone`] with the same
 //! token. Only then is the change put in force and acknowledged (PARAM_VALUE
-//! echo, MISSION_ACK ACCEPTED); a failed save answers with the old value or
+//! echo, MISSION_ACK ACCEPTED, the COMMAND_ACK of a flight termination,
+//! which itself is in force at once); a failed save answers with the old value or
 //! MISSION_ACK ERROR and a STATUSTEXT naming the error.
 //!
 //! One parameter save is in flight at a time: the changes that arrive
@@ -15,6 +16,7 @@ use mavlink::dialects::ardupilotmega::MavSeverity;
 use mission::{MissionType, Plan};
 
 use super::Core;
+use super::commands::AckTo;
 
 /// Where the core's changes go.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -44,6 +46,8 @@ pub enum SaveWhat {
     Params { changes: Vec<(u16, f64)> },
     /// A plan that replaces the stored one.
     Plan { mission_type: MissionType, plan: Plan },
+    /// Whether a flight termination is in force.
+    Termination { terminated: bool },
 }
 
 /// How a [`SaveRequest`] ended (`Err`: why, for the operator).
@@ -66,6 +70,9 @@ pub(super) struct PersistState {
     /// so the first tick saves what was loaded, boot count included).
     saved_generation: Option<u64>,
     plan_in_flight: Option<u64>,
+    /// Flight termination saves in flight: what each saves (terminated or
+    /// cleared) and where its COMMAND_ACK goes.
+    termination_in_flight: Vec<(u64, bool, AckTo)>,
     requests: Vec<SaveRequest>,
 }
 
@@ -82,7 +89,10 @@ impl PersistState {
 
     /// Whether a change waits for its save.
     pub fn is_waiting(&self) -> bool {
-        !self.staged.is_empty() || self.params_in_flight.is_some() || self.plan_in_flight.is_some()
+        !self.staged.is_empty()
+            || self.params_in_flight.is_some()
+            || self.plan_in_flight.is_some()
+            || !self.termination_in_flight.is_empty()
     }
 }
 
@@ -139,6 +149,25 @@ impl Core {
         }
     }
 
+    /// A flight termination (or its clear) to save before it is
+    /// acknowledged.
+    pub(super) fn termination_save_requested(&mut self, terminated: bool, ack_to: AckTo) {
+        let token = self.persist.token();
+        self.persist.termination_in_flight.push((token, terminated, ack_to));
+        self.persist.requests.push(SaveRequest {
+            token,
+            what: SaveWhat::Termination { terminated },
+        });
+    }
+
+    /// Whether a save of `terminated` waits.
+    pub(super) fn termination_save_pending(&self, terminated: bool) -> bool {
+        self.persist
+            .termination_in_flight
+            .iter()
+            .any(|(_, t, _)| *t == terminated)
+    }
+
     fn plan_saved(&mut self, result: Result<(), String>) {
         let (mut out, mut events) = (Vec::new(), Vec::new());
         self.missions
@@ -161,6 +190,14 @@ impl Core {
                 .is_some_and(|(t, _)| *t == d.token)
             {
                 self.params_saved(&d.result);
+            } else if let Some(i) = self
+                .persist
+                .termination_in_flight
+                .iter()
+                .position(|(t, ..)| *t == d.token)
+            {
+                let (_, terminated, ack_to) = self.persist.termination_in_flight.remove(i);
+                self.termination_saved(terminated, ack_to, &d.result);
             }
         }
     }

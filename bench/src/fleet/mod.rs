@@ -1,5 +1,6 @@
 //! `furrow-bench fleet`: a simulated fleet against a real Mosquitto
-//! (started by the benchmark on a free port), as a master control sees it.
+//! (started by the benchmark on a Unix socket, behind a TCP port the
+//! benchmark binds on port 0), as a master control sees it.
 //!
 //! 1. Latency, one vehicle at speedup 1: order sent → the state that
 //!    carries it, → the first state with `driving`; a node reached → its
@@ -16,6 +17,7 @@
 
 mod broker;
 mod process;
+mod start;
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -71,7 +73,7 @@ pub fn run(args: &FleetBenchArgs) -> Result<(), String> {
     let mosquitto = Mosquitto::start(scratch.path())?;
     let mut master = Master::connect(mosquitto.port, "bench-master")?;
     println!(
-        "furrow-bench fleet: Mosquitto on 127.0.0.1:{}, load average {}",
+        "furrow-bench fleet: Mosquitto behind 127.0.0.1:{} (a port from the OS), load average {}",
         mosquitto.port,
         load_average()
     );
@@ -201,7 +203,10 @@ impl Bench<'_> {
             moving_ms.extend(moving);
         }
         fleet.stop()?;
-        println!("latency, one vehicle at speedup 1, {orders} orders of 3 nodes (wall ms: median / max):");
+        println!(
+            "latency, one vehicle at speedup 1, {orders} orders of 3 nodes (wall ms: median / max; load average {}):",
+            load_average()
+        );
         println!("  order sent -> state with the order   {}", median_max(&accepted_ms));
         println!(
             "  order sent -> state with driving     {} (armed, AUTO, the drive commanded)",
@@ -212,6 +217,7 @@ impl Bench<'_> {
             median_max(&node_ms),
             node_ms.len()
         );
+        print_starts(&start::starts(orders.max(3))?, &moving_ms);
         Ok(())
     }
 
@@ -261,7 +267,10 @@ impl Bench<'_> {
             });
             println!("  not driving at the end: {serial}: {state}");
         }
-        println!("fleet of {n} at speedup 1, driving, {wall_s:.0} s:");
+        println!(
+            "fleet of {n} at speedup 1, driving, {wall_s:.0} s (load average {} at the end):",
+            load_average()
+        );
         println!(
             "  state per vehicle: lowest {:.2} Hz, longest gap {:.2} s; {} of {n} below 1 Hz or with a gap over 2 s; {:.0} % of states driving",
             rates.lowest_hz,
@@ -303,6 +312,40 @@ impl Bench<'_> {
         );
         Ok(vehicles_per_core)
     }
+}
+
+/// The in-process starts, and what they add to the end-to-end `driving`.
+fn print_starts(starts: &[start::Start], driving_ms: &[f64]) {
+    let column = |f: fn(&start::Start) -> f64| starts.iter().map(f).collect::<Vec<f64>>();
+    let commanded = column(|s| s.commanded_ms);
+    let moving = column(|s| s.moving_ms);
+    println!(
+        "order's tick -> truly moving, in-process ({} starts from rest, simulated ms = wall ms at speedup 1; median / max):",
+        starts.len()
+    );
+    println!("  -> drive commanded (driving)          {}", median_max(&commanded));
+    println!(
+        "  -> state with driving leaves the core {}",
+        median_max(&column(|s| s.state_driving_ms))
+    );
+    println!(
+        "  -> wheels turning (truth > 1 mm/s)    {}",
+        median_max(&column(|s| s.turning_ms))
+    );
+    println!("  -> truth past 3 cm/s                  {}", median_max(&moving));
+    let after_command: Vec<f64> = starts.iter().map(|s| s.moving_ms - s.commanded_ms).collect();
+    if let (Some(e2e), Some(rest)) = (median(driving_ms), median(&after_command)) {
+        println!(
+            "  order sent -> truth past 3 cm/s, end to end ~ {:.1} ms (the state with driving, {e2e:.1}, plus commanded -> 3 cm/s, {rest:.1})",
+            e2e + rest
+        );
+    }
+}
+
+fn median(values: &[f64]) -> Option<f64> {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    sorted.get(sorted.len() / 2).copied()
 }
 
 /// Each vehicle's state rate over the window and its longest silence
