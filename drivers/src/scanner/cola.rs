@@ -145,7 +145,8 @@ impl ColaFramer {
     pub fn push(&mut self, mut bytes: &[u8]) {
         while !bytes.is_empty() {
             match self.state {
-                FramerState::Hunting => match bytes.iter().position(|&b| b == STX) {
+                // memchr: a scan telegram is kilobytes, scanned a word at a time.
+                FramerState::Hunting => match memchr::memchr(STX, bytes) {
                     Some(at) => {
                         self.stats.skipped_bytes += at as u64;
                         self.body.clear();
@@ -158,7 +159,7 @@ impl ColaFramer {
                     }
                 },
                 FramerState::InTelegram => {
-                    let end = bytes.iter().position(|&b| b == STX || b == ETX);
+                    let end = memchr::memchr2(STX, ETX, bytes);
                     let chunk = &bytes[..end.unwrap_or(bytes.len())];
                     if self.body.len() + chunk.len() > self.max_len {
                         self.stats.oversized += 1;
@@ -185,7 +186,7 @@ impl ColaFramer {
                         None => {}
                     }
                 }
-                FramerState::DiscardingOversized => match bytes.iter().position(|&b| b == STX || b == ETX) {
+                FramerState::DiscardingOversized => match memchr::memchr2(STX, ETX, bytes) {
                     Some(at) => {
                         self.state = if bytes[at] == STX {
                             self.body.clear();
@@ -747,13 +748,15 @@ fn range_to_mm(range_m: f32) -> u16 {
     if !range_m.is_finite() || range_m < 0.0 {
         return 0;
     }
-    let mm = (f64::from(range_m) * 1000.0).round();
-    if mm > f64::from(u16::MAX) {
-        0
-    } else {
-        // In [0, 65535] here.
-        (mm as u16).max(1)
+    let mm = f64::from(range_m) * 1000.0;
+    // What `mm.round()` gives (half away from zero), without the libm call
+    // per beam: the fraction of a non-negative double below 2^16 is exact.
+    if mm >= f64::from(u16::MAX) + 0.5 {
+        return 0;
     }
+    let whole = mm as u16;
+    let rounded = whole + u16::from(mm - f64::from(whole) >= 0.5);
+    rounded.max(1)
 }
 
 /// The telegram an LMS1xx would send for `scan` (inverse of
@@ -1386,6 +1389,29 @@ mod tests {
         assert_eq!(range_to_mm(0.0004), 1);
         assert_eq!(range_to_mm(65.535), 65535);
         assert_eq!(range_to_mm(12.3456), 12346);
+    }
+
+    #[test]
+    fn millimetres_round_as_f64_round_does() {
+        let reference = |r: f32| {
+            let mm = (f64::from(r) * 1000.0).round();
+            if mm > f64::from(u16::MAX) {
+                0
+            } else {
+                (mm as u16).max(1)
+            }
+        };
+        let halves = (0..=65_536u32).map(|mm| (f64::from(mm) + 0.5) as f32 / 1000.0);
+        let edges = [0.0004999f32, 0.0005, 0.0015, 65.5345, 65.5355, 65.536, 1e-30, f32::MAX];
+        for r in halves.chain(edges).chain((0..200_000u32).map(|i| i as f32 * 3.3e-4)) {
+            for r in [
+                r,
+                f32::from_bits(r.to_bits() + 1),
+                f32::from_bits(r.to_bits().saturating_sub(1)),
+            ] {
+                assert_eq!(range_to_mm(r), reference(r), "{r}");
+            }
+        }
     }
 
     #[test]
