@@ -597,12 +597,15 @@ fn parse_channel<'a>(
 /// scanner has, so the scan is refused rather than half believed.
 fn echoes_in_range(channel: &ChannelHeader<'_>, data: &[u16]) -> bool {
     let (factor, offset) = (f64::from(channel.scale_factor), f64::from(channel.scale_offset));
-    let echoes = data.iter().filter(|&&raw| raw != 0);
-    let (Some(min), Some(max)) = (echoes.clone().min(), echoes.max()) else {
+    // One branch-free pass each (they vectorise): 0 (no echo) becomes the
+    // largest value for the minimum and adds nothing to the maximum.
+    let max = data.iter().copied().max().unwrap_or(0);
+    if max == 0 {
         return true;
-    };
+    }
+    let min = data.iter().map(|&raw| raw.wrapping_sub(1)).min().unwrap_or(0) + 1;
     let range_m = |raw: u16| (f64::from(raw) * factor + offset) / 1000.0;
-    range_m(*min) >= 0.0 && ((range_m(*max)) as f32).is_finite()
+    range_m(min) >= 0.0 && (range_m(max) as f32).is_finite()
 }
 
 fn check_scan_header(tokens: &mut Tokens<'_>) -> Result<(), ColaError> {
@@ -1663,6 +1666,30 @@ mod tests {
             );
             parse_lmd_scandata_into(&bytes, &mut reused).unwrap();
             prop_assert_eq!(&reused, &telegram);
+        }
+
+        /// The one-pass check agrees with the minimum and maximum echo
+        /// taken the plain way.
+        #[test]
+        fn echo_range_check_matches_the_plain_min_and_max(
+            data in proptest::collection::vec(prop_oneof![Just(0u16), Just(1u16), Just(u16::MAX), any::<u16>()], 0..50),
+            scale_factor in prop_oneof![Just(f32::MAX), 1e-3f32..1e36],
+            scale_offset in prop_oneof![Just(0.0f32), -1e3f32..1e3],
+        ) {
+            let channel = ChannelHeader {
+                name: DIST1,
+                scale_factor,
+                scale_offset,
+                start_angle_1e4deg: 0,
+                step_1e4deg: 1,
+            };
+            let echoes = data.iter().filter(|&&raw| raw != 0);
+            let range_m = |raw: u16| (f64::from(raw) * f64::from(scale_factor) + f64::from(scale_offset)) / 1000.0;
+            let plain = match (echoes.clone().min(), echoes.max()) {
+                (Some(&min), Some(&max)) => range_m(min) >= 0.0 && (range_m(max) as f32).is_finite(),
+                _ => true,
+            };
+            prop_assert_eq!(echoes_in_range(&channel, &data), plain);
         }
 
         /// The table-driven hex writer writes what `{:X}` and `{:08X}` do.
