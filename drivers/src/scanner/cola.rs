@@ -145,7 +145,8 @@ impl ColaFramer {
     pub fn push(&mut self, mut bytes: &[u8]) {
         while !bytes.is_empty() {
             match self.state {
-                FramerState::Hunting => match bytes.iter().position(|&b| b == STX) {
+                // memchr: a scan telegram is kilobytes, scanned a word at a time.
+                FramerState::Hunting => match memchr::memchr(STX, bytes) {
                     Some(at) => {
                         self.stats.skipped_bytes += at as u64;
                         self.body.clear();
@@ -158,7 +159,7 @@ impl ColaFramer {
                     }
                 },
                 FramerState::InTelegram => {
-                    let end = bytes.iter().position(|&b| b == STX || b == ETX);
+                    let end = memchr::memchr2(STX, ETX, bytes);
                     let chunk = &bytes[..end.unwrap_or(bytes.len())];
                     if self.body.len() + chunk.len() > self.max_len {
                         self.stats.oversized += 1;
@@ -185,7 +186,7 @@ impl ColaFramer {
                         None => {}
                     }
                 }
-                FramerState::DiscardingOversized => match bytes.iter().position(|&b| b == STX || b == ETX) {
+                FramerState::DiscardingOversized => match memchr::memchr2(STX, ETX, bytes) {
                     Some(at) => {
                         self.state = if bytes[at] == STX {
                             self.body.clear();
@@ -596,12 +597,15 @@ fn parse_channel<'a>(
 /// scanner has, so the scan is refused rather than half believed.
 fn echoes_in_range(channel: &ChannelHeader<'_>, data: &[u16]) -> bool {
     let (factor, offset) = (f64::from(channel.scale_factor), f64::from(channel.scale_offset));
-    let echoes = data.iter().filter(|&&raw| raw != 0);
-    let (Some(min), Some(max)) = (echoes.clone().min(), echoes.max()) else {
+    // One branch-free pass each (they vectorise): 0 (no echo) becomes the
+    // largest value for the minimum and adds nothing to the maximum.
+    let max = data.iter().copied().max().unwrap_or(0);
+    if max == 0 {
         return true;
-    };
+    }
+    let min = data.iter().map(|&raw| raw.wrapping_sub(1)).min().unwrap_or(0) + 1;
     let range_m = |raw: u16| (f64::from(raw) * factor + offset) / 1000.0;
-    range_m(*min) >= 0.0 && ((range_m(*max)) as f32).is_finite()
+    range_m(min) >= 0.0 && (range_m(max) as f32).is_finite()
 }
 
 fn check_scan_header(tokens: &mut Tokens<'_>) -> Result<(), ColaError> {
@@ -747,13 +751,15 @@ fn range_to_mm(range_m: f32) -> u16 {
     if !range_m.is_finite() || range_m < 0.0 {
         return 0;
     }
-    let mm = (f64::from(range_m) * 1000.0).round();
-    if mm > f64::from(u16::MAX) {
-        0
-    } else {
-        // In [0, 65535] here.
-        (mm as u16).max(1)
+    let mm = f64::from(range_m) * 1000.0;
+    // What `mm.round()` gives (half away from zero), without the libm call
+    // per beam: the fraction of a non-negative double below 2^16 is exact.
+    if mm >= f64::from(u16::MAX) + 0.5 {
+        return 0;
     }
+    let whole = mm as u16;
+    let rounded = whole + u16::from(mm - f64::from(whole) >= 0.5);
+    rounded.max(1)
 }
 
 /// The telegram an LMS1xx would send for `scan` (inverse of
@@ -1389,6 +1395,29 @@ mod tests {
     }
 
     #[test]
+    fn millimetres_round_as_f64_round_does() {
+        let reference = |r: f32| {
+            let mm = (f64::from(r) * 1000.0).round();
+            if mm > f64::from(u16::MAX) {
+                0
+            } else {
+                (mm as u16).max(1)
+            }
+        };
+        let halves = (0..=65_536u32).map(|mm| (f64::from(mm) + 0.5) as f32 / 1000.0);
+        let edges = [0.0004999f32, 0.0005, 0.0015, 65.5345, 65.5355, 65.536, 1e-30, f32::MAX];
+        for r in halves.chain(edges).chain((0..200_000u32).map(|i| i as f32 * 3.3e-4)) {
+            for r in [
+                r,
+                f32::from_bits(r.to_bits() + 1),
+                f32::from_bits(r.to_bits().saturating_sub(1)),
+            ] {
+                assert_eq!(range_to_mm(r), reference(r), "{r}");
+            }
+        }
+    }
+
+    #[test]
     fn simulated_telegram_carries_counters_and_frequencies() {
         let scan = Scan {
             t: Duration::from_secs(2),
@@ -1637,6 +1666,30 @@ mod tests {
             );
             parse_lmd_scandata_into(&bytes, &mut reused).unwrap();
             prop_assert_eq!(&reused, &telegram);
+        }
+
+        /// The one-pass check agrees with the minimum and maximum echo
+        /// taken the plain way.
+        #[test]
+        fn echo_range_check_matches_the_plain_min_and_max(
+            data in proptest::collection::vec(prop_oneof![Just(0u16), Just(1u16), Just(u16::MAX), any::<u16>()], 0..50),
+            scale_factor in prop_oneof![Just(f32::MAX), 1e-3f32..1e36],
+            scale_offset in prop_oneof![Just(0.0f32), -1e3f32..1e3],
+        ) {
+            let channel = ChannelHeader {
+                name: DIST1,
+                scale_factor,
+                scale_offset,
+                start_angle_1e4deg: 0,
+                step_1e4deg: 1,
+            };
+            let echoes = data.iter().filter(|&&raw| raw != 0);
+            let range_m = |raw: u16| (f64::from(raw) * f64::from(scale_factor) + f64::from(scale_offset)) / 1000.0;
+            let plain = match (echoes.clone().min(), echoes.max()) {
+                (Some(&min), Some(&max)) => range_m(min) >= 0.0 && (range_m(max) as f32).is_finite(),
+                _ => true,
+            };
+            prop_assert_eq!(echoes_in_range(&channel, &data), plain);
         }
 
         /// The table-driven hex writer writes what `{:X}` and `{:08X}` do.
