@@ -643,6 +643,13 @@ impl CurvatureEstimate {
     }
 }
 
+/// One of the two sensors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Sensor {
+    Front,
+    Rear,
+}
+
 /// Turning back towards where the tape was lost.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Search {
@@ -868,12 +875,12 @@ impl MagneticGuide {
                 predicted.is_none() || (front_m.is_some_and(trusted) && rear_m.is_some_and(trusted)),
             ),
             (Some(f), None) => {
-                let (r, informed) = self.place_rear_from_front(config, f, pr, predicted.is_some(), trust_m, input);
-                (f, r, informed)
+                let (r, settled) = self.place_other(config, Sensor::Front, f, pr, trust_m, input);
+                (f, r, predicted.is_some() || settled)
             }
             (None, Some(r)) => {
-                let (f, informed) = self.place_front_from_rear(config, r, pf, predicted.is_some(), trust_m, input);
-                (f, r, informed)
+                let (f, settled) = self.place_other(config, Sensor::Rear, r, pf, trust_m, input);
+                (f, r, predicted.is_some() || settled)
             }
             (None, None) => return self.dead_reckoned(config, predicted, dt_s),
         };
@@ -910,41 +917,31 @@ impl MagneticGuide {
         }
     }
 
-    /// Only the front sensor reads the tape: the rear one's placement, from
-    /// the front one's rate once that has settled away from the edge (where
-    /// the reading sticks), else from the estimate while there is one; and
-    /// whether that placement is informed.
-    fn place_rear_from_front(
+    /// Only `seen` reads the tape (`seen_m`): the other sensor's placement,
+    /// from the seen one's rate once that has settled away from the edge
+    /// (where the reading sticks), else from the estimate (`predicted_other_m`)
+    /// while there is one; and whether the rate had settled.
+    fn place_other(
         &mut self,
         config: &MagneticGuideConfig,
-        front_m: f64,
-        predicted_rear_m: Option<f64>,
-        has_estimate: bool,
+        seen: Sensor,
+        seen_m: f64,
+        predicted_other_m: Option<f64>,
         trust_m: f64,
         input: &MagneticInput,
     ) -> (f64, bool) {
-        let settled = self.front.on_tape_s >= rate_settle_s(config) && front_m.abs() <= trust_m;
-        let from_rate_m = self.other_sensor_m(config, &self.front, config.front_x_m, front_m, -1.0, input);
-        let estimate_m = predicted_rear_m.filter(|_| !settled).unwrap_or(from_rate_m);
-        let rear_m = Self::place_lost(&mut self.rear, &self.front, estimate_m, config);
-        (rear_m, has_estimate || settled)
-    }
-
-    /// The same with only the rear sensor on the tape.
-    fn place_front_from_rear(
-        &mut self,
-        config: &MagneticGuideConfig,
-        rear_m: f64,
-        predicted_front_m: Option<f64>,
-        has_estimate: bool,
-        trust_m: f64,
-        input: &MagneticInput,
-    ) -> (f64, bool) {
-        let settled = self.rear.on_tape_s >= rate_settle_s(config) && rear_m.abs() <= trust_m;
-        let from_rate_m = self.other_sensor_m(config, &self.rear, config.rear_x_m, rear_m, 1.0, input);
-        let estimate_m = predicted_front_m.filter(|_| !settled).unwrap_or(from_rate_m);
-        let front_m = Self::place_lost(&mut self.front, &self.rear, estimate_m, config);
-        (front_m, has_estimate || settled)
+        let (seen_track, x_m, towards) = match seen {
+            Sensor::Front => (self.front, config.front_x_m, -1.0),
+            Sensor::Rear => (self.rear, config.rear_x_m, 1.0),
+        };
+        let settled = seen_track.on_tape_s >= rate_settle_s(config) && seen_m.abs() <= trust_m;
+        let from_rate_m = self.other_sensor_m(config, &seen_track, x_m, seen_m, towards, input);
+        let estimate_m = predicted_other_m.filter(|_| !settled).unwrap_or(from_rate_m);
+        let lost = match seen {
+            Sensor::Front => &mut self.rear,
+            Sensor::Rear => &mut self.front,
+        };
+        (Self::place_lost(lost, &seen_track, estimate_m, config), settled)
     }
 
     /// The other sensor's deviation from this one (`track`, at `x_m`,
