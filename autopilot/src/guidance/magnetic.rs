@@ -81,7 +81,11 @@
 //!   the search speed with the steering the integral learnt (straight on a
 //!   straight, as the seed's §4.3 and Fig. 4c; along an arc it keeps the
 //!   approach instead of leaving the arc for good). Never having seen the
-//!   tape (a start off it), straight at once, as the seed. `lost` is
+//!   tape (a start off it), straight at once, as the seed, at the speed
+//!   from which the steering can still turn along the tape before the
+//!   sensor that finds it has crossed it
+//!   ([`MagneticGuideConfig::off_tape_speed_mps`]; `lost_speed_mps` was
+//!   slow enough that 2° towards the tape took seconds to reach it). `lost` is
 //!   reported throughout;
 //! - the steering a curve needs is learnt by the integral from the lateral
 //!   error, and also measured: along the tape α changes at v·k − ω, so
@@ -102,6 +106,7 @@
 //! Sources: docs/references.md §Seed 002.
 
 use super::magnetic_estimate::TapeEstimate;
+use super::magnetic_turn::{TurnBackModel, search_speed_mps};
 
 /// Probes per sensor.
 pub const PROBES: u32 = 16;
@@ -354,7 +359,9 @@ pub struct MagneticGuideConfig {
     pub cruise_speed_mps: f64,
     /// The speed PID never asks for less.
     pub min_speed_mps: f64,
-    /// Speed while both sensors are off the tape.
+    /// Speed while both sensors are off the tape after losing it, and the
+    /// least a start off the tape searches at
+    /// ([`Self::off_tape_speed_mps`]).
     pub lost_speed_mps: f64,
     /// For this long after both sensors lose the tape, keep the last demands
     /// (and what the sensors last saw) before going straight; 0 = straight at
@@ -486,6 +493,49 @@ impl MagneticGuideConfig {
         (self.wheelbase_m.abs() * sin_alpha / outer_x_m).atan()
     }
 
+    /// The correction limit: the configured one, within the geometric one
+    /// unless the guide dead-reckons.
+    pub fn correction_max_rad(&self) -> f64 {
+        let configured_rad = self.steer_correction_max_rad.abs();
+        if self.dead_reckon_s > 0.0 {
+            configured_rad
+        } else {
+            configured_rad.min(self.correction_limit_rad())
+        }
+    }
+
+    /// The speed of a start with no sensor on the tape (seed 002 §4.3:
+    /// straight on until a sensor triggers, then correct): the fastest, up
+    /// to the cruise speed and no slower than `lost_speed_mps`, at which the
+    /// vehicle meeting the tape at the approach angle (`approach_max_rad`,
+    /// or the sensors' reach's if larger) can turn along it, the largest
+    /// correction about `curve_rad` at the steering's slew rate, before the
+    /// sensor that found it at one edge has crossed to the other
+    /// ([`search_speed_mps`]). Without a known slew rate, `lost_speed_mps`.
+    pub fn off_tape_speed_mps(&self, curve_rad: f64) -> f64 {
+        let floor_mps = self.lost_speed_mps.max(0.0);
+        let model = TurnBackModel {
+            speed_mps: self.cruise_speed_mps,
+            wheelbase_m: self.wheelbase_m.abs(),
+            steer_rate_rad_s: self.steer_rate_rad_s,
+            curve_rad: if curve_rad.is_finite() { curve_rad } else { 0.0 },
+            correction_rad: self.correction_max_rad(),
+            steer_max_rad: self.steer_max_rad.abs(),
+            mid_x_m: 0.5 * (self.front_x_m + self.rear_x_m),
+        };
+        if !model.usable() || self.cruise_speed_mps <= floor_mps {
+            return floor_mps;
+        }
+        let approach_rad = self.approach_max_rad(0.0);
+        search_speed_mps(
+            &model,
+            approach_rad,
+            self.sensor_reach_m(),
+            floor_mps,
+            self.cruise_speed_mps,
+        )
+    }
+
     /// Tuned for seed 002's figure (back on a curve within 2 s, correction
     /// within ±10°) on the same vehicle: the seed's PD (K_I = 0) with the
     /// correction limited to ±10° about the steering it took over. Without
@@ -603,6 +653,8 @@ pub struct MagneticGuide {
     curvature: CurvatureEstimate,
     /// The deviation as last measured, carried forward since.
     estimate: Option<TapeEstimate>,
+    /// The speed of a start off the tape, once worked out.
+    off_tape_speed_mps: Option<f64>,
 }
 
 /// The tape's curvature from the angle deviation and the yaw rate: along
@@ -641,6 +693,13 @@ impl CurvatureEstimate {
         let needed_s = RATE_SETTLE_TIME_CONSTANTS / (std::f64::consts::TAU * cutoff_hz);
         (self.settled_s >= needed_s).then_some(self.per_m)
     }
+}
+
+/// One of the two sensors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Sensor {
+    Front,
+    Rear,
 }
 
 /// Turning back towards where the tape was lost.
@@ -833,7 +892,7 @@ impl MagneticGuide {
         } else {
             steer.p
         };
-        let correction_max_rad = self.correction_max_rad(config);
+        let correction_max_rad = config.correction_max_rad();
         (steer.i + (p + steer.d).clamp(-correction_max_rad, correction_max_rad)).clamp(-steer_max_rad, steer_max_rad)
     }
 
@@ -868,12 +927,12 @@ impl MagneticGuide {
                 predicted.is_none() || (front_m.is_some_and(trusted) && rear_m.is_some_and(trusted)),
             ),
             (Some(f), None) => {
-                let (r, informed) = self.place_rear_from_front(config, f, pr, predicted.is_some(), trust_m, input);
-                (f, r, informed)
+                let (r, settled) = self.place_other(config, Sensor::Front, f, pr, trust_m, input);
+                (f, r, predicted.is_some() || settled)
             }
             (None, Some(r)) => {
-                let (f, informed) = self.place_front_from_rear(config, r, pf, predicted.is_some(), trust_m, input);
-                (f, r, informed)
+                let (f, settled) = self.place_other(config, Sensor::Rear, r, pf, trust_m, input);
+                (f, r, predicted.is_some() || settled)
             }
             (None, None) => return self.dead_reckoned(config, predicted, dt_s),
         };
@@ -910,41 +969,31 @@ impl MagneticGuide {
         }
     }
 
-    /// Only the front sensor reads the tape: the rear one's placement, from
-    /// the front one's rate once that has settled away from the edge (where
-    /// the reading sticks), else from the estimate while there is one; and
-    /// whether that placement is informed.
-    fn place_rear_from_front(
+    /// Only `seen` reads the tape (`seen_m`): the other sensor's placement,
+    /// from the seen one's rate once that has settled away from the edge
+    /// (where the reading sticks), else from the estimate (`predicted_other_m`)
+    /// while there is one; and whether the rate had settled.
+    fn place_other(
         &mut self,
         config: &MagneticGuideConfig,
-        front_m: f64,
-        predicted_rear_m: Option<f64>,
-        has_estimate: bool,
+        seen: Sensor,
+        seen_m: f64,
+        predicted_other_m: Option<f64>,
         trust_m: f64,
         input: &MagneticInput,
     ) -> (f64, bool) {
-        let settled = self.front.on_tape_s >= rate_settle_s(config) && front_m.abs() <= trust_m;
-        let from_rate_m = self.other_sensor_m(config, &self.front, config.front_x_m, front_m, -1.0, input);
-        let estimate_m = predicted_rear_m.filter(|_| !settled).unwrap_or(from_rate_m);
-        let rear_m = Self::place_lost(&mut self.rear, &self.front, estimate_m, config);
-        (rear_m, has_estimate || settled)
-    }
-
-    /// The same with only the rear sensor on the tape.
-    fn place_front_from_rear(
-        &mut self,
-        config: &MagneticGuideConfig,
-        rear_m: f64,
-        predicted_front_m: Option<f64>,
-        has_estimate: bool,
-        trust_m: f64,
-        input: &MagneticInput,
-    ) -> (f64, bool) {
-        let settled = self.rear.on_tape_s >= rate_settle_s(config) && rear_m.abs() <= trust_m;
-        let from_rate_m = self.other_sensor_m(config, &self.rear, config.rear_x_m, rear_m, 1.0, input);
-        let estimate_m = predicted_front_m.filter(|_| !settled).unwrap_or(from_rate_m);
-        let front_m = Self::place_lost(&mut self.front, &self.rear, estimate_m, config);
-        (front_m, has_estimate || settled)
+        let (seen_track, x_m, towards) = match seen {
+            Sensor::Front => (self.front, config.front_x_m, -1.0),
+            Sensor::Rear => (self.rear, config.rear_x_m, 1.0),
+        };
+        let settled = seen_track.on_tape_s >= rate_settle_s(config) && seen_m.abs() <= trust_m;
+        let from_rate_m = self.other_sensor_m(config, &seen_track, x_m, seen_m, towards, input);
+        let estimate_m = predicted_other_m.filter(|_| !settled).unwrap_or(from_rate_m);
+        let lost = match seen {
+            Sensor::Front => &mut self.rear,
+            Sensor::Rear => &mut self.front,
+        };
+        (Self::place_lost(lost, &seen_track, estimate_m, config), settled)
     }
 
     /// The other sensor's deviation from this one (`track`, at `x_m`,
@@ -1048,16 +1097,6 @@ impl MagneticGuide {
         self.steer.shift_integral((curve_rad - self.steer.integral()) * pull);
     }
 
-    /// The correction limit: the configured one within the geometric one.
-    fn correction_max_rad(&self, config: &MagneticGuideConfig) -> f64 {
-        let configured_rad = config.steer_correction_max_rad.abs();
-        if config.dead_reckon_s > 0.0 {
-            configured_rad
-        } else {
-            configured_rad.min(config.correction_limit_rad())
-        }
-    }
-
     /// The lateral and angle deviation once the steering has unwound to
     /// the curve's (the integral) at `steer_rate_rad_s`: the yaw rate beyond
     /// the curve's, ω − v·k, falls to 0 over t = |δ − δ_I|/rate, turning the
@@ -1095,7 +1134,10 @@ impl MagneticGuide {
         if !self.seen_tape {
             // Seed §4.3: a start off the tape drives straight until a sensor
             // finds it.
-            return (0.0, config.lost_speed_mps);
+            let speed_mps = *self
+                .off_tape_speed_mps
+                .get_or_insert_with(|| config.off_tape_speed_mps(self.steer.integral()));
+            return (0.0, speed_mps);
         }
         if self.lost_s <= config.lost_hold_s {
             // A gap between the sensors' ranges, or an edge probe
@@ -1115,7 +1157,7 @@ impl MagneticGuide {
             ..search
         });
         let turn_rad = if search.side != 0.0 && turn_left_rad > 0.0 {
-            search.side * self.correction_max_rad(config)
+            search.side * config.correction_max_rad()
         } else {
             0.0
         };

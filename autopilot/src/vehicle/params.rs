@@ -311,7 +311,7 @@ declare_params! {
         },
         lost_speed_mps: f32 = "MAG_LOST_SPD" => {
             default: 0.5, range: 0.0, 5.0, unit: "m/s",
-            desc: "Speed while both sensors are off the tape (searching: back towards the side it was last seen, then straight)",
+            desc: "Speed while both sensors are off the tape after losing it (searching: back towards the side it was last seen, then straight); a start with no sensor on the tape searches faster, up to MAG_SPEED, where the steering can still turn along the tape once a sensor finds it",
         },
         lost_hold_s: f32 = "MAG_LOST_HOLD" => {
             default: 0.3, range: 0.0, 5.0, unit: "s",
