@@ -151,9 +151,9 @@ pub struct Devices {
 
 impl Devices {
     /// Starts every configured device (the async ones on `runtime`).
-    /// Opening never fails on a missing device (it is retried in the
-    /// background); only a thread that cannot be started is an error.
-    pub fn start(config: &VehicleConfig, origin: Instant, runtime: &Handle) -> Result<Devices, String> {
+    /// Starting never fails: a missing or unreachable device is retried in
+    /// the background and shows as not connected in the status view.
+    pub fn start(config: &VehicleConfig, origin: Instant, runtime: &Handle) -> Devices {
         let (source, gnss_place) = gnss_source(&config.gnss.link);
         let gnss = GnssPort::spawn(
             GnssPortConfig {
@@ -203,7 +203,7 @@ impl Devices {
                 .collect();
             Some(ScannerSet::start(addresses, origin, runtime))
         };
-        Ok(Devices {
+        Devices {
             gnss,
             gnss_place,
             compass,
@@ -218,7 +218,7 @@ impl Devices {
             next_gga: Duration::ZERO,
             rates: Vec::new(),
             announced: Vec::new(),
-        })
+        }
     }
 
     /// Everything the devices delivered since the last tick, into `inputs`.
