@@ -17,6 +17,9 @@ from pymavlink import mavutil  # noqa: E402
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 FURROW = os.environ.get("FURROW_BIN") or str(REPO / "target" / "release" / "furrow")
+# The benchmark binary (it also plots logs), built beside `furrow` as
+# furrow-bench finds `furrow`: cargo build --release -p furrow_bench.
+FURROW_BENCH = os.environ.get("FURROW_BENCH_BIN") or str(pathlib.Path(FURROW).with_name("furrow-bench"))
 READY = re.compile(r"furrow sitl ready: tcp (\S+):(\d+)")
 
 
