@@ -38,7 +38,7 @@
 //! - [`storage`]: the data directory and atomic persistence.
 //! - [`stderr_log`]: the diagnostic log every binary writes to stderr.
 //! - [`offline`]: tools on a data directory (`furrow params …`,
-//!   `furrow mission …`, `furrow logs …` with its SVG plot) and
+//!   `furrow mission …`, `furrow logs …`) and
 //!   `furrow config check`.
 
 pub mod control;

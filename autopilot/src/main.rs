@@ -30,7 +30,7 @@ enum Command {
     Sitl(Box<SitlArgs>),
     /// Read and change the stored parameters offline; import and export .param/.params files.
     Params(autopilot::offline::params::ParamsArgs),
-    /// The onboard logs (DataFlash .BIN): list a data directory's, summarise one, export CSV, plot the cross-track.
+    /// The onboard logs (DataFlash .BIN): list a data directory's, summarise one, export CSV (plots: furrow-bench logs plot).
     Logs(autopilot::offline::logs::LogsArgs),
     /// Import, export and list the stored mission, fence and rally plans offline (.waypoints, .plan).
     Mission(autopilot::offline::mission::MissionArgs),

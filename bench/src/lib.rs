@@ -1,13 +1,15 @@
 //! Benchmarks printed by `furrow-bench …`: figures, not pass/fail tests.
-//! Kept out of the `furrow` binary (and so is rand_chacha; the SVG plot is
-//! `autopilot::offline::plot`, shared with `furrow logs plot`).
+//! Kept out of the `furrow` binary, and so are rand_chacha and plotters (the
+//! SVG plot of the tracking benchmark and of `furrow-bench logs plot`).
 
 pub mod ekf_cost;
 pub mod fleet;
+pub mod log_plot;
 pub mod magnetic;
 pub mod magnetic_bound;
 pub mod manoeuvre;
 pub mod obstacles;
+pub mod plot;
 pub mod safety;
 pub mod sitl;
 pub mod tracking;

@@ -31,6 +31,8 @@ enum BenchCommand {
     Magnetic(furrow_bench::magnetic::MagneticBenchArgs),
     /// A simulated fleet (`furrow sitl --fleet N`) against a real Mosquitto: VDA 5050 latency, state rates, CPU and RSS per vehicle, scaling.
     Fleet(furrow_bench::fleet::FleetBenchArgs),
+    /// An onboard log (DataFlash .BIN) drawn as an SVG: the course and its cross-track.
+    Logs(furrow_bench::log_plot::LogsArgs),
 }
 
 fn main() -> ExitCode {
@@ -42,6 +44,7 @@ fn main() -> ExitCode {
         BenchCommand::Safety(args) => furrow_bench::safety::run(&args),
         BenchCommand::Magnetic(args) => furrow_bench::magnetic::run_bench(&args),
         BenchCommand::Fleet(args) => furrow_bench::fleet::run(&args),
+        BenchCommand::Logs(args) => furrow_bench::log_plot::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

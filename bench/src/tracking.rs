@@ -14,12 +14,13 @@ use std::time::Duration;
 
 use mission::{ExecState, MissionType, Plan};
 
+use crate::plot::{self, PlotData};
+
 use autopilot::edge::clock::InstantTimer;
 use autopilot::geo::{GeoPoint, LocalFrame, Ned, wrap_pi};
 use autopilot::guidance::navigator::NavTarget;
 use autopilot::guidance::path::{LegPath, PathProjection, Piece};
 use autopilot::guidance::tracker::Direction;
-use autopilot::offline::plot::{self, PlotData};
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
 /// The reference courses, built in so the benchmark runs from anywhere.

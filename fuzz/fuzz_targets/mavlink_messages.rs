@@ -168,23 +168,48 @@ fn param_id(vehicle: &FuzzVehicle, choice: &ParamChoice) -> [u8; 16] {
     }
 }
 
+/// Where a message goes, and the vehicle's home (degrees × 1e7) that the
+/// generated positions are near.
+#[derive(Clone, Copy)]
+struct To {
+    system: u8,
+    component: u8,
+    home_lat_e7: i32,
+    home_lon_e7: i32,
+}
+
 fn message(vehicle: &FuzzVehicle, target: Target, op: &Op) -> Option<MavMessage> {
-    let (ts, tc) = match target {
+    let (system, component) = match target {
         Target::Us => (vehicle.sim().core().sysid(), 1),
         Target::Broadcast => (0, 0),
         Target::Other(s, c) => (s, c),
     };
-    let (home_lat, home_lon) = home_e7(vehicle);
-    let cmd = |c: u16| MavCmd::from_u16(c).unwrap_or(MavCmd::MAV_CMD_NAV_WAYPOINT);
-    let frame = |f: u8| MavFrame::from_u8(f).unwrap_or(MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT);
+    let (home_lat_e7, home_lon_e7) = home_e7(vehicle);
+    let to = To {
+        system,
+        component,
+        home_lat_e7,
+        home_lon_e7,
+    };
+    mission_item_message(to, op)
+        .or_else(|| waypoint_message(to, op))
+        .or_else(|| mission_message(to, op))
+        .or_else(|| param_or_command_message(vehicle, to, op))
+        .or_else(|| control_message(to, op))
+}
+
+fn mav_cmd(c: u16) -> MavCmd {
+    MavCmd::from_u16(c).unwrap_or(MavCmd::MAV_CMD_NAV_WAYPOINT)
+}
+
+fn mav_frame(f: u8) -> MavFrame {
+    MavFrame::from_u8(f).unwrap_or(MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
+}
+
+/// The mission items as a ground station sends them, fields from the input;
+/// other ops: `None`.
+fn mission_item_message(to: To, op: &Op) -> Option<MavMessage> {
     Some(match *op {
-        Op::MissionCount { mission_type: t, count } => MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
-            count,
-            target_system: ts,
-            target_component: tc,
-            mission_type: mission_type(t),
-            opaque_id: 0,
-        }),
         Op::MissionItemInt {
             mission_type: t,
             seq,
@@ -205,14 +230,46 @@ fn message(vehicle: &FuzzVehicle, target: Target, op: &Op) -> Option<MavMessage>
             y,
             z,
             seq,
-            command: cmd(command),
-            target_system: ts,
-            target_component: tc,
-            frame: frame(f),
+            command: mav_cmd(command),
+            target_system: to.system,
+            target_component: to.component,
+            frame: mav_frame(f),
             current: u8::from(current),
             autocontinue: u8::from(autocontinue),
             mission_type: mission_type(t),
         }),
+        Op::MissionItemFloat {
+            mission_type: t,
+            seq,
+            frame: f,
+            command,
+            x,
+            y,
+        } => MavMessage::MISSION_ITEM(MISSION_ITEM_DATA {
+            param1: 0.0,
+            param2: 0.0,
+            param3: 0.0,
+            param4: 0.0,
+            x,
+            y,
+            z: 0.0,
+            seq,
+            command: mav_cmd(command),
+            target_system: to.system,
+            target_component: to.component,
+            frame: mav_frame(f),
+            current: 0,
+            autocontinue: 1,
+            mission_type: mission_type(t),
+        }),
+        _ => return None,
+    })
+}
+
+/// A valid waypoint near home (a fence or rally point for those mission
+/// types), so uploads complete; other ops: `None`.
+fn waypoint_message(to: To, op: &Op) -> Option<MavMessage> {
+    Some(match *op {
         Op::Waypoint {
             mission_type: t,
             seq,
@@ -230,82 +287,79 @@ fn message(vehicle: &FuzzVehicle, target: Target, op: &Op) -> Option<MavMessage>
                 param2: 0.0,
                 param3: 0.0,
                 param4: 0.0,
-                x: home_lat.saturating_add(i32::from(north_1e7)),
-                y: home_lon.saturating_add(i32::from(east_1e7)),
+                x: to.home_lat_e7.saturating_add(i32::from(north_1e7)),
+                y: to.home_lon_e7.saturating_add(i32::from(east_1e7)),
                 z: 0.0,
                 seq,
                 command,
-                target_system: ts,
-                target_component: tc,
+                target_system: to.system,
+                target_component: to.component,
                 frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
                 current: 0,
                 autocontinue: 1,
                 mission_type,
             })
         }
-        Op::MissionItemFloat {
-            mission_type: t,
-            seq,
-            frame: f,
-            command,
-            x,
-            y,
-        } => MavMessage::MISSION_ITEM(MISSION_ITEM_DATA {
-            param1: 0.0,
-            param2: 0.0,
-            param3: 0.0,
-            param4: 0.0,
-            x,
-            y,
-            z: 0.0,
-            seq,
-            command: cmd(command),
-            target_system: ts,
-            target_component: tc,
-            frame: frame(f),
-            current: 0,
-            autocontinue: 1,
+        _ => return None,
+    })
+}
+
+/// The rest of the mission protocol; other ops: `None`.
+fn mission_message(to: To, op: &Op) -> Option<MavMessage> {
+    Some(match *op {
+        Op::MissionCount { mission_type: t, count } => MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+            count,
+            target_system: to.system,
+            target_component: to.component,
             mission_type: mission_type(t),
+            opaque_id: 0,
         }),
         Op::MissionRequestList { mission_type: t } => MavMessage::MISSION_REQUEST_LIST(MISSION_REQUEST_LIST_DATA {
-            target_system: ts,
-            target_component: tc,
+            target_system: to.system,
+            target_component: to.component,
             mission_type: mission_type(t),
         }),
         Op::MissionRequestInt { mission_type: t, seq } => MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA {
             seq,
-            target_system: ts,
-            target_component: tc,
+            target_system: to.system,
+            target_component: to.component,
             mission_type: mission_type(t),
         }),
         Op::MissionAck {
             mission_type: t,
             result,
         } => MavMessage::MISSION_ACK(MISSION_ACK_DATA {
-            target_system: ts,
-            target_component: tc,
+            target_system: to.system,
+            target_component: to.component,
             mavtype: MavMissionResult::from_u8(result).unwrap_or_default(),
             mission_type: mission_type(t),
             opaque_id: 0,
         }),
         Op::MissionClearAll { mission_type: t } => MavMessage::MISSION_CLEAR_ALL(MISSION_CLEAR_ALL_DATA {
-            target_system: ts,
-            target_component: tc,
+            target_system: to.system,
+            target_component: to.component,
             mission_type: mission_type(t),
         }),
         Op::MissionSetCurrent { seq } => MavMessage::MISSION_SET_CURRENT(MISSION_SET_CURRENT_DATA {
             seq,
-            target_system: ts,
-            target_component: tc,
+            target_system: to.system,
+            target_component: to.component,
         }),
+        _ => return None,
+    })
+}
+
+/// Parameter reads and sets, commands; other ops: `None`.
+fn param_or_command_message(vehicle: &FuzzVehicle, to: To, op: &Op) -> Option<MavMessage> {
+    Some(match *op {
         Op::ParamRequestList => MavMessage::PARAM_REQUEST_LIST(PARAM_REQUEST_LIST_DATA {
-            target_system: ts,
-            target_component: tc,
+            target_system: to.system,
+            target_component: to.component,
         }),
         Op::ParamRequestRead { index, ref name } => MavMessage::PARAM_REQUEST_READ(PARAM_REQUEST_READ_DATA {
             param_index: index,
-            target_system: ts,
-            target_component: tc,
+            target_system: to.system,
+            target_component: to.component,
             param_id: param_id(vehicle, name).into(),
         }),
         Op::ParamSet {
@@ -314,8 +368,8 @@ fn message(vehicle: &FuzzVehicle, target: Target, op: &Op) -> Option<MavMessage>
             param_type,
         } => MavMessage::PARAM_SET(PARAM_SET_DATA {
             param_value: value,
-            target_system: ts,
-            target_component: tc,
+            target_system: to.system,
+            target_component: to.component,
             param_id: param_id(vehicle, name).into(),
             param_type: MavParamType::from_u8(param_type).unwrap_or_default(),
         }),
@@ -331,9 +385,9 @@ fn message(vehicle: &FuzzVehicle, target: Target, op: &Op) -> Option<MavMessage>
             param5: params[4],
             param6: params[5],
             param7: params[6],
-            command: cmd(command),
-            target_system: ts,
-            target_component: tc,
+            command: mav_cmd(command),
+            target_system: to.system,
+            target_component: to.component,
             confirmation,
         }),
         Op::CommandInt {
@@ -351,16 +405,24 @@ fn message(vehicle: &FuzzVehicle, target: Target, op: &Op) -> Option<MavMessage>
             x,
             y,
             z,
-            command: cmd(command),
-            target_system: ts,
-            target_component: tc,
-            frame: frame(f),
+            command: mav_cmd(command),
+            target_system: to.system,
+            target_component: to.component,
+            frame: mav_frame(f),
             current: 0,
             autocontinue: 0,
         }),
+        _ => return None,
+    })
+}
+
+/// Mode changes, manual input, GUIDED targets; other ops (steps, waits,
+/// reconnects): `None`.
+fn control_message(to: To, op: &Op) -> Option<MavMessage> {
+    Some(match *op {
         Op::SetMode { custom_mode } => MavMessage::SET_MODE(SET_MODE_DATA {
             custom_mode,
-            target_system: ts,
+            target_system: to.system,
             base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
         }),
         Op::ManualControl { x, y, z, r } => MavMessage::MANUAL_CONTROL(MANUAL_CONTROL_DATA {
@@ -368,7 +430,7 @@ fn message(vehicle: &FuzzVehicle, target: Target, op: &Op) -> Option<MavMessage>
             y,
             z,
             r,
-            target: ts,
+            target: to.system,
             ..Default::default()
         }),
         Op::RcOverride { channels } => MavMessage::RC_CHANNELS_OVERRIDE(RC_CHANNELS_OVERRIDE_DATA {
@@ -376,8 +438,8 @@ fn message(vehicle: &FuzzVehicle, target: Target, op: &Op) -> Option<MavMessage>
             chan2_raw: channels[1],
             chan3_raw: channels[2],
             chan4_raw: channels[3],
-            target_system: ts,
-            target_component: tc,
+            target_system: to.system,
+            target_component: to.component,
             ..Default::default()
         }),
         Op::PositionTarget {
@@ -385,15 +447,15 @@ fn message(vehicle: &FuzzVehicle, target: Target, op: &Op) -> Option<MavMessage>
             east_1e7,
             type_mask,
         } => MavMessage::SET_POSITION_TARGET_GLOBAL_INT(SET_POSITION_TARGET_GLOBAL_INT_DATA {
-            lat_int: home_lat.saturating_add(i32::from(north_1e7) * 10),
-            lon_int: home_lon.saturating_add(i32::from(east_1e7) * 10),
+            lat_int: to.home_lat_e7.saturating_add(i32::from(north_1e7) * 10),
+            lon_int: to.home_lon_e7.saturating_add(i32::from(east_1e7) * 10),
             type_mask: PositionTargetTypemask::from_bits_truncate(type_mask),
-            target_system: ts,
-            target_component: tc,
+            target_system: to.system,
+            target_component: to.component,
             coordinate_frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
             ..Default::default()
         }),
-        Op::Steps(_) | Op::Wait(_) | Op::Reconnect => return None,
+        _ => return None,
     })
 }
 

@@ -8,8 +8,8 @@
 //! magnetic-tape guidance without any error).
 #![no_main]
 
-use sim::parse_world_file;
 use libfuzzer_sys::fuzz_target;
+use sim::parse_world_file;
 
 const MAX_RANGE_M: f64 = 40.0;
 

@@ -703,6 +703,28 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
         self.saving.is_some() || (self.upload.is_some() && !self.is_partner(link, sender))
     }
 
+    /// The mission type of a request that starts a change (a count, a
+    /// clear), or `None` once it is answered UNSUPPORTED (a type not kept)
+    /// or DENIED (busy for this sender).
+    fn admit(
+        &self,
+        link: L,
+        sender: Sender,
+        raw_type: MavMissionType,
+        out: &mut Vec<Outgoing<L>>,
+    ) -> Option<MissionType> {
+        let result = match MissionType::from_mavlink(raw_type) {
+            None => MavMissionResult::MAV_MISSION_UNSUPPORTED,
+            Some(_) if self.busy_for(link, sender) => MavMissionResult::MAV_MISSION_DENIED,
+            Some(mission_type) => return Some(mission_type),
+        };
+        out.push(Outgoing {
+            dest: Reply::Link(link),
+            message: ack(sender, raw_type, result, 0),
+        });
+        None
+    }
+
     #[allow(clippy::too_many_arguments)]
     fn on_count(
         &mut self,
@@ -714,26 +736,18 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
         out: &mut Vec<Outgoing<L>>,
         events: &mut Vec<MissionEvent>,
     ) {
-        let reply = |out: &mut Vec<Outgoing<L>>, result, opaque_id| {
-            out.push(Outgoing {
-                dest: Reply::Link(link),
-                message: ack(sender, raw_type, result, opaque_id),
-            })
-        };
-        let Some(mission_type) = MissionType::from_mavlink(raw_type) else {
-            reply(out, MavMissionResult::MAV_MISSION_UNSUPPORTED, 0);
+        let Some(mission_type) = self.admit(link, sender, raw_type, out) else {
             return;
         };
-        if self.busy_for(link, sender) {
-            reply(out, MavMissionResult::MAV_MISSION_DENIED, 0);
-            return;
-        }
         // The same partner starting again: the old upload is abandoned.
         self.upload = None;
         self.final_ack = None;
         let max = max_items(mission_type);
         if usize::from(count) > max {
-            reply(out, MavMissionResult::MAV_MISSION_NO_SPACE, 0);
+            out.push(Outgoing {
+                dest: Reply::Link(link),
+                message: ack(sender, raw_type, MavMissionResult::MAV_MISSION_NO_SPACE, 0),
+            });
             events.push(MissionEvent::TransferFailed {
                 mission_type,
                 text: format!("{} upload refused: {count} items, max {max}", title(mission_type)),
@@ -979,21 +993,10 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
         out: &mut Vec<Outgoing<L>>,
         events: &mut Vec<MissionEvent>,
     ) {
-        let reply = |out: &mut Vec<Outgoing<L>>, result, opaque_id| {
-            out.push(Outgoing {
-                dest: Reply::Link(link),
-                message: ack(sender, raw_type, result, opaque_id),
-            })
-        };
         // MISSION_TYPE_ALL included: ArduPilot answers it UNSUPPORTED too.
-        let Some(mission_type) = MissionType::from_mavlink(raw_type) else {
-            reply(out, MavMissionResult::MAV_MISSION_UNSUPPORTED, 0);
+        let Some(mission_type) = self.admit(link, sender, raw_type, out) else {
             return;
         };
-        if self.busy_for(link, sender) {
-            reply(out, MavMissionResult::MAV_MISSION_DENIED, 0);
-            return;
-        }
         // The partner clearing instead of finishing: its upload is abandoned.
         self.upload = None;
         self.final_ack = None;

@@ -13,13 +13,11 @@ import os
 import pathlib
 import shutil
 import sys
-import tempfile
 import time
 
 os.environ.setdefault("MAVLINK20", "1")
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "python"))
-from pymavlink import mavutil  # noqa: E402
-from sitl import FURROW, REPO, Sitl  # noqa: E402
+from sitl import FURROW, REPO, bench_sitl  # noqa: E402
 from gcs import mavlink, mission_item, param_id  # noqa: E402
 
 
@@ -73,12 +71,7 @@ def main():
     args = ap.parse_args()
     data = pathlib.Path(args.data_dir)
     shutil.rmtree(data, ignore_errors=True)
-    gcs = mavutil.mavlink_connection("udpin:127.0.0.1:0", source_system=255)
-    port = gcs.port.getsockname()[1]
-    # The log goes to a scratch directory; the data directory is the benchmark's.
-    logs = tempfile.TemporaryDirectory()
-    sitl = Sitl(logs.name, udp_port=port, speedup=None, data_dir=data)
-    try:
+    with bench_sitl(data) as (gcs, _sitl):
         gcs.wait_heartbeat(timeout=10)
         print(f"{FURROW}, data in {data}, UDP loopback, pymavlink:")
         for size in (1, 100, 1000):
@@ -92,9 +85,6 @@ def main():
         names = ["PVW_LAT_P", "PVW_YAW_P", "MAG_STR_P", "MAG_SPD_P"]
         latencies = [echo_latency(gcs, names[i % len(names)], 1.0 + (i % 50) / 8) for i in range(args.sets)]
         report("PARAM_SET -> echo", latencies)
-    finally:
-        sitl.stop()
-        logs.cleanup()
 
 
 if __name__ == "__main__":

@@ -9,13 +9,12 @@ import os
 import pathlib
 import statistics
 import sys
-import tempfile
 import time
 
 os.environ.setdefault("MAVLINK20", "1")
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "python"))
 from pymavlink import mavutil  # noqa: E402
-from sitl import REPO, Sitl  # noqa: E402
+from sitl import REPO, bench_sitl  # noqa: E402
 from gcs import download_mission, mavlink, mission_item, upload_mission  # noqa: E402
 
 
@@ -41,13 +40,7 @@ def main():
     ap.add_argument("--items", type=int, default=1000)
     ap.add_argument("--runs", type=int, default=5)
     args = ap.parse_args()
-    gcs = mavutil.mavlink_connection("udpin:127.0.0.1:0", source_system=255)
-    port = gcs.port.getsockname()[1]
-    data = REPO / "target" / "bench-mission-data"
-    # The log goes to a scratch directory; the data directory is the benchmark's.
-    logs = tempfile.TemporaryDirectory()
-    sitl = Sitl(logs.name, udp_port=port, speedup=None, data_dir=data)
-    try:
+    with bench_sitl(REPO / "target" / "bench-mission-data") as (gcs, sitl):
         tcp_port = sitl.tcp_port
         items = [mission_item(0, 16, 291330000, 1196400000)]
         items += [mission_item(i, 16, 291330000 + i * 10, 1196400000 + i * 10) for i in range(1, args.items)]
@@ -56,9 +49,6 @@ def main():
         tcp = mavutil.mavlink_connection(f"tcp:127.0.0.1:{tcp_port}", source_system=254)
         bench("TCP loopback", tcp, items, args.runs)
         tcp.close()
-    finally:
-        sitl.stop()
-        logs.cleanup()
 
 
 if __name__ == "__main__":

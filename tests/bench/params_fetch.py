@@ -10,13 +10,12 @@ import os
 import pathlib
 import statistics
 import sys
-import tempfile
 import time
 
 os.environ.setdefault("MAVLINK20", "1")
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "python"))
 from pymavlink import mavutil  # noqa: E402
-from sitl import REPO, Sitl  # noqa: E402
+from sitl import REPO, bench_sitl  # noqa: E402
 
 
 def fetch(gcs):
@@ -74,13 +73,7 @@ def main():
     ap.add_argument("--runs", type=int, default=100)
     ap.add_argument("--link", choices=["tcp", "udp", "both"], default="both")
     args = ap.parse_args()
-    udp = mavutil.mavlink_connection("udpin:127.0.0.1:0", source_system=255)
-    port = udp.port.getsockname()[1]
-    data = REPO / "target" / "bench-params-data"
-    # The log goes to a scratch directory; the data directory is the benchmark's.
-    logs = tempfile.TemporaryDirectory()
-    sitl = Sitl(logs.name, udp_port=port, speedup=None, data_dir=data)
-    try:
+    with bench_sitl(REPO / "target" / "bench-params-data") as (udp, sitl):
         tcp_port = sitl.tcp_port
         if args.link in ("udp", "both"):
             bench("UDP loopback", udp, args.runs)
@@ -89,9 +82,6 @@ def main():
             tcp = mavutil.mavlink_connection(f"tcp:127.0.0.1:{tcp_port}", source_system=254)
             bench("TCP loopback", tcp, args.runs)
             tcp.close()
-    finally:
-        sitl.stop()
-        logs.cleanup()
 
 
 if __name__ == "__main__":

@@ -10,7 +10,7 @@ os.environ.setdefault("MAVLINK20", "1")
 
 import pytest
 from pymavlink import mavutil
-from sitl import FURROW, READY, REPO, Sitl  # noqa: F401 (the tests import them from here)
+from sitl import FURROW, FURROW_BENCH, READY, REPO, Sitl  # noqa: F401 (the tests import them from here)
 
 
 @pytest.fixture

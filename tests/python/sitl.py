@@ -1,11 +1,14 @@
-"""One `furrow sitl` process, for the e2e tests (through conftest's
-fixtures) and the Python benchmarks in tests/bench alike."""
+"""Starting `furrow` processes: `furrow sitl` for the e2e tests (through
+conftest's fixtures) and the Python benchmarks in tests/bench alike, and the
+start-and-wait-for-ready of any `furrow` command that prints a ready line."""
 
+import contextlib
 import os
 import pathlib
 import re
 import signal
 import subprocess
+import tempfile
 import time
 
 # Before pymavlink is imported, or it loads the MAVLink 1 dialect.
@@ -14,31 +17,28 @@ from pymavlink import mavutil  # noqa: E402
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 FURROW = os.environ.get("FURROW_BIN") or str(REPO / "target" / "release" / "furrow")
+# The benchmark binary (it also plots logs), built beside `furrow` as
+# furrow-bench finds `furrow`: cargo build --release -p furrow_bench.
+FURROW_BENCH = os.environ.get("FURROW_BENCH_BIN") or str(pathlib.Path(FURROW).with_name("furrow-bench"))
 READY = re.compile(r"furrow sitl ready: tcp (\S+):(\d+)")
 
 
-class Sitl:
-    """One `furrow sitl` process. Ports come from the OS (TCP port 0), and the
-    UDP link sends to the port the test's UDP ground station listens on."""
+class FurrowProcess:
+    """A `furrow` process whose first stdout line says it is ready ("furrow
+    sitl ready: tcp HOST:PORT ..." or "furrow run ready: ..."); its stderr
+    goes to `stderr_path`. Ports come from the OS (port 0): the ready line
+    says which."""
 
-    def __init__(self, workdir, udp_port=None, speedup="20", extra_args=(), data_dir=None):
-        self.workdir = pathlib.Path(workdir)
-        self.data_dir = pathlib.Path(data_dir) if data_dir else self.workdir / "data"
-        self.stderr_path = self.workdir / f"furrow-{time.monotonic_ns()}.log"
+    def __init__(self, args, stderr_path, ready=READY, what="furrow sitl"):
+        self.stderr_path = pathlib.Path(stderr_path)
         self.connections = []
-        args = [FURROW, "sitl", "--data-dir", str(self.data_dir), "--tcp-port", "0"]
-        if speedup is not None:  # None: the data directory's SIM_SPEEDUP
-            args += ["--speedup", str(speedup)]
-        if udp_port is not None:
-            args += ["--udp-port", str(udp_port)]
-        args += list(extra_args)
         self.stderr = open(self.stderr_path, "w")
         self.proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=self.stderr, text=True)
         line = self.proc.stdout.readline()
-        match = READY.search(line)
+        match = ready.search(line)
         if not match:
             self.stop()
-            raise RuntimeError(f"furrow sitl did not start: {line!r}\n{self.log()}")
+            raise RuntimeError(f"{what} did not start: {line!r}\n{self.log()}")
         self.tcp_port = int(match.group(2))
         # The whole ready line: listeners bound to port 0 say their port there.
         self.ready = line
@@ -74,3 +74,35 @@ class Sitl:
                 self.proc.wait()
         self.stderr.close()
         return self.proc.returncode
+
+
+class Sitl(FurrowProcess):
+    """One `furrow sitl` process. The UDP link sends to the port the test's
+    UDP ground station listens on."""
+
+    def __init__(self, workdir, udp_port=None, speedup="20", extra_args=(), data_dir=None):
+        self.workdir = pathlib.Path(workdir)
+        self.data_dir = pathlib.Path(data_dir) if data_dir else self.workdir / "data"
+        args = [FURROW, "sitl", "--data-dir", str(self.data_dir), "--tcp-port", "0"]
+        if speedup is not None:  # None: the data directory's SIM_SPEEDUP
+            args += ["--speedup", str(speedup)]
+        if udp_port is not None:
+            args += ["--udp-port", str(udp_port)]
+        args += list(extra_args)
+        super().__init__(args, self.workdir / f"furrow-{time.monotonic_ns()}.log")
+
+
+@contextlib.contextmanager
+def bench_sitl(data_dir):
+    """For a benchmark: a UDP ground station on a port from the OS and a
+    `furrow sitl` at the data directory's SIM_SPEEDUP sending to it. The data
+    directory is the benchmark's (kept between runs); the log goes to a
+    scratch directory. Yields (gcs, sitl); the ground station is the
+    caller's to close."""
+    gcs = mavutil.mavlink_connection("udpin:127.0.0.1:0", source_system=255)
+    with tempfile.TemporaryDirectory() as logs:
+        sitl = Sitl(logs, udp_port=gcs.port.getsockname()[1], speedup=None, data_dir=data_dir)
+        try:
+            yield gcs, sitl
+        finally:
+            sitl.stop()

@@ -1,7 +1,7 @@
 """The onboard DataFlash log end to end: a short AUTO mission driven in
 `furrow sitl`, its `.BIN` listed and downloaded over MAVLink
 (LOG_REQUEST_LIST / LOG_REQUEST_DATA) as MAVProxy and Mission Planner do,
-read back with pymavlink's DFReader, and plotted with `furrow logs plot`."""
+read back with pymavlink's DFReader, and plotted with `furrow-bench logs plot`."""
 
 import subprocess
 
@@ -9,7 +9,7 @@ from pymavlink import DFReader
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 import mavexplorer_graphs
-from conftest import FURROW
+from conftest import FURROW, FURROW_BENCH
 from gcs import command, distance, mission_item, offset, position, recv, upload_mission
 
 
@@ -127,7 +127,7 @@ def test_an_auto_drive_is_downloaded_over_mavlink_and_read_by_dfreader(start_sit
     print(f"MAVExplorer graphs offered: {offered}")
 
     svg = tmp_path / "xtrack.svg"
-    out = subprocess.run([FURROW, "logs", "plot", str(path), "--xtrack", "--out", str(svg)],
+    out = subprocess.run([FURROW_BENCH, "logs", "plot", str(path), "--xtrack", "--out", str(svg)],
                          capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert svg.read_text().lstrip().startswith("<svg") and "cross-track" in svg.read_text()

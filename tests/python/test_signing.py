@@ -17,7 +17,7 @@ import time
 import pytest
 from pymavlink import mavutil
 
-from conftest import FURROW, Sitl
+from conftest import Sitl
 from gcs import recv
 
 mavlink = mavutil.mavlink
@@ -29,27 +29,16 @@ SIGNING_EPOCH = 1420070400
 
 class SigningSitl(Sitl):
     """`furrow sitl` with one secure TCP endpoint whose port is read from the
-    ready line (conftest's Sitl does not keep the line)."""
+    ready line."""
 
     def __init__(self, workdir, data_dir=None, extra_args=()):
-        import subprocess
-
-        self.workdir = workdir
-        self.data_dir = data_dir or workdir / "data"
-        self.stderr_path = workdir / f"furrow-{time.monotonic_ns()}.log"
-        args = [FURROW, "sitl", "--data-dir", str(self.data_dir),
-                "--tcp-port", "0", "--speedup", "20", "--secure-mavlink", "tcpin:127.0.0.1:0", *extra_args]
-        self.stderr = open(self.stderr_path, "w")
-        self.proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=self.stderr, text=True)
-        line = self.proc.stdout.readline()
-        tcp = re.search(r"furrow sitl ready: tcp (\S+):(\d+)", line)
-        secure = SECURE.search(line)
-        if not (tcp and secure):
+        super().__init__(workdir, data_dir=data_dir,
+                         extra_args=["--secure-mavlink", "tcpin:127.0.0.1:0", *extra_args])
+        secure = SECURE.search(self.ready)
+        if not secure:
             self.stop()
-            raise RuntimeError(f"furrow sitl did not start: {line!r}\n{self.log()}")
-        self.tcp_port = int(tcp.group(2))
+            raise RuntimeError(f"no secure endpoint in the ready line: {self.ready!r}\n{self.log()}")
         self.secure_port = int(secure.group(1))
-        self.connections = []
 
     def connect(self, port=None, source_system=255, key=None):
         """A TCP client, signing with `key` when given, after a heartbeat."""

@@ -10,7 +10,6 @@ os.environ.setdefault("MAVLINK20", "1")
 
 import pathlib
 import re
-import signal
 import socket
 import subprocess
 import threading
@@ -21,6 +20,7 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from conftest import FURROW, REPO
+from sitl import FurrowProcess
 from gcs import command, distance, goto, param_set, recv
 
 READY = re.compile(r"furrow run ready: tcp (\S+):(\d+)")
@@ -248,33 +248,10 @@ def duty_ns(chip, ch):
     return int((chip / f"pwm{ch}" / "duty_cycle").read_text().strip() or 0)
 
 
-class Vehicle:
+class Vehicle(FurrowProcess):
     def __init__(self, config_path, workdir):
-        self.log_path = pathlib.Path(workdir) / "furrow-run.log"
-        self.log_file = open(self.log_path, "w")
-        self.proc = subprocess.Popen([FURROW, "run", "--config", str(config_path)],
-                                     stdout=subprocess.PIPE, stderr=self.log_file, text=True)
-        line = self.proc.stdout.readline()
-        match = READY.search(line)
-        if not match:
-            self.stop()
-            raise RuntimeError(f"furrow run did not start: {line!r}\n{self.log()}")
-        self.tcp_port = int(match.group(2))
-
-    def log(self):
-        self.log_file.flush()
-        return self.log_path.read_text()
-
-    def stop(self):
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self.log_file.close()
-        return self.proc.returncode
+        super().__init__([FURROW, "run", "--config", str(config_path)], pathlib.Path(workdir) / "furrow-run.log",
+                         ready=READY, what="furrow run")
 
 
 def write_config(tmp_path, gnss_link, caster_port, pwm_root, magnetic_path):

@@ -1,12 +1,11 @@
-//! `furrow logs list|summary|csv|plot`: the onboard DataFlash logs, offline
+//! `furrow logs list|summary|csv`: the onboard DataFlash logs, offline
 //! (a data directory's `logs/` folder, or a `.BIN` downloaded from a
-//! vehicle).
+//! vehicle). Their plot is `furrow-bench logs plot`, which reads them
+//! through [`DataFlashLog`] and [`course`] here.
 
-use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use super::plot::{Class, Labels, PlotData, write_svg};
 use crate::geo::{GeoPoint, LocalFrame, Ned};
 use crate::logging::reader::{DataFlashLog, Message};
 use crate::logging::store::LogStore;
@@ -37,16 +36,6 @@ pub enum LogsAction {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Draws the course and the cross-track error along it as an SVG.
-    Plot {
-        file: PathBuf,
-        /// The course on a map and NTUN's cross-track error along the distance driven.
-        #[arg(long)]
-        xtrack: bool,
-        /// The SVG to write (default: FILE with .svg).
-        #[arg(long)]
-        out: Option<PathBuf>,
-    },
 }
 
 pub fn run(args: &LogsArgs) -> Result<(), String> {
@@ -68,18 +57,6 @@ pub fn run(args: &LogsArgs) -> Result<(), String> {
                     Ok(())
                 }
             }
-        }
-        LogsAction::Plot { file, xtrack, out } => {
-            if !xtrack {
-                return Err("say what to plot: --xtrack".into());
-            }
-            let out = out.clone().unwrap_or_else(|| file.with_extension("svg"));
-            let title = file
-                .file_name()
-                .map_or("log".into(), |n| n.to_string_lossy().into_owned());
-            write_svg(&out, &title, &xtrack_plot(&DataFlashLog::read(file)?)?)?;
-            println!("{}", out.display());
-            Ok(())
         }
     }
 }
@@ -129,7 +106,7 @@ fn list(data_dir: &Path) -> String {
 }
 
 /// The course in metres from the first position (TimeUS, position).
-fn course(log: &DataFlashLog) -> Vec<(f64, Ned)> {
+pub fn course(log: &DataFlashLog) -> Vec<(f64, Ned)> {
     let mut frame: Option<LocalFrame> = None;
     log.messages("POS")
         .filter_map(|m| {
@@ -278,67 +255,4 @@ fn csv(log: &DataFlashLog, name: &str) -> Result<String, String> {
         text.push('\n');
     }
     Ok(text)
-}
-
-/// The course on a map with the mission's waypoints, and NTUN's
-/// cross-track along the distance driven (turning: arcs; slow: stops).
-fn xtrack_plot(log: &DataFlashLog) -> Result<PlotData, String> {
-    let course = course(log);
-    let Some(origin) = log.messages("POS").next() else {
-        return Err("no positions (POS) in this log".into());
-    };
-    let frame = LocalFrame::new(GeoPoint::new(
-        origin.get("Lat").unwrap_or(0.0),
-        origin.get("Lng").unwrap_or(0.0),
-        0.0,
-    ));
-    let mut data = PlotData::default();
-    data.labels = Labels {
-        track_caption: "mission waypoints and the logged course".into(),
-        planned: "mission waypoints (straight between them)".into(),
-        track: "course (POS, the vehicle's estimate)".into(),
-        error_caption: "cross-track error (NTUN.XTrack, mm) along the distance driven".into(),
-    };
-    let waypoints: Vec<(f64, f64)> = log
-        .messages("CMD")
-        .filter(|m| m.get("CId") == Some(16.0) && m.get("CNum") != Some(0.0))
-        .filter_map(|m| {
-            let p = frame.to_local(&GeoPoint::new(m.get("Lat")?, m.get("Lng")?, 0.0));
-            Some((p.east_m, p.north_m))
-        })
-        .collect();
-    if !waypoints.is_empty() {
-        data.add_leg_points(waypoints);
-    }
-    let turn_rate: BTreeMap<u64, f64> = keyed(log, "STER", "TurnRate");
-    let speed: BTreeMap<u64, f64> = keyed(log, "THR", "Speed");
-    let xtrack: BTreeMap<u64, f64> = keyed(log, "NTUN", "XTrack");
-    let mut driven_m = 0.0;
-    let mut last: Option<Ned> = None;
-    for (t_us, p) in &course {
-        driven_m += last.map_or(0.0, |l| l.distance_to(p));
-        last = Some(*p);
-        let key = *t_us as u64;
-        let Some(&error_m) = xtrack.get(&key) else {
-            continue;
-        };
-        let class = if speed.get(&key).is_some_and(|s| s.abs() < 0.05) {
-            Class::Other
-        } else if turn_rate.get(&key).is_some_and(|r| r.abs() > 2.0) {
-            Class::Arc
-        } else {
-            Class::Straight
-        };
-        data.add_sample(*p, driven_m, error_m, class);
-    }
-    if xtrack.is_empty() {
-        return Err("no cross-track (NTUN) in this log: was the vehicle navigating?".into());
-    }
-    Ok(data)
-}
-
-fn keyed(log: &DataFlashLog, name: &str, label: &str) -> BTreeMap<u64, f64> {
-    log.messages(name)
-        .filter_map(|m| Some((m.get("TimeUS")? as u64, m.get(label)?)))
-        .collect()
 }

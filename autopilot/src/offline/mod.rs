@@ -5,4 +5,3 @@ pub mod config;
 pub mod logs;
 pub mod mission;
 pub mod params;
-pub mod plot;

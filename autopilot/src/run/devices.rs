@@ -151,21 +151,10 @@ pub struct Devices {
 
 impl Devices {
     /// Starts every configured device (the async ones on `runtime`).
-    /// Opening never fails on a missing device (it is retried in the
-    /// background); only a thread that cannot be started is an error.
-    pub fn start(config: &VehicleConfig, origin: Instant, runtime: &Handle) -> Result<Devices, String> {
-        let (source, gnss_place) = match &config.gnss.link {
-            GnssLink::Serial(line) => (serial_source(line), format!("{}@{}", line.path.display(), line.baud)),
-            GnssLink::Tcp(hp) => {
-                let address = format!("{}:{}", hp.host, hp.port);
-                (
-                    GnssSource::Tcp {
-                        address: address.clone(),
-                    },
-                    format!("tcp {address}"),
-                )
-            }
-        };
+    /// Starting never fails: a missing or unreachable device is retried in
+    /// the background and shows as not connected in the status view.
+    pub fn start(config: &VehicleConfig, origin: Instant, runtime: &Handle) -> Devices {
+        let (source, gnss_place) = gnss_source(&config.gnss.link);
         let gnss = GnssPort::spawn(
             GnssPortConfig {
                 stale_after: config.gnss.stale_after(),
@@ -176,7 +165,7 @@ impl Devices {
         let compass = match &config.heading {
             HeadingSource::Compass(line) => Some((
                 GnssPort::spawn(GnssPortConfig::new(serial_source(line)), origin),
-                format!("{}@{}", line.path.display(), line.baud),
+                serial_place(line),
             )),
             HeadingSource::Gnss | HeadingSource::None => None,
         };
@@ -185,10 +174,7 @@ impl Devices {
                 stale_after: crate::estimation::IMU_STALE_AFTER,
                 ..GnssPortConfig::new(serial_source(line))
             };
-            (
-                GnssPort::spawn(port, origin),
-                format!("{}@{}", line.path.display(), line.baud),
-            )
+            (GnssPort::spawn(port, origin), serial_place(line))
         });
         let ntrip = config.corrections.ntrip.as_ref().map(|n| {
             let client = NtripClient::spawn(n.clone(), origin, runtime);
@@ -217,7 +203,7 @@ impl Devices {
                 .collect();
             Some(ScannerSet::start(addresses, origin, runtime))
         };
-        Ok(Devices {
+        Devices {
             gnss,
             gnss_place,
             compass,
@@ -232,7 +218,7 @@ impl Devices {
             next_gga: Duration::ZERO,
             rates: Vec::new(),
             announced: Vec::new(),
-        })
+        }
     }
 
     /// Everything the devices delivered since the last tick, into `inputs`.
@@ -399,6 +385,23 @@ impl Devices {
     pub fn rtcm_dropped(&self) -> u64 {
         self.rtcm_dropped
     }
+}
+
+/// The GNSS port's source, and where it is as the status view names it.
+fn gnss_source(link: &GnssLink) -> (GnssSource, String) {
+    match link {
+        GnssLink::Serial(line) => (serial_source(line), serial_place(line)),
+        GnssLink::Tcp(hp) => {
+            let address = format!("{}:{}", hp.host, hp.port);
+            let place = format!("tcp {address}");
+            (GnssSource::Tcp { address }, place)
+        }
+    }
+}
+
+/// A serial device's place in the status view: `PATH@BAUD`.
+fn serial_place(line: &SerialLine) -> String {
+    format!("{}@{}", line.path.display(), line.baud)
 }
 
 fn serial_source(line: &SerialLine) -> GnssSource {

@@ -78,7 +78,7 @@ pub fn run(config_path: &Path) -> Result<(), String> {
     let persistence = Persistence::start(&data_dir, session, &mut core, &FileWriterThread::start());
     let sockets = LinkSockets::bind(&link_endpoints(&config)).map_err(|e| format!("MAVLink links: {e}"))?;
 
-    let devices = Devices::start(&config, edge.origin(), edge.handle())?;
+    let devices = Devices::start(&config, edge.origin(), edge.handle());
     let period = core.loop_period();
     let trims = servo_trims(&core);
     let actuators = PwmActuators::start(&config.pwm, &trims, 3 * period);

@@ -275,7 +275,7 @@ declare_params! {
         },
         steer_p: f32 = "MAG_STR_P" => {
             default: 9.0, range: 0.0, 100.0, unit: "rad/m",
-            desc: "Steering PID P gain on the lateral deviation (incremental form, seed eq. 15)",
+            desc: "Steering PID P gain on the lateral deviation (incremental form, eq. 15 of the double-magnetic-guide paper)",
         },
         steer_i: f32 = "MAG_STR_I" => {
             default: 2.0, range: 0.0, 100.0, unit: "rad/m/s",

@@ -478,117 +478,177 @@ fn flood_link_counts(log: &str, names: &[String]) -> (u64, u64) {
     (frames, dropped)
 }
 
-// Stays whole: a table, one `Row` per flood target, in report order.
+/// The flood part's rows, one per target, in report order.
 fn rows(rate: u32, quiet: &CourseRun, flooded: &CourseRun) -> Vec<Row> {
-    let f = &flooded.flood;
+    vec![
+        offered_row(rate, &flooded.flood),
+        absorbed_row(flooded),
+        deadline_row(quiet, flooded),
+        xtrack_row(quiet, flooded),
+        telemetry_gap_row(quiet, flooded),
+        progress_row(quiet, flooded),
+    ]
+}
+
+fn offered_row(rate: u32, f: &FloodCounts) -> Row {
     let offered = f.per_second(f.messages() + f.garbage_chunks);
-    let cm = |m: f64| format!("{:.2} cm", m * 100.0);
-    let xtrack_diff = (flooded.xtrack_p99_m - quiet.xtrack_p99_m).abs();
-    let xtrack_ok = xtrack_diff <= XTRACK_TOLERANCE_M.max(XTRACK_TOLERANCE_REL * quiet.xtrack_p99_m);
+    Row {
+        part: "flood",
+        case: "offered: UDP + TCP, paced threads".into(),
+        expected: format!("≥ 95 % of {rate} msgs/s"),
+        measured: format!(
+            "{offered:.0} msgs/s over {:.0} s (UDP {:.0}, TCP {:.0} MAVLink msgs/s, {:.0} garbage chunks/s)",
+            f.seconds,
+            f.per_second(f.udp_messages),
+            f.per_second(f.tcp_messages),
+            f.per_second(f.garbage_chunks)
+        ),
+        ok: offered >= 0.95 * f64::from(rate),
+    }
+}
+
+fn absorbed_row(flooded: &CourseRun) -> Row {
+    let f = &flooded.flood;
     let absorbed_share = if f.messages() > 0 {
         flooded.absorbed_frames as f64 / f.messages() as f64
     } else {
         0.0
     };
-    vec![
-        Row {
-            part: "flood",
-            case: "offered: UDP + TCP, paced threads".into(),
-            expected: format!("≥ 95 % of {rate} msgs/s"),
-            measured: format!(
-                "{offered:.0} msgs/s over {:.0} s (UDP {:.0}, TCP {:.0} MAVLink msgs/s, {:.0} garbage chunks/s)",
-                f.seconds,
-                f.per_second(f.udp_messages),
-                f.per_second(f.tcp_messages),
-                f.per_second(f.garbage_chunks)
-            ),
-            ok: offered >= 0.95 * f64::from(rate),
-        },
-        Row {
-            part: "flood",
-            case: "absorbed: frames the links decoded".into(),
-            expected: "≥ 99 % of MAVLink msgs sent, none dropped before the core".into(),
-            measured: format!(
-                "{:.0} msgs/s ({:.1} %), {} dropped with the core queue full",
-                f.per_second(flooded.absorbed_frames),
-                absorbed_share * 100.0,
-                flooded.dropped_to_core
-            ),
-            ok: absorbed_share >= 0.99 && flooded.dropped_to_core == 0,
-        },
-        Row {
-            part: "flood",
-            // A deadline is missed when a tick starts a whole loop period (or
-            // more) after its paced time. A task over its time budget (an
-            // overrun, wall clock, so a preempted thread counts one) is shown
-            // beside it but is not a missed deadline.
-            case: "deadline misses: ticks started ≥ 1 period late".into(),
-            expected: "0 with the flood".into(),
-            measured: format!(
-                "quiet {}, flood {} (pacing restarts {} / {}; task budget overruns {} / {}); tick p99 {:.1} µs → {:.1} µs; load average {:.1}, {:.1}",
-                quiet.exit.late_ticks,
-                flooded.exit.late_ticks,
-                quiet.exit.pacing_restarts,
-                flooded.exit.pacing_restarts,
-                quiet.exit.overruns,
-                flooded.exit.overruns,
-                quiet.exit.tick_p99_us,
-                flooded.exit.tick_p99_us,
-                quiet.load_average,
-                flooded.load_average
-            ),
-            ok: flooded.exit.late_ticks == 0 && flooded.exit.pacing_restarts == 0,
-        },
-        Row {
-            part: "flood",
-            case: format!("xtrack p99, first {} s of the AGV course", SEGMENT.as_secs()),
-            expected: format!(
-                "flood within {} or {:.0} % of quiet",
-                cm(XTRACK_TOLERANCE_M),
-                XTRACK_TOLERANCE_REL * 100.0
-            ),
-            measured: format!(
-                "quiet {} ({} samples), flood {} ({} samples)",
-                cm(quiet.xtrack_p99_m),
-                quiet.xtrack_samples,
-                cm(flooded.xtrack_p99_m),
-                flooded.xtrack_samples
-            ),
-            ok: xtrack_ok && flooded.xtrack_samples > 0,
-        },
-        Row {
-            part: "flood",
-            case: "largest telemetry gap at the observer (HEARTBEAT, ATTITUDE)".into(),
-            expected: format!(
-                "< {:.1} s, < {:.0} s, none dropped to links",
-                MAX_HEARTBEAT_GAP.as_secs_f64(),
-                MAX_TELEMETRY_GAP.as_secs_f64()
-            ),
-            measured: format!(
-                "flood {:.2} s, {:.2} s ({} dropped to links); quiet {:.2} s, {:.2} s",
-                flooded.heartbeat_gap.as_secs_f64(),
-                flooded.attitude_gap.as_secs_f64(),
-                flooded.exit.dropped_to_links,
-                quiet.heartbeat_gap.as_secs_f64(),
-                quiet.attitude_gap.as_secs_f64()
-            ),
-            ok: flooded.heartbeat_gap < MAX_HEARTBEAT_GAP
-                && flooded.attitude_gap < MAX_TELEMETRY_GAP
-                && flooded.exit.dropped_to_links == 0,
-        },
-        Row {
-            part: "flood",
-            case: "mission progress over the segment".into(),
-            expected: "same item reached".into(),
-            measured: format!("quiet item {}, flood item {}", quiet.item_reached, flooded.item_reached),
-            ok: quiet.item_reached == flooded.item_reached && quiet.item_reached > 0,
-        },
-    ]
+    Row {
+        part: "flood",
+        case: "absorbed: frames the links decoded".into(),
+        expected: "≥ 99 % of MAVLink msgs sent, none dropped before the core".into(),
+        measured: format!(
+            "{:.0} msgs/s ({:.1} %), {} dropped with the core queue full",
+            f.per_second(flooded.absorbed_frames),
+            absorbed_share * 100.0,
+            flooded.dropped_to_core
+        ),
+        ok: absorbed_share >= 0.99 && flooded.dropped_to_core == 0,
+    }
+}
+
+fn deadline_row(quiet: &CourseRun, flooded: &CourseRun) -> Row {
+    Row {
+        part: "flood",
+        // A deadline is missed when a tick starts a whole loop period (or
+        // more) after its paced time. A task over its time budget (an
+        // overrun, wall clock, so a preempted thread counts one) is shown
+        // beside it but is not a missed deadline.
+        case: "deadline misses: ticks started ≥ 1 period late".into(),
+        expected: "0 with the flood".into(),
+        measured: format!(
+            "quiet {}, flood {} (pacing restarts {} / {}; task budget overruns {} / {}); tick p99 {:.1} µs → {:.1} µs; load average {:.1}, {:.1}",
+            quiet.exit.late_ticks,
+            flooded.exit.late_ticks,
+            quiet.exit.pacing_restarts,
+            flooded.exit.pacing_restarts,
+            quiet.exit.overruns,
+            flooded.exit.overruns,
+            quiet.exit.tick_p99_us,
+            flooded.exit.tick_p99_us,
+            quiet.load_average,
+            flooded.load_average
+        ),
+        ok: flooded.exit.late_ticks == 0 && flooded.exit.pacing_restarts == 0,
+    }
+}
+
+fn xtrack_row(quiet: &CourseRun, flooded: &CourseRun) -> Row {
+    let cm = |m: f64| format!("{:.2} cm", m * 100.0);
+    let xtrack_diff = (flooded.xtrack_p99_m - quiet.xtrack_p99_m).abs();
+    let xtrack_ok = xtrack_diff <= XTRACK_TOLERANCE_M.max(XTRACK_TOLERANCE_REL * quiet.xtrack_p99_m);
+    Row {
+        part: "flood",
+        case: format!("xtrack p99, first {} s of the AGV course", SEGMENT.as_secs()),
+        expected: format!(
+            "flood within {} or {:.0} % of quiet",
+            cm(XTRACK_TOLERANCE_M),
+            XTRACK_TOLERANCE_REL * 100.0
+        ),
+        measured: format!(
+            "quiet {} ({} samples), flood {} ({} samples)",
+            cm(quiet.xtrack_p99_m),
+            quiet.xtrack_samples,
+            cm(flooded.xtrack_p99_m),
+            flooded.xtrack_samples
+        ),
+        ok: xtrack_ok && flooded.xtrack_samples > 0,
+    }
+}
+
+fn telemetry_gap_row(quiet: &CourseRun, flooded: &CourseRun) -> Row {
+    Row {
+        part: "flood",
+        case: "largest telemetry gap at the observer (HEARTBEAT, ATTITUDE)".into(),
+        expected: format!(
+            "< {:.1} s, < {:.0} s, none dropped to links",
+            MAX_HEARTBEAT_GAP.as_secs_f64(),
+            MAX_TELEMETRY_GAP.as_secs_f64()
+        ),
+        measured: format!(
+            "flood {:.2} s, {:.2} s ({} dropped to links); quiet {:.2} s, {:.2} s",
+            flooded.heartbeat_gap.as_secs_f64(),
+            flooded.attitude_gap.as_secs_f64(),
+            flooded.exit.dropped_to_links,
+            quiet.heartbeat_gap.as_secs_f64(),
+            quiet.attitude_gap.as_secs_f64()
+        ),
+        ok: flooded.heartbeat_gap < MAX_HEARTBEAT_GAP
+            && flooded.attitude_gap < MAX_TELEMETRY_GAP
+            && flooded.exit.dropped_to_links == 0,
+    }
+}
+
+fn progress_row(quiet: &CourseRun, flooded: &CourseRun) -> Row {
+    Row {
+        part: "flood",
+        case: "mission progress over the segment".into(),
+        expected: "same item reached".into(),
+        measured: format!("quiet item {}, flood item {}", quiet.item_reached, flooded.item_reached),
+        ok: quiet.item_reached == flooded.item_reached && quiet.item_reached > 0,
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn each_row_judges_its_own_figures() {
+        let quiet = CourseRun {
+            xtrack_p99_m: 0.0123,
+            xtrack_samples: 800,
+            heartbeat_gap: Duration::from_millis(1020),
+            attitude_gap: Duration::from_millis(310),
+            item_reached: 7,
+            ..Default::default()
+        };
+        let clean = CourseRun {
+            xtrack_p99_m: 0.0131,
+            xtrack_samples: 790,
+            flood: FloodCounts {
+                udp_messages: 800_000,
+                tcp_messages: 800_000,
+                garbage_chunks: 40_000,
+                seconds: 80.0,
+            },
+            absorbed_frames: 1_590_000,
+            ..quiet
+        };
+        let verdicts = |flooded: &CourseRun| rows(20_000, &quiet, flooded).iter().map(|r| r.ok).collect::<Vec<_>>();
+        assert_eq!(verdicts(&clean), [true; 6]);
+        // Three messages dropped before the core fail the absorbed row only.
+        let dropped = CourseRun {
+            dropped_to_core: 3,
+            ..clean
+        };
+        assert_eq!(verdicts(&dropped), [true, false, true, true, true, true]);
+        // A tick a period late fails the deadline row only.
+        let mut late = CourseRun { ..clean };
+        late.exit.late_ticks = 1;
+        assert_eq!(verdicts(&late), [true, true, false, true, true, true]);
+    }
 
     #[test]
     fn the_exit_report_is_parsed() {

@@ -301,27 +301,7 @@ impl VehicleConfig {
             }
         ));
         if let Some(ntrip) = &self.corrections.ntrip {
-            let version = match ntrip.version {
-                NtripVersion::V1 => 1,
-                NtripVersion::V2 => 2,
-            };
-            let user = match (&ntrip.user, &ntrip.password) {
-                (Some(user), Some(_)) => format!("as {user} (password set)"),
-                (Some(user), None) => format!("as {user} (no password)"),
-                _ => "anonymous".to_string(),
-            };
-            let gga = match ntrip.gga_interval.as_secs() {
-                0 => "no GGA".to_string(),
-                s => format!("GGA every {s} s"),
-            };
-            let host = HostPort {
-                host: ntrip.host.clone(),
-                port: ntrip.port,
-            };
-            lines.push(format!(
-                "ntrip        v{version} {host}/{} {user}, {gga}",
-                ntrip.mountpoint
-            ));
+            lines.push(ntrip_summary(ntrip));
         }
         for (index, address) in self.scanners.iter().enumerate() {
             let role = if index == 0 { " (front)" } else { "" };
@@ -333,6 +313,16 @@ impl VehicleConfig {
         if let Some(line) = &self.imu {
             lines.push(format!("imu          VectorNav ASCII on {line}"));
         }
+        lines.extend(self.output_summary());
+        if let Some(vda5050) = &self.vda5050 {
+            lines.extend(vda5050.summary());
+        }
+        lines.join("\n")
+    }
+
+    /// The summary's PWM outputs and MAVLink endpoints.
+    fn output_summary(&self) -> Vec<String> {
+        let mut lines = Vec::new();
         for output in &self.pwm.outputs {
             lines.push(format!(
                 "pwm          SERVO{} -> {}, period {} us",
@@ -355,11 +345,30 @@ impl VehicleConfig {
         if self.mavlink.is_empty() && self.secure_mavlink.is_empty() {
             lines.push("mavlink      none: no ground station can connect".to_string());
         }
-        if let Some(vda5050) = &self.vda5050 {
-            lines.extend(vda5050.summary());
-        }
-        lines.join("\n")
+        lines
     }
+}
+
+/// The summary's NTRIP line. The password is not shown.
+fn ntrip_summary(ntrip: &NtripConfig) -> String {
+    let version = match ntrip.version {
+        NtripVersion::V1 => 1,
+        NtripVersion::V2 => 2,
+    };
+    let user = match (&ntrip.user, &ntrip.password) {
+        (Some(user), Some(_)) => format!("as {user} (password set)"),
+        (Some(user), None) => format!("as {user} (no password)"),
+        _ => "anonymous".to_string(),
+    };
+    let gga = match ntrip.gga_interval.as_secs() {
+        0 => "no GGA".to_string(),
+        s => format!("GGA every {s} s"),
+    };
+    let host = HostPort {
+        host: ntrip.host.clone(),
+        port: ntrip.port,
+    };
+    format!("ntrip        v{version} {host}/{} {user}, {gga}", ntrip.mountpoint)
 }
 
 pub(super) fn check_host(host: &str) -> Result<(), String> {

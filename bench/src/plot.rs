@@ -1,14 +1,15 @@
-//! The tracking benchmark's plot: the planned path and the driven (true)
-//! track on a map, and the lateral error along the distance driven, as an
-//! SVG (plotters' SVG backend: no font libraries needed).
+//! The tracking benchmark's plot (and `furrow-bench logs plot`'s): the
+//! planned path and the driven track on a map, and the lateral error along
+//! the distance driven, as an SVG (plotters' SVG backend: no font libraries
+//! needed).
 
 use std::path::Path;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::geo::Ned;
-use crate::guidance::path::LegPath;
+use autopilot::geo::Ned;
+use autopilot::guidance::path::LegPath;
 
 /// Which part of the course a sample belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
