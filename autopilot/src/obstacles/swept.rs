@@ -53,7 +53,7 @@
 //!
 //! Sources: docs/references.md §Seed 004.
 
-use super::outline::Outline;
+use super::outline::{Outline, segment_distance};
 use super::{Footprint, Pose};
 use crate::geo::{Ned, wrap_pi};
 use crate::guidance::path::{LegPath, Piece};
@@ -670,7 +670,7 @@ fn polygon_rect_gap(polygon: &[(f64, f64)], front_m: f64, rear_m: f64, half_widt
     for i in 0..n {
         let (a, b) = (polygon[i], polygon[(i + 1) % n]);
         for &c in &corners {
-            from_rect = from_rect.min(point_segment(c, a, b));
+            from_rect = from_rect.min(segment_distance(a, b, c));
         }
         // Separating axis: an edge's normal with every rectangle corner
         // strictly on the far side from the polygon (for a segment, on
@@ -697,18 +697,6 @@ fn polygon_rect_gap(polygon: &[(f64, f64)], front_m: f64, rear_m: f64, half_widt
         return 0.0;
     }
     from_polygon.min(from_rect)
-}
-
-fn point_segment(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
-    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-    let len2 = dx * dx + dy * dy;
-    let t = if len2 > 0.0 {
-        (((p.0 - a.0) * dx + (p.1 - a.1) * dy) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let (ex, ey) = (p.0 - a.0 - t * dx, p.1 - a.1 - t * dy);
-    (ex * ex + ey * ey).sqrt()
 }
 
 #[cfg(test)]
