@@ -53,7 +53,7 @@
 //!
 //! Sources: docs/references.md §Seed 004.
 
-use super::outline::Outline;
+use super::outline::{Outline, segment_distance};
 use super::{Footprint, Pose};
 use crate::geo::{Ned, wrap_pi};
 use crate::guidance::path::{LegPath, Piece};
@@ -301,10 +301,13 @@ impl SweptPath {
     }
 
     /// How far along the path the outline first comes within `margin_m` of
-    /// the point `p` *and* nearer than the outline is now, searching up to
-    /// `max_m`: the protective and warning fields ask this of every return.
-    /// `None` when it never does: a point the outline keeps its distance
-    /// from (a wall beside a straight lane) is not in the way.
+    /// the point `p`, searching up to `max_m`: the protective and warning
+    /// fields ask this of every return. A point outside the margin now
+    /// counts as soon as the outline comes within the margin of it, however
+    /// gradually (the inner side closing in on a parked car round an arc);
+    /// one already within it only once the outline will be `NEARER_M`
+    /// nearer still. `None` when it never does: a point the outline keeps
+    /// its distance from (a wall beside a straight lane) is not in the way.
     pub fn point_entry_m(&self, p: Ned, margin_m: f64, max_m: f64) -> Option<f64> {
         if self.samples.is_empty() || !(p.north_m.is_finite() && p.east_m.is_finite()) {
             return None;
@@ -313,7 +316,12 @@ impl SweptPath {
             return None;
         }
         let gap_now = self.point_gap(0, p);
-        let threshold = (margin_m.max(0.0) + self.slack_m()).min(gap_now - NEARER_M);
+        let margin_m = margin_m.max(0.0) + self.slack_m();
+        let threshold = if gap_now > margin_m {
+            margin_m
+        } else {
+            gap_now - NEARER_M
+        };
         if threshold <= 0.0 {
             // Inside or against the body now: its own returns, or contact
             // the tracks judge.
@@ -670,7 +678,7 @@ fn polygon_rect_gap(polygon: &[(f64, f64)], front_m: f64, rear_m: f64, half_widt
     for i in 0..n {
         let (a, b) = (polygon[i], polygon[(i + 1) % n]);
         for &c in &corners {
-            from_rect = from_rect.min(point_segment(c, a, b));
+            from_rect = from_rect.min(segment_distance(a, b, c));
         }
         // Separating axis: an edge's normal with every rectangle corner
         // strictly on the far side from the polygon (for a segment, on
@@ -697,18 +705,6 @@ fn polygon_rect_gap(polygon: &[(f64, f64)], front_m: f64, rear_m: f64, half_widt
         return 0.0;
     }
     from_polygon.min(from_rect)
-}
-
-fn point_segment(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
-    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-    let len2 = dx * dx + dy * dy;
-    let t = if len2 > 0.0 {
-        (((p.0 - a.0) * dx + (p.1 - a.1) * dy) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let (ex, ey) = (p.0 - a.0 - t * dx, p.1 - a.1 - t * dy);
-    (ex * ex + ey * ey).sqrt()
 }
 
 #[cfg(test)]
@@ -792,6 +788,33 @@ mod tests {
         // The same point beside a straight lane ahead is not in the way.
         let straight = arc(0.0, false, &AGV, 10.0);
         assert!(straight.point_entry_m(inside, 0.3, 10.0).is_none(), "{inside:?}");
+    }
+
+    #[test]
+    fn a_point_the_inner_side_closes_in_on_gradually_counts_once_within_the_margin() {
+        // Right turn of 6 m: the inner side is tangent to the 5 m circle at
+        // the rear axle. A point 0.6 m ahead of the rear axle, inside that
+        // circle, is 1 cm outside the margin now and ends 2.8 cm inside it:
+        // less than NEARER_M nearer, yet it enters the margin.
+        let r = 6.0;
+        let swept = arc(1.0 / r, false, &AGV, 10.0);
+        let margin_m = 0.3;
+        let edge_m = margin_m + swept.slack_m();
+        let ahead_m = 0.6;
+        // Gap now 5 − ρ·cos φ with ρ·sin φ = ahead_m; the closest is 5 − ρ.
+        let rho = |gap_now_m: f64| (r - 1.0 - gap_now_m).hypot(ahead_m);
+        let point = |gap_now_m: f64| {
+            let rho = rho(gap_now_m);
+            let phi = (ahead_m / rho).asin();
+            round_right_turn(r, rho, phi)
+        };
+        let entering = point(edge_m + 0.01);
+        assert!(r - 1.0 - rho(edge_m + 0.01) < edge_m - 0.01);
+        assert!(swept.point_entry_m(entering, margin_m, 10.0).is_some());
+        // Already within the margin, and approached by less than NEARER_M:
+        // beside the body, not in the way.
+        let beside = point(edge_m - 0.01);
+        assert!(swept.point_entry_m(beside, margin_m, 10.0).is_none());
     }
 
     #[test]

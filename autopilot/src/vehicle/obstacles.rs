@@ -27,6 +27,13 @@ use crate::obstacles::swept::{Contact, Drive, PathAhead, Shape, SweptPath};
 use crate::obstacles::tracking::{EXPECTED_TRACKS, ObstacleTracker, TrackingConfig};
 use crate::obstacles::{Footprint, Pose, ScannerMount, Track, TrackStatus};
 
+/// The fields checked this tick and the warning field's speed limit.
+struct CheckedFields {
+    field: FieldStatus,
+    field_at_resume: FieldStatus,
+    warning_limit_mps: Option<f64>,
+}
+
 /// How many scanners the core reads (SCAN1 front, SCAN2 rear).
 pub const SCANNERS: usize = 2;
 /// OBSTACLE_DISTANCE: 72 sectors of 5°.
@@ -355,68 +362,33 @@ impl Core {
             self.reset_obstacle_policy();
             return Verdict::Go;
         }
-
-        let sign = direction.sign();
         let speed = if estimate.position_valid && estimate.heading_valid {
             estimate.speed_mps
         } else {
             0.0
         };
-        let field_config = self.field_config();
-        // Standing still, the field looks the way the vehicle would drive.
-        let here_fields = fields(
-            if speed.abs() > 0.05 { speed } else { 1e-3 * sign },
-            &footprint,
-            &field_config,
-        );
-        let resume_fields = fields(planned_mps.abs() * sign, &footprint, &field_config);
         let pose = Pose {
             position: estimate.position,
             yaw_rad: estimate.yaw_rad,
         };
-        let margin = f64::from(self.p.obstacles.avoidance.margin_m.get(&self.params));
-        // The policy acts on nothing predicted beyond OA_HORIZON.
-        let horizon = f64::from(self.p.obstacles.avoidance.horizon_s.get(&self.params));
-        let sweep_m = here_fields
-            .warning_length_m
-            .max(resume_fields.warning_length_m)
-            .max(speed.abs().max(planned_mps.abs()) * horizon);
-        self.sweep_path_ahead(&pose, &footprint, sign < 0.0, sweep_m);
-        let [field, field_at_resume] = self.check_fields(&here_fields, &resume_fields, &field_config);
-
-        let velocity_gate_mps = f64::from(self.p.obstacles.avoidance.velocity_gate_mps.get(&self.params));
-        let mut predictions = std::mem::take(&mut self.obstacles.predictions);
-        let mut predictions_at_resume = std::mem::take(&mut self.obstacles.predictions_at_resume);
-        self.track_predictions(
-            (&estimate, &pose),
-            (speed, planned_mps),
-            (margin, horizon),
-            (&mut predictions, &mut predictions_at_resume),
-        );
-        self.remember_hidden_tracks(now_s, &pose, &footprint, margin, velocity_gate_mps);
-        self.push_hidden_predictions(now_s, &pose, &footprint, &mut predictions_at_resume);
+        let checked = self.sweep_and_check_fields(&pose, &footprint, direction, speed, planned_mps);
+        let (predictions, predictions_at_resume) =
+            self.predict_collisions(now_s, (&estimate, &pose), &footprint, (speed, planned_mps));
         let config = self.policy_config();
-        // At rest the fields that matter are those it would start with.
-        let at_rest = speed.abs() <= 0.05;
-        let warning_limit_mps = if at_rest {
-            warning_speed_limit(&resume_fields, &field_at_resume, &field_config, planned_mps.abs())
-        } else {
-            warning_speed_limit(&here_fields, &field, &field_config, planned_mps.abs())
-        };
         let inputs = PolicyInputs {
             t_s: now_s,
             wants_to_move,
             settling,
             speed_mps: speed,
             scan_age_s,
-            field: &field,
-            field_at_resume: &field_at_resume,
+            field: &checked.field,
+            field_at_resume: &checked.field_at_resume,
             predictions: &predictions,
             predictions_at_resume: &predictions_at_resume,
             tracks: self.obstacles.tracker.tracks(),
             pose,
             footprint: &footprint,
-            warning_limit_mps,
+            warning_limit_mps: checked.warning_limit_mps,
         };
         let status = self.obstacles.policy.update(&inputs, &config);
         self.obstacles.predictions = predictions;
@@ -424,6 +396,72 @@ impl Core {
         let verdict = self.apply_policy_status(&status);
         self.note_static_block(&verdict, wants_to_move, now_s);
         verdict
+    }
+    /// Sweeps the path ahead and checks the protective and warning fields
+    /// (at the speed now and at the resume speed) along it.
+    fn sweep_and_check_fields(
+        &mut self,
+        pose: &Pose,
+        footprint: &Footprint,
+        direction: Direction,
+        speed: f64,
+        planned_mps: f64,
+    ) -> CheckedFields {
+        let sign = direction.sign();
+        let field_config = self.field_config();
+        // Standing still, the field looks the way the vehicle would drive.
+        let here_fields = fields(
+            if speed.abs() > 0.05 { speed } else { 1e-3 * sign },
+            footprint,
+            &field_config,
+        );
+        let resume_fields = fields(planned_mps.abs() * sign, footprint, &field_config);
+        let horizon = f64::from(self.p.obstacles.avoidance.horizon_s.get(&self.params));
+        let sweep_m = here_fields
+            .warning_length_m
+            .max(resume_fields.warning_length_m)
+            .max(speed.abs().max(planned_mps.abs()) * horizon);
+        self.sweep_path_ahead(pose, footprint, sign < 0.0, sweep_m);
+        let [field, field_at_resume] = self.check_fields(&here_fields, &resume_fields, &field_config);
+        // At rest the fields that matter are those it would start with.
+        let warning_limit_mps = if speed.abs() <= 0.05 {
+            warning_speed_limit(&resume_fields, &field_at_resume, &field_config, planned_mps.abs())
+        } else {
+            warning_speed_limit(&here_fields, &field, &field_config, planned_mps.abs())
+        };
+        CheckedFields {
+            field,
+            field_at_resume,
+            warning_limit_mps,
+        }
+    }
+
+    /// The tracks' collision predictions at the speed now and at the resume
+    /// speed, the latter with the tracks remembered in the blind zone (the
+    /// buffers are the state's, handed back after the policy has read them).
+    fn predict_collisions(
+        &mut self,
+        now_s: f64,
+        (estimate, pose): (&Estimate, &Pose),
+        footprint: &Footprint,
+        (speed, planned_mps): (f64, f64),
+    ) -> (Vec<CollisionPrediction>, Vec<CollisionPrediction>) {
+        let a = &self.p.obstacles.avoidance;
+        let margin = f64::from(a.margin_m.get(&self.params));
+        // The policy acts on nothing predicted beyond OA_HORIZON.
+        let horizon = f64::from(a.horizon_s.get(&self.params));
+        let velocity_gate_mps = f64::from(a.velocity_gate_mps.get(&self.params));
+        let mut predictions = std::mem::take(&mut self.obstacles.predictions);
+        let mut predictions_at_resume = std::mem::take(&mut self.obstacles.predictions_at_resume);
+        self.track_predictions(
+            (estimate, pose),
+            (speed, planned_mps),
+            (margin, horizon),
+            (&mut predictions, &mut predictions_at_resume),
+        );
+        self.remember_hidden_tracks(now_s, pose, footprint, margin, velocity_gate_mps);
+        self.push_hidden_predictions(now_s, pose, footprint, &mut predictions_at_resume);
+        (predictions, predictions_at_resume)
     }
 
     /// Avoidance off or not driving: forget any held stop, static block and

@@ -6,9 +6,10 @@
 use std::time::Duration;
 
 use mission::{ExecState, MissionType, Plan};
-use sim::{ObstacleWorld, VehicleOutline};
+use sim::{ObstacleWorld, SimScannerConfig, VehicleModel, VehicleOutline};
 
-use super::truth::{Judge, Limits, MOVING_MPS, Pose, STALL_S, TruthLog, on_its_line_s, rectangle};
+use super::truth::{Judge, Limits, MOVING_MPS, Pose, STALL_S, TruthLog, rectangle};
+use super::unavoidable::{ObjectId, RunTruth, WorldHistory, touching};
 use autopilot::edge::clock::InstantTimer;
 use autopilot::geo::{LocalFrame, Ned};
 use autopilot::obstacles::TrackStatus;
@@ -204,6 +205,7 @@ pub fn drive_with(
     let (outline, limits) = outline_and_limits(&sim);
     let mut world = setup.world.clone();
     sim.world_mut().set_obstacles(Some(world.clone()));
+    let mut history = WorldHistory::new(world.clone());
     let start_s = arm(&mut sim);
     let mut judge = Judge::new(course_log, outline, limits);
     let mut timer = InstantTimer::default();
@@ -216,14 +218,16 @@ pub fn drive_with(
     let mut braking: Option<(Pose, bool)> = None;
     let mut rest = RestWatch::default();
     let mut kf_recorded: Vec<u32> = Vec::new();
-    // The true speed at every tick, to judge collisions by.
-    let mut speeds: Vec<(f64, f64)> = Vec::new();
+    // The true pose at every tick, and the collisions begun, judged
+    // against them once the run is over.
+    let mut poses: Vec<Pose> = Vec::new();
+    let mut collisions: Vec<Collision> = Vec::new();
     let timeout_s = course_log.completion_s.unwrap_or(120.0) + OVERTIME_S;
     loop {
         let texts = crate::status_texts(sim.step(Duration::ZERO, &mut timer));
         let pose = true_pose(&sim);
         let t_world = pose.t_s;
-        speeds.push((t_world, pose.speed_mps));
+        poses.push(pose);
         if t_world - start_s > timeout_s {
             result.events.push(format!("t {t_world:.1} cut off"));
             break;
@@ -244,7 +248,7 @@ pub fn drive_with(
         }
         let contact = moving && clearance_m <= 0.0;
         if contact && !in_contact {
-            record_collision(&world, &rect, &speeds, &limits, &pose, &mut result);
+            collisions.push(record_collision(&world, &rect, &pose, &mut result));
         }
         in_contact = contact;
         if !moving {
@@ -252,6 +256,7 @@ pub fn drive_with(
         }
         if apply_yields(setup, &mut yielded, &mut world, &rect, t_world) {
             sim.world_mut().set_obstacles(Some(world.clone()));
+            history.push(t_world, world.clone());
         }
         record_kf_errors(&sim, &world, t_world, &mut kf_recorded, &mut result);
 
@@ -265,6 +270,18 @@ pub fn drive_with(
             break;
         }
     }
+    let run = RunTruth {
+        poses: &poses,
+        history: &history,
+        scanners: &sim
+            .world()
+            .scanner_configs()
+            .cloned()
+            .collect::<Vec<SimScannerConfig>>(),
+        outline,
+        brake_mps2: brake_max_mps2(&sim),
+    };
+    judge_collisions(&run, &collisions, &mut result);
     result.time_lost_s = result
         .completion_s
         .zip(course_log.completion_s)
@@ -387,65 +404,55 @@ fn print_trace_objects(world: &ObstacleWorld, t_s: f64, tracks: &[autopilot::obs
     println!("{line}");
 }
 
-/// A collision starts: counted, and whether it was unavoidable.
-fn record_collision(
-    world: &ObstacleWorld,
-    rect: &sim::Rectangle,
-    speeds: &[(f64, f64)],
-    limits: &Limits,
-    pose: &Pose,
-    result: &mut RunResult,
-) {
-    let t_world = pose.t_s;
+/// A collision that began at `t_s` with `objects`; its event is
+/// `result.events[event]`.
+struct Collision {
+    t_s: f64,
+    objects: Vec<ObjectId>,
+    event: usize,
+}
+
+/// A collision starts: counted and filed; whether it was unavoidable is
+/// judged at the end of the run ([`judge_collisions`]).
+fn record_collision(world: &ObstacleWorld, rect: &sim::Rectangle, pose: &Pose, result: &mut RunResult) -> Collision {
     result.collisions += 1;
-    let why = unavoidable(world, rect, t_world, speeds, limits);
-    if why.is_some() {
-        result.unavoidable += 1;
-    }
     result.events.push(format!(
-        "t {:.2} COLLISION at {:.2},{:.2} yaw {:.1}° v {:.2}{}",
+        "t {:.2} COLLISION at {:.2},{:.2} yaw {:.1}° v {:.2}",
         pose.t_s,
         pose.north_m,
         pose.east_m,
         pose.yaw_rad.to_degrees(),
         pose.speed_mps,
-        why.unwrap_or_default()
     ));
+    Collision {
+        t_s: pose.t_s,
+        objects: touching(world, rect, pose.t_s),
+        event: result.events.len() - 1,
+    }
 }
 
-/// Why a collision starting now was unavoidable (the object touching the
-/// outline had been on its line for less than the stopping time), or
-/// `None` when the vehicle could have stopped for it.
-fn unavoidable(
-    world: &ObstacleWorld,
-    rect: &sim::Rectangle,
-    t_s: f64,
-    speeds: &[(f64, f64)],
-    limits: &Limits,
-) -> Option<String> {
-    let touching = world.movers.iter().enumerate().filter(|(_, m)| {
-        m.shape_at(t_s)
-            .is_some_and(|shape| shape.distance_to_rectangle_m(rect) <= 0.0)
-    });
-    let statics_touch = world.statics.iter().any(|s| s.distance_to_rectangle_m(rect) <= 0.0);
-    let mut why = None;
-    for (index, mover) in touching {
-        let line_s = on_its_line_s(mover, t_s);
-        let since_s = t_s - line_s;
-        let speed_then = speeds
+/// Counts the unavoidable collisions (see [`super::unavoidable`]): each
+/// object touched must have been one the vehicle could not stop for.
+fn judge_collisions(run: &RunTruth, collisions: &[Collision], result: &mut RunResult) {
+    for collision in collisions {
+        let whys: Option<Vec<String>> = collision
+            .objects
             .iter()
-            .rev()
-            .find(|(t, _)| *t <= since_s)
-            .map_or(0.0, |(_, v)| *v);
-        let stopping_s = limits.stopping_s(speed_then);
-        if line_s >= stopping_s {
-            return None;
+            .map(|&object| run.unavoidable(object, collision.t_s))
+            .collect();
+        if let Some(whys) = whys.filter(|w| !w.is_empty()) {
+            result.unavoidable += 1;
+            result.events[collision.event] += &whys.concat();
         }
-        why = Some(format!(
-            " (unavoidable: mover {index} on its line {line_s:.2} s < stopping time {stopping_s:.2} s)"
-        ));
     }
-    if statics_touch { None } else { why }
+}
+
+/// The simulated plant's hardest braking.
+fn brake_max_mps2(sim: &Simulation) -> f64 {
+    match sim.world().config().vehicle {
+        VehicleModel::Ackermann(c) => c.brake_max_mps2,
+        VehicleModel::Differential(c) => c.brake_max_mps2,
+    }
 }
 
 /// Watches the vehicle at rest: how long, and how long with the way clear.

@@ -11,6 +11,12 @@
 //! Definitions (the code is in [`truth`]): a **collision** is an episode of
 //! the vehicle's outline (the `VEH_LEN_*`/`VEH_WIDTH` rectangle at the true
 //! pose) and an object's true shape overlapping while the vehicle moves; a
+//! collision is **unavoidable** only if, replayed with the vehicle braking
+//! as hard as the simulated plant can (2 m/s², no delay) from the first
+//! instant the object could be known (the later of when it began the
+//! straight line it hit from and when a scanner's beam first reached it),
+//! along the path it drove, it would still have touched the object (the
+//! code is in [`unavoidable`]); a
 //! **false stop** is an obstacle stop decided when no object's true shape,
 //! moved in a straight line at its true velocity for up to `OA_HORIZON`,
 //! comes within `OA_MARGIN` of the outline swept along the course the
@@ -29,6 +35,7 @@ pub mod random;
 mod report;
 mod tick;
 mod truth;
+mod unavoidable;
 
 use std::collections::HashMap;
 use std::sync::Mutex;

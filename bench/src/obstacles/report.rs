@@ -240,7 +240,7 @@ pub fn random_table(outcomes: &[RandomOutcome], verbose: bool) {
     }
     println!();
     println!(
-        "Collisions (unavoidable): all collisions while moving, and in brackets those with an object on its straight line for less than the vehicle's stopping time (stepping out, turning or appearing too late to stop for)."
+        "Collisions (unavoidable): all collisions while moving, and in brackets those the vehicle could not have prevented: replayed braking as hard as the simulated plant can (no delay) from the first instant the object could be known (the later of when it began the straight line it hit from and when a scanner's beam first reached it), along the path driven, it still touches the object."
     );
     println!("Replay a run with `furrow-bench obstacles --replay SEED`.");
 }

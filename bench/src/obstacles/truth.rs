@@ -30,12 +30,10 @@
 //!   person walking into a vehicle at rest is not one.
 //! - A **stall** is the vehicle at rest for more than 30 s, mission not
 //!   complete, with the way not blocked for all that time.
-//! - A collision is **unavoidable** when the object had been on the
-//!   straight line it hit the vehicle from (same true velocity, standing
-//!   included) for less than the vehicle's stopping time
-//!   (`OA_REACT_TIME` + |v|/`OA_DECEL`, v the true speed when that line
-//!   began): it stepped out, turned or appeared faster than the vehicle
-//!   can stop. Every other collision counts against the vehicle.
+//! - A collision is **unavoidable** when even braking as hard as the
+//!   plant can, from the first instant the object could be known, would
+//!   still have touched it (see [`super::unavoidable`]). Every other
+//!   collision counts against the vehicle.
 
 use sim::{MovingObstacle, ObstacleWorld, Rectangle, Shape, VehicleOutline};
 
@@ -154,11 +152,6 @@ impl Limits {
     /// Whether a gap to the swept outline is within `OA_MARGIN`.
     pub fn within_margin(&self, gap_m: f64) -> bool {
         gap_m <= self.margin_m + ON_THE_MARGIN_M
-    }
-
-    /// Reaction and braking time from speed `v`.
-    pub fn stopping_s(&self, speed_mps: f64) -> f64 {
-        self.reaction_s + speed_mps.abs() / self.decel_mps2
     }
 
     /// Reference-point travel the swept outline covers from speed `v`.
