@@ -436,6 +436,11 @@ impl ObstacleTracker {
                         entry.rest.see(cluster, now);
                         entry.full_view_t = now;
                         entry.full_view_position = entry.kf.position();
+                    } else {
+                        // A part of the object off where it stood shows it
+                        // moving; on it, it proves nothing.
+                        entry.stillness.see_part(cluster, now);
+                        entry.rest.see_part(cluster, now);
                     }
                     entry.seen_t = now;
                 }
@@ -692,12 +697,22 @@ impl Stillness {
         self.since = Some(now);
     }
 
-    /// Seconds on the anchors: infinite if never left, 0 without one.
-    fn still_s(&self, now: Duration) -> f64 {
+    /// A partial view: its nearest return off every anchor shows the
+    /// object has left them (a standing object's parts lie on its outline),
+    /// but its outline is a part's, never an anchor.
+    fn see_part(&mut self, cluster: &Cluster, now: Duration) {
+        if !self.anchors.iter().any(|a| a.is_some_and(|a| a.holds(cluster.nearest))) {
+            self.since = Some(now);
+        }
+    }
+
+    /// Seconds on the anchors as of `at`: infinite if never left, 0
+    /// without one or if they were left after `at`.
+    fn still_s(&self, at: Duration) -> f64 {
         match (self.anchors[0], self.since) {
             (None, _) => 0.0,
             (Some(_), None) => f64::INFINITY,
-            (Some(_), Some(since)) => now.saturating_sub(since).as_secs_f64(),
+            (Some(_), Some(since)) => at.saturating_sub(since).as_secs_f64(),
         }
     }
 }
@@ -738,6 +753,14 @@ impl Rest {
             self.extent_m = extent_m;
         } else {
             *self = Rest::new(cluster, now);
+        }
+    }
+
+    /// A partial view: its centroid lies within the object, so one beyond
+    /// the largest extent seen of the rest point shows it moved.
+    fn see_part(&mut self, cluster: &Cluster, now: Duration) {
+        if cluster.centroid.distance_to(&self.point) > self.extent_m + REST_TOLERANCE_M {
+            self.since = now;
         }
     }
 
@@ -1026,6 +1049,38 @@ mod tests {
         let outline = track.outline.expect("the last full view's outline");
         let offset_m = outline.distance_outside_m((0.0, 0.0));
         assert!(offset_m < 0.05, "the outline stayed behind the track by {offset_m} m");
+    }
+
+    /// Someone who stood, seen only partly (at the field's edge), starts to
+    /// walk: their part leaving where they stood ends the stillness.
+    #[test]
+    fn a_part_leaving_where_the_object_stood_ends_its_stillness() {
+        let config = TrackingConfig::default();
+        let mut tracker = ObstacleTracker::new();
+        let c = Ned::new(3.0, 0.0);
+        let mut standing = person(c);
+        let mut fit = FitScratch::default();
+        let points = [Ned::new(2.8, -0.15), Ned::new(2.75, 0.0), Ned::new(2.8, 0.15)];
+        standing.outline = Outline::fit(&mut fit, c, &points, (0.45, 0.0), |p| *p);
+        for k in 0..100u64 {
+            tracker.update(at_ms(20 * k), Ned::default(), &[standing], &config);
+        }
+        assert!(tracker.tracks()[0].still_s >= 1.5, "{:?}", tracker.tracks()[0]);
+        // A part on where it stands proves nothing either way.
+        let mut part = person(c);
+        part.nearest = Ned::new(2.75, 0.0);
+        part.cut_by_field_edge = true;
+        tracker.update(at_ms(2000), Ned::default(), &[part], &config);
+        assert!(tracker.tracks()[0].still_s >= 1.5, "{:?}", tracker.tracks()[0]);
+        // Walking off east at 0.4 m/s, seen only in part.
+        for k in 101..200u64 {
+            let east_m = 0.4 * 0.02 * (k - 100) as f64;
+            let mut part = person(Ned::new(3.0, east_m));
+            part.nearest = Ned::new(2.75, east_m);
+            part.cut_by_field_edge = true;
+            tracker.update(at_ms(20 * k), Ned::default(), &[part], &config);
+        }
+        assert_eq!(tracker.tracks()[0].still_s, 0.0, "{:?}", tracker.tracks()[0]);
     }
 
     #[test]
