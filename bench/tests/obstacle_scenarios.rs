@@ -28,6 +28,22 @@ fn no_start_into_someone_lost_beside_the_body() {
     }
 }
 
+/// Randomized runs where someone walked slowly into the side of the
+/// stopped vehicle: as they entered the blind zone between the scanners'
+/// fields, the last beam showed only their edge, the track shrank to a
+/// sliver that stayed where the field ends (so it looked still, and was
+/// forgotten once lost), and the vehicle resumed into them. It must hold
+/// until they have been seen again.
+#[test]
+fn no_resume_into_someone_walking_into_the_blind_zone() {
+    for seed in [388, 909, 515, 876] {
+        let o = random::run(seed, &[], None).expect("runs");
+        let r = &o.result;
+        assert_eq!(r.collisions, r.unavoidable, "seed {seed}: {:?}", r.events);
+        assert!(r.completion_s.is_some(), "seed {seed}: {:?}", r.events);
+    }
+}
+
 fn families(pick: impl Fn(&Family) -> bool) -> Vec<Scenario> {
     let list: Vec<Scenario> = Family::all()
         .into_iter()

@@ -178,6 +178,10 @@ pub struct Cluster {
     /// the object may be hidden behind it, so its extent, radius and
     /// centroid are those of a sliver, not of the object.
     pub occluded: bool,
+    /// It reaches the first or last beam of its scan: the edge of the field
+    /// of view may cut it, and its extent and radius are a sliver's (see
+    /// [`mark_field_edges`]).
+    pub cut_by_field_edge: bool,
 }
 
 /// Groups `points` (one scanner's, in beam order, as [`scan_points`] gives
@@ -211,6 +215,26 @@ pub fn cluster_points(points: &[ScanPoint], config: &ClusterConfig, fit: &mut Fi
                 out.push(cluster);
             }
             start = i;
+        }
+    }
+}
+
+/// Marks the clusters that reach the first or the last of a scan's `beams`
+/// beams: the edge of the field of view may cut them. Whatever lies beyond
+/// it is unseen, so such a cluster can be a sliver of its object: someone
+/// walking into the blind zone beside the body shows only their edge on
+/// the last beam, and that edge, taken for the whole person, shrinks the
+/// track to a few centimetres that stay where the field ends (so the
+/// person seems to stand still).
+pub fn mark_field_edges(clusters: &mut [Cluster], points: &[ScanPoint], beams: usize) {
+    let last_beam = beams.saturating_sub(1);
+    for cluster in clusters.iter_mut() {
+        let first = points.get(cluster.first_point);
+        let last = (cluster.first_point + cluster.points)
+            .checked_sub(1)
+            .and_then(|i| points.get(i));
+        if first.is_some_and(|p| p.beam == 0) || last.is_some_and(|p| p.beam >= last_beam) {
+            cluster.cut_by_field_edge = true;
         }
     }
 }
@@ -333,6 +357,7 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig, fit: &mut FitScrat
             })
         },
         occluded: false,
+        cut_by_field_edge: false,
     })
 }
 
@@ -564,6 +589,28 @@ mod tests {
         // Apart, neither is.
         let clusters = clusters_of(&ray_cast(&[(3.0, 0.0, 0.25), (5.0, 1.3, 0.25)], None));
         assert!(clusters.iter().all(|c| !c.occluded), "{clusters:?}");
+    }
+
+    #[test]
+    fn a_person_cut_by_the_field_edge_is_marked() {
+        // 270° from north: the last beam looks 135° right, south-east. A
+        // person astride it shows only the part before the edge.
+        let scan = ray_cast(&[(-2.0, 2.0, 0.25), (3.0, 0.0, 0.25)], None);
+        let mut points = Vec::new();
+        scan_points(&scan, &Pose::default(), &ScannerMount::default(), 20.0, &mut points);
+        let mut clusters = Vec::new();
+        cluster_points(
+            &points,
+            &ClusterConfig::default(),
+            &mut FitScratch::default(),
+            &mut clusters,
+        );
+        assert!(clusters.iter().all(|c| !c.cut_by_field_edge), "{clusters:?}");
+        mark_field_edges(&mut clusters, &points, scan.ranges_m.len());
+        let cut: Vec<_> = clusters.iter().filter(|c| c.cut_by_field_edge).collect();
+        assert_eq!(cut.len(), 1, "{clusters:?}");
+        assert!(cut[0].centroid.distance_to(&Ned::new(-2.0, 2.0)) < 0.5, "{cut:?}");
+        assert!(cut[0].radius_m < 0.2, "only a sliver is seen: {cut:?}");
     }
 
     #[test]

@@ -94,7 +94,8 @@ pub struct Track {
     /// returns stay on its outline. Or, if longer, how long its centroid
     /// has stayed within the object's extent of one place (its view
     /// turning, as in a turn round it, moves the centroid only within the
-    /// object).
+    /// object). Both as of its last full view: partial views and time out
+    /// of sight add nothing.
     pub still_s: f64,
 }
 

@@ -59,6 +59,11 @@ const REST_TOLERANCE_M: f64 = 0.1;
 /// someone creeping towards the vehicle for a thing at rest.
 const REST_MIN_EXTENT_M: f64 = 0.7;
 
+/// Returns on one outline this long (s): the object stands (the nearest
+/// point of someone walking at 0.3 m/s leaves their 0.5 m outline within
+/// about a second).
+pub const STILL_S: f64 = 1.5;
+
 /// No track is born this close (m) beyond the edges of an existing one.
 const BIRTH_EXCLUSION_M: f64 = 0.2;
 
@@ -136,10 +141,19 @@ struct Entry {
     born_t: Duration,
     seen_t: Duration,
     /// The last full view's outline and the centroid it was fitted about:
-    /// it stays where the returns were while the filtered position moves.
+    /// it stays where the returns were while the filtered position moves
+    /// with them.
     fit: Option<(Outline, Ned)>,
     /// The outlines the returns have stayed on, and since when.
     stillness: Stillness,
+    /// The last full view (not occluded, cut by the field's edge or in
+    /// pieces) and the filtered position after it. How long the object had
+    /// stood still is known as of then only: a sliver stays where the edge
+    /// of the field is however the object moves behind it, and an object
+    /// out of sight may walk off. After it the outline moves with the
+    /// filtered position, as the only estimate of where the object went.
+    full_view_t: Duration,
+    full_view_position: Ned,
     /// Where its centroid came to rest, and since when.
     rest: Rest,
 }
@@ -411,11 +425,22 @@ impl ObstacleTracker {
                         entry.track.hits = entry.track.hits.saturating_add(1);
                     }
                     entry.track.misses = 0;
-                    if !(cluster.occluded || pieces[i]) {
+                    // A sliver's size, shape and stillness are not the object's;
+                    // its centroid still updates the filter as a full view's
+                    // would (left out, the velocity of someone walking on
+                    // into the blind zone would go unknown just as it counts).
+                    if !(cluster.occluded || cluster.cut_by_field_edge || pieces[i]) {
                         entry.track.radius_m = cluster.radius_m;
                         entry.fit = cluster.outline.map(|o| (o, cluster.centroid));
                         entry.stillness.see(cluster, now);
                         entry.rest.see(cluster, now);
+                        entry.full_view_t = now;
+                        entry.full_view_position = entry.kf.position();
+                    } else {
+                        // A part of the object off where it stood shows it
+                        // moving; on it, it proves nothing.
+                        entry.stillness.see_part(cluster, now);
+                        entry.rest.see_part(cluster, now);
                     }
                     entry.seen_t = now;
                 }
@@ -480,6 +505,8 @@ impl ObstacleTracker {
                 fit: cluster.outline.map(|o| (o, cluster.centroid)),
                 stillness: Stillness::new(cluster),
                 rest: Rest::new(cluster, now),
+                full_view_t: now,
+                full_view_position: cluster.centroid,
             });
             births += 1;
         }
@@ -527,14 +554,30 @@ impl ObstacleTracker {
             track.age_s = now.saturating_sub(entry.born_t).as_secs_f64();
             track.unseen_s = unseen_s;
             track.position = entry.kf.position();
+            let full_view_t = entry.full_view_t;
+            track.still_s = entry
+                .stillness
+                .still_s(full_view_t)
+                .max(entry.rest.still_s(full_view_t));
+            // A standing object's outline stays where its returns were
+            // (its filtered position walks as the view of it changes);
+            // anything else's moves on with the filter after its last full
+            // view, as the only estimate of where it went.
+            let moved = if track.still_s >= STILL_S {
+                (0.0, 0.0)
+            } else {
+                (
+                    track.position.north_m - entry.full_view_position.north_m,
+                    track.position.east_m - entry.full_view_position.east_m,
+                )
+            };
             track.outline = entry.fit.map(|(outline, centre)| {
                 outline.shifted(
-                    centre.north_m - track.position.north_m,
-                    centre.east_m - track.position.east_m,
+                    centre.north_m + moved.0 - track.position.north_m,
+                    centre.east_m + moved.1 - track.position.east_m,
                 )
             });
             (track.vel_north_mps, track.vel_east_mps) = entry.kf.velocity_mps();
-            track.still_s = entry.stillness.still_s(now).max(entry.rest.still_s(now));
             track.position_sigma_m = entry.kf.position_sigma_m();
             track.velocity_sigma_mps = entry.kf.velocity_sigma_mps();
             // A NaN σ or limit deletes.
@@ -654,12 +697,22 @@ impl Stillness {
         self.since = Some(now);
     }
 
-    /// Seconds on the anchors: infinite if never left, 0 without one.
-    fn still_s(&self, now: Duration) -> f64 {
+    /// A partial view: its nearest return off every anchor shows the
+    /// object has left them (a standing object's parts lie on its outline),
+    /// but its outline is a part's, never an anchor.
+    fn see_part(&mut self, cluster: &Cluster, now: Duration) {
+        if !self.anchors.iter().any(|a| a.is_some_and(|a| a.holds(cluster.nearest))) {
+            self.since = Some(now);
+        }
+    }
+
+    /// Seconds on the anchors as of `at`: infinite if never left, 0
+    /// without one or if they were left after `at`.
+    fn still_s(&self, at: Duration) -> f64 {
         match (self.anchors[0], self.since) {
             (None, _) => 0.0,
             (Some(_), None) => f64::INFINITY,
-            (Some(_), Some(since)) => now.saturating_sub(since).as_secs_f64(),
+            (Some(_), Some(since)) => at.saturating_sub(since).as_secs_f64(),
         }
     }
 }
@@ -700,6 +753,14 @@ impl Rest {
             self.extent_m = extent_m;
         } else {
             *self = Rest::new(cluster, now);
+        }
+    }
+
+    /// A partial view: its centroid lies within the object, so one beyond
+    /// the largest extent seen of the rest point shows it moved.
+    fn see_part(&mut self, cluster: &Cluster, now: Duration) {
+        if cluster.centroid.distance_to(&self.point) > self.extent_m + REST_TOLERANCE_M {
+            self.since = now;
         }
     }
 
@@ -754,6 +815,7 @@ mod tests {
             is_structure: false,
             outline: None,
             occluded: false,
+            cut_by_field_edge: false,
         }
     }
 
@@ -947,6 +1009,80 @@ mod tests {
         assert!(moved < 0.1 * plain_moved, "{moved} vs {plain_moved}");
     }
 
+    /// Someone walking into the blind zone beside the body: the field's
+    /// edge shows a sliver that stays where the edge is. The track keeps
+    /// the person's size, does not read as standing still, and its outline
+    /// goes where the filter takes it instead of staying behind.
+    #[test]
+    fn a_walker_seen_as_a_sliver_keeps_its_size_and_is_not_still() {
+        let config = TrackingConfig::default();
+        let mut tracker = ObstacleTracker::new();
+        let outline_of = |c: Ned| {
+            let mut fit = FitScratch::default();
+            let points = [
+                Ned::new(c.north_m - 0.2, c.east_m - 0.15),
+                Ned::new(c.north_m - 0.25, c.east_m),
+                Ned::new(c.north_m - 0.2, c.east_m + 0.15),
+            ];
+            Outline::fit(&mut fit, c, &points, (0.45, 0.0), |p| *p)
+        };
+        // Walking east at 0.4 m/s, seen whole at 50 Hz for 2 s.
+        let at = |k: u64| Ned::new(3.0, 0.4 * 0.02 * k as f64);
+        for k in 0..100u64 {
+            let mut c = person(at(k));
+            c.outline = outline_of(at(k));
+            tracker.update(at_ms(20 * k), Ned::default(), &[c], &config);
+        }
+        let still_before = tracker.tracks()[0].still_s;
+        // Then only its west edge, stuck at the field's edge, for 2 s.
+        let edge = Ned::new(3.0, 0.8);
+        for k in 100..200u64 {
+            let mut sliver = person(edge);
+            sliver.radius_m = 0.04;
+            sliver.cut_by_field_edge = true;
+            sliver.outline = None;
+            tracker.update(at_ms(20 * k), Ned::default(), &[sliver], &config);
+        }
+        let track = tracker.tracks()[0];
+        assert_eq!(track.radius_m, 0.25);
+        assert!(track.still_s <= still_before, "{} after {still_before}", track.still_s);
+        let outline = track.outline.expect("the last full view's outline");
+        let offset_m = outline.distance_outside_m((0.0, 0.0));
+        assert!(offset_m < 0.05, "the outline stayed behind the track by {offset_m} m");
+    }
+
+    /// Someone who stood, seen only partly (at the field's edge), starts to
+    /// walk: their part leaving where they stood ends the stillness.
+    #[test]
+    fn a_part_leaving_where_the_object_stood_ends_its_stillness() {
+        let config = TrackingConfig::default();
+        let mut tracker = ObstacleTracker::new();
+        let c = Ned::new(3.0, 0.0);
+        let mut standing = person(c);
+        let mut fit = FitScratch::default();
+        let points = [Ned::new(2.8, -0.15), Ned::new(2.75, 0.0), Ned::new(2.8, 0.15)];
+        standing.outline = Outline::fit(&mut fit, c, &points, (0.45, 0.0), |p| *p);
+        for k in 0..100u64 {
+            tracker.update(at_ms(20 * k), Ned::default(), &[standing], &config);
+        }
+        assert!(tracker.tracks()[0].still_s >= 1.5, "{:?}", tracker.tracks()[0]);
+        // A part on where it stands proves nothing either way.
+        let mut part = person(c);
+        part.nearest = Ned::new(2.75, 0.0);
+        part.cut_by_field_edge = true;
+        tracker.update(at_ms(2000), Ned::default(), &[part], &config);
+        assert!(tracker.tracks()[0].still_s >= 1.5, "{:?}", tracker.tracks()[0]);
+        // Walking off east at 0.4 m/s, seen only in part.
+        for k in 101..200u64 {
+            let east_m = 0.4 * 0.02 * (k - 100) as f64;
+            let mut part = person(Ned::new(3.0, east_m));
+            part.nearest = Ned::new(2.75, east_m);
+            part.cut_by_field_edge = true;
+            tracker.update(at_ms(20 * k), Ned::default(), &[part], &config);
+        }
+        assert_eq!(tracker.tracks()[0].still_s, 0.0, "{:?}", tracker.tracks()[0]);
+    }
+
     #[test]
     fn a_person_cut_in_two_pieces_keeps_its_velocity() {
         let config = TrackingConfig::default();
@@ -1018,6 +1154,7 @@ mod tests {
             is_structure: false,
             outline,
             occluded: false,
+            cut_by_field_edge: false,
         }
     }
 

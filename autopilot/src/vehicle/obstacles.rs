@@ -15,7 +15,7 @@ use crate::estimation::Estimate;
 use crate::geo::{Ned, wrap_pi};
 use crate::guidance::tracker::Direction;
 use crate::modes::Mode;
-use crate::obstacles::cluster::{Cluster, ClusterConfig, ScanPoint, cluster_points, scan_points};
+use crate::obstacles::cluster::{Cluster, ClusterConfig, ScanPoint, cluster_points, mark_field_edges, scan_points};
 use crate::obstacles::detour::{DetourConfig, DetourRefusal, plan_detour};
 use crate::obstacles::field::{FieldConfig, FieldStatus, Fields, check_swept_fields, fields, warning_speed_limit};
 use crate::obstacles::outline::FitScratch;
@@ -24,7 +24,7 @@ use crate::obstacles::policy::{
 };
 use crate::obstacles::prediction::CollisionPrediction;
 use crate::obstacles::swept::{Contact, Drive, PathAhead, Shape, SweptPath};
-use crate::obstacles::tracking::{EXPECTED_TRACKS, ObstacleTracker, TrackingConfig};
+use crate::obstacles::tracking::{EXPECTED_TRACKS, ObstacleTracker, STILL_S, TrackingConfig};
 use crate::obstacles::{Footprint, Pose, ScannerMount, Track, TrackStatus};
 
 /// The fields checked this tick and the warning field's speed limit.
@@ -46,10 +46,6 @@ const DETOUR_LOOKAHEAD_M: f64 = 15.0;
 /// A track slower than this counts as a static obstacle (detour candidate,
 /// and its fitted outline is its shape).
 const STATIC_SPEED_MPS: f64 = 0.2;
-/// Returns on one outline this long (s): the object stands (the nearest
-/// point of someone walking at 0.3 m/s leaves their 0.5 m outline within
-/// about a second).
-const STILL_S: f64 = 1.5;
 /// How far a standing object's tracked centroid can walk per radian its
 /// view turns, in extents (see `ViewChange`).
 const VIEW_WALK_PER_RAD: f64 = 2.0;
@@ -138,6 +134,11 @@ struct HiddenTrack {
     radius_m: f64,
     lost_s: f64,
     spread_mps: f64,
+    /// The largest id of the tracks acted on when it was lost: only a track
+    /// with a larger one (born since, ids only grow) can be it seen again.
+    /// Another object that was already tracked nearby, however near the
+    /// place it may have reached, is not it.
+    known_ids_to: u32,
 }
 
 impl HiddenTrack {
@@ -335,6 +336,7 @@ impl Core {
             view.covered = covered_sectors(&input.scan, mount.yaw_rad);
             if located {
                 cluster_points(&obs.points, &cluster_config, &mut obs.fit_scratch, &mut obs.clusters);
+                mark_field_edges(&mut obs.clusters, &obs.points, input.scan.ranges_m.len());
                 mark_structure(&obs.clusters, &mut view.structure);
                 obs.tracker.update(input.scan.t, sensor, &obs.clusters, &tracking);
             }
@@ -722,6 +724,7 @@ impl Core {
             );
             outline_distance(footprint, x, y) - radius_m
         };
+        let known_ids_to = obs.last_tracks.iter().map(|t| t.id).max().unwrap_or(0);
         for lost in obs.last_tracks.iter().filter(|l| tracks.iter().all(|t| t.id != l.id)) {
             if gap_m(lost.position, lost.radius_m) <= margin_m + HIDDEN_NEAR_M {
                 let walking = lost.velocity_sigma_mps <= gate_mps && moving(lost);
@@ -739,15 +742,18 @@ impl Core {
                     radius_m: lost.radius_m,
                     lost_s: now_s,
                     spread_mps: if wandering { HIDDEN_SPREAD_MPS } else { 0.0 },
+                    known_ids_to,
                 });
             }
         }
         obs.hidden.retain(|h| {
             let at = h.position_at(now_s);
             let spread_m = h.reach_at(now_s) - h.radius_m;
-            let seen_again = tracks
-                .iter()
-                .any(|t| t.status != TrackStatus::Tentative && t.position.distance_to(&at) <= HIDDEN_SEEN_M + spread_m);
+            let seen_again = tracks.iter().any(|t| {
+                t.status != TrackStatus::Tentative
+                    && t.id > h.known_ids_to
+                    && t.position.distance_to(&at) <= HIDDEN_SEEN_M + spread_m
+            });
             // One that may be anywhere nearby has not walked clear until
             // seen (or the vehicle has left it behind).
             let clear_m = if h.spread_mps > 0.0 {
