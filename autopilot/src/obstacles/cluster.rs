@@ -280,38 +280,21 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig, fit: &mut FitScrat
     if points.len() < config.min_points {
         return None;
     }
-    let n = points.len() as f64;
     // Every return knows its beam: the scanner is where the beam started.
     let (sin_b, cos_b) = first.bearing_rad.sin_cos();
     let sensor = Ned::new(
         first.position.north_m - first.range_m * cos_b,
         first.position.east_m - first.range_m * sin_b,
     );
-    let (mut sum_n, mut sum_e, mut sum_range) = (0.0, 0.0, 0.0);
-    let mut nearest = first;
-    // The farthest (return, edge) pair by squared distance, one root at the
-    // end: a root per return was a good share of the scan's cost.
-    let (mut farthest_sq, mut farthest) = (0.0, (first, first));
-    for p in points {
-        sum_n += p.position.north_m;
-        sum_e += p.position.east_m;
-        sum_range += p.range_m;
-        if p.range_m < nearest.range_m {
-            nearest = p;
-        }
-        // Both edges: an L-shaped return (a corner) is longer than its chord.
-        for edge in [first, last] {
-            let d_sq = squared_distance(&p.position, &edge.position);
-            if d_sq > farthest_sq {
-                (farthest_sq, farthest) = (d_sq, (p, edge));
-            }
-        }
-    }
-    let extent_m = farthest.0.position.distance_to(&farthest.1.position);
-    let mean = Ned::new(sum_n / n, sum_e / n);
+    let Returns {
+        mean,
+        mean_range_m,
+        nearest,
+        extent_m,
+    } = summarise(points, first, last);
     let beams = (last.beam - first.beam) as f64;
     let beam_spacing_m = if beams > 0.0 {
-        sum_range / n * wrap_pi(last.bearing_rad - first.bearing_rad).abs() / beams
+        mean_range_m * wrap_pi(last.bearing_rad - first.bearing_rad).abs() / beams
     } else {
         0.0
     };
@@ -331,10 +314,7 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig, fit: &mut FitScrat
     let centroid = if is_structure {
         mean
     } else {
-        let bearing_rad = sensor.bearing_to(&mean);
-        let push_m = FRAC_PI_4 * radius_m;
-        let (sin_m, cos_m) = bearing_rad.sin_cos();
-        Ned::new(mean.north_m + push_m * cos_m, mean.east_m + push_m * sin_m)
+        body_centre(sensor, mean, radius_m)
     };
     Some(Cluster {
         centroid,
@@ -359,6 +339,53 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig, fit: &mut FitScrat
         occluded: false,
         cut_by_field_edge: false,
     })
+}
+
+/// What a cluster's returns add up to.
+struct Returns<'a> {
+    mean: Ned,
+    mean_range_m: f64,
+    nearest: &'a ScanPoint,
+    /// The longest distance from a return to either edge return.
+    extent_m: f64,
+}
+
+fn summarise<'a>(points: &'a [ScanPoint], first: &'a ScanPoint, last: &'a ScanPoint) -> Returns<'a> {
+    let n = points.len() as f64;
+    let (mut sum_n, mut sum_e, mut sum_range) = (0.0, 0.0, 0.0);
+    let mut nearest = first;
+    // The farthest (return, edge) pair by squared distance, one root at the
+    // end: a root per return was a good share of the scan's cost.
+    let (mut farthest_sq, mut farthest) = (0.0, (first, first));
+    for p in points {
+        sum_n += p.position.north_m;
+        sum_e += p.position.east_m;
+        sum_range += p.range_m;
+        if p.range_m < nearest.range_m {
+            nearest = p;
+        }
+        // Both edges: an L-shaped return (a corner) is longer than its chord.
+        for edge in [first, last] {
+            let d_sq = squared_distance(&p.position, &edge.position);
+            if d_sq > farthest_sq {
+                (farthest_sq, farthest) = (d_sq, (p, edge));
+            }
+        }
+    }
+    Returns {
+        mean: Ned::new(sum_n / n, sum_e / n),
+        mean_range_m: sum_range / n,
+        nearest,
+        extent_m: farthest.0.position.distance_to(&farthest.1.position),
+    }
+}
+
+/// A body's centre lies behind its visible near side: the returns' mean
+/// pushed away from the scanner by π/4 of the radius.
+fn body_centre(sensor: Ned, mean: Ned, radius_m: f64) -> Ned {
+    let push_m = FRAC_PI_4 * radius_m;
+    let (sin_m, cos_m) = sensor.bearing_to(&mean).sin_cos();
+    Ned::new(mean.north_m + push_m * cos_m, mean.east_m + push_m * sin_m)
 }
 
 /// Whether the returns lie on a straight line (within the tolerance) over

@@ -262,16 +262,7 @@ impl Bench<'_> {
         let kept = (simulated_s / run_wall_s.max(1e-9)).min(1.0);
         let rates = state_rates(&serials, &times, start, start + Duration::from_secs_f64(wall_s));
         let states: u64 = times.values().map(|t| t.len() as u64).sum();
-        for serial in serials
-            .iter()
-            .filter(|s| !last.get(*s).is_some_and(|b| b["driving"] == true))
-            .take(3)
-        {
-            let state = last.get(serial).map_or("no state".to_owned(), |b| {
-                format!("order {} driving {} errors {}", b["orderId"], b["driving"], b["errors"])
-            });
-            println!("  not driving at the end: {serial}: {state}");
-        }
+        print_not_driving(&serials, &last);
         println!(
             "fleet of {n} at speedup 1, driving, {wall_s:.0} s (load average {} at the end):",
             load_average()
@@ -540,4 +531,19 @@ fn load_average() -> String {
         .ok()
         .and_then(|l| l.split_whitespace().next().map(str::to_owned))
         .unwrap_or_else(|| "?".into())
+}
+
+/// The first few vehicles not driving at the end of a real-time run, with
+/// their last state: a fleet that falls behind shows why.
+fn print_not_driving(serials: &[String], last: &BTreeMap<String, Value>) {
+    for serial in serials
+        .iter()
+        .filter(|s| !last.get(*s).is_some_and(|b| b["driving"] == true))
+        .take(3)
+    {
+        let state = last.get(serial).map_or("no state".to_owned(), |b| {
+            format!("order {} driving {} errors {}", b["orderId"], b["driving"], b["errors"])
+        });
+        println!("  not driving at the end: {serial}: {state}");
+    }
 }

@@ -237,15 +237,7 @@ pub fn drive_with(
             braking = Some(stopped_at);
         }
         let rect = rectangle(&outline, &pose);
-        let clearance_m = world.clearance_m(&rect, t_world);
-        if setup.trace && (pose.t_s * 50.0).round() as i64 % 10 == 0 {
-            print_trace(&pose, clearance_m, sim.core().obstacle_status().stopped);
-            print_trace_objects(&world, t_world, sim.core().obstacle_tracks());
-        }
-        let moving = pose.speed_mps.abs() > MOVING_MPS;
-        if moving {
-            result.min_clearance_m = result.min_clearance_m.min(clearance_m);
-        }
+        let (moving, clearance_m) = observe(&sim, setup.trace, &world, &rect, &pose, &mut result);
         let contact = moving && clearance_m <= 0.0;
         if contact && !in_contact {
             collisions.push(record_collision(&world, &rect, &pose, &mut result));
@@ -270,24 +262,55 @@ pub fn drive_with(
             break;
         }
     }
+    let scanners: Vec<SimScannerConfig> = sim.world().scanner_configs().cloned().collect();
     let run = RunTruth {
         poses: &poses,
         history: &history,
-        scanners: &sim
-            .world()
-            .scanner_configs()
-            .cloned()
-            .collect::<Vec<SimScannerConfig>>(),
+        scanners: &scanners,
         outline,
         brake_mps2: brake_max_mps2(&sim),
     };
-    judge_collisions(&run, &collisions, &mut result);
+    conclude(&run, &collisions, course_log, sim.malformed_scans(), &mut result);
+    Ok(result)
+}
+
+/// The true clearance at this tick, and whether the vehicle moves (only
+/// then does the clearance count towards the run's minimum).
+fn observe(
+    sim: &Simulation,
+    trace: bool,
+    world: &ObstacleWorld,
+    rect: &sim::Rectangle,
+    pose: &Pose,
+    result: &mut RunResult,
+) -> (bool, f64) {
+    let clearance_m = world.clearance_m(rect, pose.t_s);
+    if trace && (pose.t_s * 50.0).round() as i64 % 10 == 0 {
+        print_trace(pose, clearance_m, sim.core().obstacle_status().stopped);
+        print_trace_objects(world, pose.t_s, sim.core().obstacle_tracks());
+    }
+    let moving = pose.speed_mps.abs() > MOVING_MPS;
+    if moving {
+        result.min_clearance_m = result.min_clearance_m.min(clearance_m);
+    }
+    (moving, clearance_m)
+}
+
+/// Once the run is over: which collisions braking could have avoided, and
+/// the time the obstacles cost.
+fn conclude(
+    run: &RunTruth,
+    collisions: &[Collision],
+    course_log: &TruthLog,
+    malformed_scans: u64,
+    result: &mut RunResult,
+) {
+    judge_collisions(run, collisions, result);
     result.time_lost_s = result
         .completion_s
         .zip(course_log.completion_s)
         .map(|(with, without)| with - without);
-    result.malformed_scans = sim.malformed_scans();
-    Ok(result)
+    result.malformed_scans = malformed_scans;
 }
 
 /// The vehicle has come to rest: the braking an obstacle stop began, if
