@@ -131,13 +131,12 @@ fn person_beside_the_arc_is_passed() {
 }
 
 #[test]
-#[ignore = "at 2 m/s the standing person's track shrinks to a sliver (radius 0.04 m) as it leaves the scanner's field of view beside the body, its velocity is spoilt (~0.7 m/s) and a second track is born beside the coasting one and stopped for (1-2 false stops); treating a cluster cut by the field edge as occluded fixed it but hid slow walkers starting beside the body (collisions), so it was not kept"]
 fn person_beside_the_arc_entry_is_passed() {
     check(|f| *f == Family::BesideEntry);
 }
 
 #[test]
-#[ignore = "at 2 m/s the standing person's track shrinks to a sliver (radius 0.04 m) as it leaves the scanner's field of view beside the body, its velocity is spoilt (~0.7 m/s) and a second track is born beside the coasting one and stopped for (1-2 false stops); treating a cluster cut by the field edge as occluded fixed it but hid slow walkers starting beside the body (collisions), so it was not kept"]
+#[ignore = "one false stop left: the person 0.5 m outside the arc exit, in reverse at 2 m/s (seed 2), is predicted to enter the swept outline in 0.7 s while its true line stays 0.52 m clear; the field-edge sliver that caused the others is handled, this one is not yet traced"]
 fn person_beside_the_arc_exit_is_passed() {
     check(|f| *f == Family::BesideExit);
 }
@@ -148,7 +147,6 @@ fn person_under_the_overhang_swing() {
 }
 
 #[test]
-#[ignore = "at 2 m/s in reverse the walker's track velocity wobbles by about ±0.3 m/s about its true 1.0 m/s (σv 0.4 m/s): the heading it gives brings the walker within OA_MARGIN at 2.9 s of the 3 s horizon where its true line passes 0.37-0.43 m clear of the swept outline (2 false stops)"]
 fn person_walking_across_the_arc() {
     check(|f| *f == Family::CrossingArc);
 }
