@@ -479,6 +479,10 @@ mod tests {
     }
 
     fn clusters_of(scan: &Scan) -> Vec<Cluster> {
+        points_and_clusters(scan).1
+    }
+
+    fn points_and_clusters(scan: &Scan) -> (Vec<ScanPoint>, Vec<Cluster>) {
         let mut points = Vec::new();
         scan_points(scan, &Pose::default(), &ScannerMount::default(), 20.0, &mut points);
         let mut clusters = Vec::new();
@@ -488,7 +492,7 @@ mod tests {
             &mut FitScratch::default(),
             &mut clusters,
         );
-        clusters
+        (points, clusters)
     }
 
     #[test]
@@ -623,15 +627,7 @@ mod tests {
         // 270° from north: the last beam looks 135° right, south-east. A
         // person astride it shows only the part before the edge.
         let scan = ray_cast(&[(-2.0, 2.0, 0.25), (3.0, 0.0, 0.25)], None);
-        let mut points = Vec::new();
-        scan_points(&scan, &Pose::default(), &ScannerMount::default(), 20.0, &mut points);
-        let mut clusters = Vec::new();
-        cluster_points(
-            &points,
-            &ClusterConfig::default(),
-            &mut FitScratch::default(),
-            &mut clusters,
-        );
+        let (points, mut clusters) = points_and_clusters(&scan);
         assert!(clusters.iter().all(|c| !c.cut_by_field_edge), "{clusters:?}");
         mark_field_edges(&mut clusters, &points, scan.ranges_m.len());
         let cut: Vec<_> = clusters.iter().filter(|c| c.cut_by_field_edge).collect();
