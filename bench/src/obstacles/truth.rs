@@ -258,11 +258,12 @@ impl<'a> Judge<'a> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(in crate::obstacles) mod tests {
     use super::*;
 
-    fn straight_course(speed_mps: f64) -> TruthLog {
-        let poses = (0..=2000)
+    /// North at `speed_mps` from the origin, one pose per 20 ms.
+    pub(in crate::obstacles) fn straight(speed_mps: f64, seconds: f64) -> Vec<Pose> {
+        (0..=(seconds / 0.02) as u32)
             .map(|k| {
                 let t_s = f64::from(k) * 0.02;
                 Pose {
@@ -273,9 +274,12 @@ mod tests {
                     speed_mps,
                 }
             })
-            .collect();
+            .collect()
+    }
+
+    fn straight_course(speed_mps: f64) -> TruthLog {
         TruthLog {
-            poses,
+            poses: straight(speed_mps, 40.0),
             completion_s: Some(40.0),
         }
     }

@@ -259,23 +259,8 @@ impl<'a> PathCursor<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::obstacles::truth::tests::straight;
     use sim::MovingObstacle;
-
-    /// North at `speed_mps` from the origin, one pose per 20 ms.
-    fn straight(speed_mps: f64, seconds: f64) -> Vec<Pose> {
-        (0..=(seconds / 0.02) as u32)
-            .map(|k| {
-                let t_s = f64::from(k) * 0.02;
-                Pose {
-                    t_s,
-                    north_m: speed_mps * t_s,
-                    east_m: 0.0,
-                    yaw_rad: 0.0,
-                    speed_mps,
-                }
-            })
-            .collect()
-    }
 
     /// A person walking west at 1.5 m/s from `east_m` at `north_m`, from
     /// `start_s`.
