@@ -5,6 +5,11 @@
 //! from a tarball knows the commit); else `git rev-parse HEAD`; else, outside
 //! a checkout or without `git`, eight zeros: a build never fails for want of
 //! a repository.
+//!
+//! Only a hash taken from git makes the script watch the repository: a build
+//! given its hash does not depend on HEAD, so a commit does not rebuild the
+//! whole crate (with several worktrees of one repository, a commit in any of
+//! them would otherwise rebuild all of them).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -42,11 +47,13 @@ fn watch_head() {
 
 fn main() {
     println!("cargo:rerun-if-env-changed=FURROW_GIT_HASH");
-    watch_head();
-    let from_git = git(&["rev-parse", "HEAD"]);
     let from_env = std::env::var("FURROW_GIT_HASH").ok();
+    let from_git = || {
+        watch_head();
+        git(&["rev-parse", "HEAD"])
+    };
     let hash = from_env
-        .or(from_git)
+        .or_else(from_git)
         .filter(|h| h.len() >= 8 && h.bytes().all(|b| b.is_ascii_hexdigit()))
         .map_or_else(|| "00000000".to_owned(), |h| h[..8].to_ascii_lowercase());
     println!("cargo:rustc-env=FURROW_GIT_HASH={hash}");
