@@ -107,6 +107,8 @@ pub enum EstimatorEvent {
     PositionReset {
         shift_m: f64,
     },
+    /// A heading failed the innovation gate (the first of a streak):
+    /// measured minus predicted, wrapped.
     HeadingRejected {
         error_rad: f64,
     },
@@ -342,7 +344,7 @@ impl Estimator {
             };
             let sigma = (config.velocity_sigma_mps / v.speed_mps).max(2f64.to_radians());
             let fusion = ekf.update_heading(yaw, sigma);
-            self.heading_fusion(fusion);
+            self.heading_fusion(ekf, fusion);
         }
     }
 
@@ -362,7 +364,7 @@ impl Estimator {
         };
         Self::advance(ekf, h.t);
         let fusion = ekf.update_heading(yaw, config.heading_sigma_rad);
-        self.heading_fusion(fusion);
+        self.heading_fusion(ekf, fusion);
     }
 
     /// The local frame about the first fix, saying so when its kind cannot
@@ -453,12 +455,12 @@ impl Estimator {
         }
     }
 
-    fn heading_fusion(&mut self, fusion: Fusion) {
+    fn heading_fusion(&mut self, ekf: &Ekf, fusion: Fusion) {
         match fusion {
             Fusion::Rejected { .. } => {
                 if !self.heading_rejecting {
-                    let error = self.ekf_heading_innovation();
-                    self.events.push(EstimatorEvent::HeadingRejected { error_rad: error });
+                    let error_rad = ekf.status().heading.innovation[0];
+                    self.events.push(EstimatorEvent::HeadingRejected { error_rad });
                 }
                 self.heading_rejecting = true;
             }
@@ -470,12 +472,6 @@ impl Estimator {
             Fusion::Initialised => self.events.push(EstimatorEvent::Initialised),
             _ => {}
         }
-    }
-
-    fn ekf_heading_innovation(&self) -> f64 {
-        // The filter is held by the caller during fusion; the innovation of
-        // a rejection is reported from the status once it is back.
-        f64::NAN
     }
 
     fn publish(&mut self, ekf: &Ekf) {
@@ -599,6 +595,33 @@ mod tests {
                 .iter()
                 .any(|e| matches!(e, EstimatorEvent::HeadingRejected { .. }))
         );
+    }
+
+    #[test]
+    fn a_rejected_heading_reports_how_far_off_it_was() {
+        let mut est = Estimator::new();
+        for k in 0..20u64 {
+            let true_heading_deg = if k < 10 { 30.0 } else { 70.0 };
+            est.update(
+                Duration::from_millis(100 * k),
+                &config(0.0),
+                &[
+                    heading(100 * k, true_heading_deg, HeadingReference::True),
+                    fix(100 * k, 45.0, 7.0, FixQuality::RtkFixed),
+                ],
+                false,
+            );
+        }
+        let rejected: Vec<f64> = est
+            .take_events()
+            .iter()
+            .filter_map(|e| match e {
+                EstimatorEvent::HeadingRejected { error_rad } => Some(error_rad.to_degrees()),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(rejected.len(), 1, "one event for the streak: {rejected:?}");
+        assert!((rejected[0] - 40.0).abs() < 1.0, "{rejected:?}");
     }
 
     #[test]

@@ -121,9 +121,10 @@ impl Core {
                     MavSeverity::MAV_SEVERITY_WARNING,
                     &format!("EKF: position reset to GPS, moved {shift_m:.2} m"),
                 ),
-                EstimatorEvent::HeadingRejected { .. } => {
-                    self.send_text(MavSeverity::MAV_SEVERITY_WARNING, "EKF: heading rejected")
-                }
+                EstimatorEvent::HeadingRejected { error_rad } => self.send_text(
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    &format!("EKF: heading {:.1} deg off rejected", error_rad.to_degrees()),
+                ),
                 EstimatorEvent::HeadingReset { shift_rad } => self.send_text(
                     MavSeverity::MAV_SEVERITY_WARNING,
                     &format!("EKF: heading reset, turned {:.2} deg", shift_rad.to_degrees()),
