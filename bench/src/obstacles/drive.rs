@@ -6,10 +6,12 @@
 use std::time::Duration;
 
 use mission::{ExecState, MissionType, Plan};
-use sim::{ObstacleWorld, SimScannerConfig, VehicleModel, VehicleOutline};
+use sim::{ObstacleWorld, SimScannerConfig, VehicleOutline};
 
+use super::plant::PlantBraking;
+use super::situation::{Phase, PhaseWatch, Situation};
 use super::truth::{Judge, Limits, MOVING_MPS, Pose, STALL_S, TruthLog, rectangle};
-use super::unavoidable::{ObjectId, RunTruth, WorldHistory, touching};
+use super::unavoidable::{ObjectId, RunTruth, WorldHistory, nearest, touching};
 use autopilot::edge::clock::InstantTimer;
 use autopilot::geo::{LocalFrame, Ned};
 use autopilot::obstacles::TrackStatus;
@@ -23,6 +25,9 @@ const OVERTIME_S: f64 = 150.0;
 const BLOCKED_WATCH_S: f64 = 15.0;
 /// The way is judged this often while the vehicle is at rest.
 const REST_CHECK_S: f64 = 0.5;
+/// The clearance at rest the issue asks for when the object was known in
+/// time for it, m.
+pub const ROOM_CLEARANCE_M: f64 = 0.3;
 
 /// A waypoint of a course, metres about home.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,6 +84,12 @@ pub struct RunResult {
     pub braking_m: Vec<f64>,
     /// Clearance when at rest after a stop, m.
     pub rest_clearance_m: Vec<f64>,
+    /// Of those, the stops a vehicle braking at once could have ended
+    /// [`ROOM_CLEARANCE_M`] clear of (see [`judge_rests`]).
+    pub rest_clearance_with_room_m: Vec<f64>,
+    /// Each collision's situation, and whether it was unavoidable.
+    pub collision_situations: Vec<(Situation, bool)>,
+    pub false_stop_situations: Vec<Situation>,
     /// |v_track − v_true| once a track is 1 s old, m/s.
     pub kf_velocity_error_mps: Vec<f64>,
     pub time_lost_s: Option<f64>,
@@ -100,8 +111,7 @@ pub fn outline_and_limits(sim: &Simulation) -> (VehicleOutline, Limits) {
     let limits = Limits {
         margin_m: f64::from(a.margin_m.get(p)),
         horizon_s: f64::from(a.horizon_s.get(p)),
-        reaction_s: f64::from(a.reaction_s.get(p)),
-        decel_mps2: f64::from(a.decel_mps2.get(p)),
+        plant: PlantBraking::of(&sim.world().config().vehicle),
     };
     (outline, limits)
 }
@@ -214,14 +224,11 @@ pub fn drive_with(
         ..RunResult::default()
     };
     let mut yielded = vec![false; setup.yields.len()];
-    let mut in_contact = false;
-    let mut braking: Option<(Pose, bool)> = None;
+    let mut watch = Watch::default();
     let mut rest = RestWatch::default();
     let mut kf_recorded: Vec<u32> = Vec::new();
-    // The true pose at every tick, and the collisions begun, judged
-    // against them once the run is over.
+    // The true pose at every tick, for the judging after the run.
     let mut poses: Vec<Pose> = Vec::new();
-    let mut collisions: Vec<Collision> = Vec::new();
     let timeout_s = course_log.completion_s.unwrap_or(120.0) + OVERTIME_S;
     loop {
         let texts = crate::status_texts(sim.step(Duration::ZERO, &mut timer));
@@ -233,19 +240,16 @@ pub fn drive_with(
             break;
         }
         judge.follow(&pose);
-        if let Some(stopped_at) = record_obstacle_texts(&texts, &pose, &judge, &world, &limits, &mut result) {
-            braking = Some(stopped_at);
-        }
         let rect = rectangle(&outline, &pose);
         let (moving, clearance_m) = observe(&sim, setup.trace, &world, &rect, &pose, &mut result);
-        let contact = moving && clearance_m <= 0.0;
-        if contact && !in_contact {
-            collisions.push(record_collision(&world, &rect, &pose, &mut result));
-        }
-        in_contact = contact;
-        if !moving {
-            finish_braking(&mut braking, &pose, clearance_m, &mut result);
-        }
+        let tick = TickTruth {
+            pose,
+            index: poses.len() - 1,
+            rect,
+            moving,
+            clearance_m,
+        };
+        watch.judge_tick(&texts, &tick, &judge, &world, &mut result);
         if apply_yields(setup, &mut yielded, &mut world, &rect, t_world) {
             sim.world_mut().set_obstacles(Some(world.clone()));
             history.push(t_world, world.clone());
@@ -268,10 +272,91 @@ pub fn drive_with(
         history: &history,
         scanners: &scanners,
         outline,
-        brake_mps2: brake_max_mps2(&sim),
+        plant: limits.plant,
     };
-    conclude(&run, &collisions, course_log, sim.malformed_scans(), &mut result);
+    conclude(&run, &watch, course_log, sim.malformed_scans(), &mut result);
     Ok(result)
+}
+
+/// One tick's truth.
+struct TickTruth {
+    pose: Pose,
+    /// Of the pose in the run's log.
+    index: usize,
+    /// The outline there.
+    rect: sim::Rectangle,
+    moving: bool,
+    /// The gap to the nearest object's true shape.
+    clearance_m: f64,
+}
+
+/// The judging carried from tick to tick: stops, contacts and rests, and
+/// what is judged once the run is over.
+#[derive(Default)]
+struct Watch {
+    in_contact: bool,
+    /// Where the last obstacle stop began, and whether it reached rest.
+    braking: Option<(Pose, bool)>,
+    phases: PhaseWatch,
+    collisions: Vec<Collision>,
+    rests: Vec<Rest>,
+}
+
+impl Watch {
+    fn judge_tick(
+        &mut self,
+        texts: &[String],
+        tick: &TickTruth,
+        judge: &Judge,
+        world: &ObstacleWorld,
+        result: &mut RunResult,
+    ) {
+        let t_s = tick.pose.t_s;
+        self.phases.update(&tick.pose);
+        let phase = self.phases.phase(&tick.pose);
+        if let Some(stopped_at) = record_obstacle_texts(texts, &tick.pose, judge, world, phase, result) {
+            self.braking = Some(stopped_at);
+        }
+        self.phases.texts(texts);
+        let contact = tick.moving && tick.clearance_m <= 0.0;
+        if contact && !self.in_contact {
+            let objects = touching(world, &tick.rect, t_s);
+            let walking = objects.iter().any(|o| o.walking(world, t_s));
+            let situation = situation_here(judge, phase, walking);
+            self.collisions
+                .push(record_collision(objects, situation, &tick.pose, result));
+        }
+        self.in_contact = contact;
+        if !tick.moving
+            && finish_braking(&mut self.braking, &tick.pose, tick.clearance_m, result)
+            && let Some((object, _)) = nearest(world, &tick.rect, t_s)
+        {
+            self.rests.push(Rest {
+                index: tick.index,
+                object,
+                clearance_m: tick.clearance_m,
+            });
+        }
+    }
+}
+
+/// The situation at the judge's place on the course.
+fn situation_here(judge: &Judge, phase: Phase, walking: bool) -> Situation {
+    let (arc, reverse) = judge.course_here();
+    Situation {
+        phase,
+        walking,
+        arc,
+        reverse,
+    }
+}
+
+/// The vehicle at rest after an obstacle stop: the pose and the object
+/// nearest it.
+struct Rest {
+    index: usize,
+    object: ObjectId,
+    clearance_m: f64,
 }
 
 /// The true clearance at this tick, and whether the vehicle moves (only
@@ -298,14 +383,9 @@ fn observe(
 
 /// Once the run is over: which collisions braking could have avoided, and
 /// the time the obstacles cost.
-fn conclude(
-    run: &RunTruth,
-    collisions: &[Collision],
-    course_log: &TruthLog,
-    malformed_scans: u64,
-    result: &mut RunResult,
-) {
-    judge_collisions(run, collisions, result);
+fn conclude(run: &RunTruth, watch: &Watch, course_log: &TruthLog, malformed_scans: u64, result: &mut RunResult) {
+    judge_collisions(run, &watch.collisions, result);
+    judge_rests(run, &watch.rests, result);
     result.time_lost_s = result
         .completion_s
         .zip(course_log.completion_s)
@@ -314,14 +394,41 @@ fn conclude(
 }
 
 /// The vehicle has come to rest: the braking an obstacle stop began, if
-/// not yet measured, ends here.
-fn finish_braking(braking: &mut Option<(Pose, bool)>, pose: &Pose, clearance_m: f64, result: &mut RunResult) {
-    if let Some((from, done)) = braking
-        && !*done
-    {
-        *done = true;
-        result.braking_m.push(from.distance_to(pose.north_m, pose.east_m));
-        result.rest_clearance_m.push(clearance_m);
+/// not yet measured, ends here (then true).
+fn finish_braking(braking: &mut Option<(Pose, bool)>, pose: &Pose, clearance_m: f64, result: &mut RunResult) -> bool {
+    let Some((from, done)) = braking else {
+        return false;
+    };
+    if *done {
+        return false;
+    }
+    *done = true;
+    result.braking_m.push(from.distance_to(pose.north_m, pose.east_m));
+    result.rest_clearance_m.push(clearance_m);
+    true
+}
+
+/// The rests after a stop whose object stood still and was known while
+/// the outline was at least the plant's stopping distance plus
+/// [`ROOM_CLEARANCE_M`] from it: a vehicle braking at once could have
+/// rested that far clear, so the clearance at rest is held to it.
+fn judge_rests(run: &RunTruth, rests: &[Rest], result: &mut RunResult) {
+    for rest in rests {
+        let at = run.poses[rest.index];
+        if rest.object.walking(run.history.at(at.t_s), at.t_s) {
+            continue;
+        }
+        let Some(known_s) = run.known_s(rest.object, at.t_s) else {
+            continue;
+        };
+        let from = run.poses[run.poses.partition_point(|p| p.t_s < known_s).min(rest.index)];
+        let Some(shape) = rest.object.shape_at(run.history, from.t_s) else {
+            continue;
+        };
+        let gap_m = shape.distance_to_rectangle_m(&rectangle(&run.outline, &from));
+        if gap_m >= run.plant.stopping_m(from.speed_mps) + ROOM_CLEARANCE_M {
+            result.rest_clearance_with_room_m.push(rest.clearance_m);
+        }
     }
 }
 
@@ -349,7 +456,7 @@ fn record_obstacle_texts(
     pose: &Pose,
     judge: &Judge,
     world: &ObstacleWorld,
-    limits: &Limits,
+    phase: Phase,
     result: &mut RunResult,
 ) -> Option<(Pose, bool)> {
     let t_world = pose.t_s;
@@ -365,18 +472,20 @@ fn record_obstacle_texts(
     }
     for text in texts.iter().filter(|t| t.starts_with("Obstacle stop:")) {
         result.stops += 1;
-        let nearest_m = judge.nearest_m(world, t_world, pose);
-        let blocked = limits.within_margin(nearest_m);
+        let nearest = judge.nearest(world, t_world, pose);
+        let nearest_m = nearest.map_or(f64::INFINITY, |(gap_m, _)| gap_m);
+        let blocked = judge.limits().within_margin(nearest_m);
+        let mut verdict = "way blocked".to_string();
         if !blocked {
             result.false_stops += 1;
+            let walking = nearest.is_some_and(|(_, object)| object.walking(world, t_world));
+            let situation = situation_here(judge, phase, walking);
+            result.false_stop_situations.push(situation);
+            verdict = format!("FALSE STOP ({})", situation.label());
         }
         result.events.push(format!(
-            "t {:.2} {text} at {:.2},{:.2} v {:.2}: {} (nearest {nearest_m:.4} m from the swept outline)",
-            pose.t_s,
-            pose.north_m,
-            pose.east_m,
-            pose.speed_mps,
-            if blocked { "way blocked" } else { "FALSE STOP" }
+            "t {:.2} {text} at {:.2},{:.2} v {:.2}: {verdict} (nearest {nearest_m:.4} m from the swept outline)",
+            pose.t_s, pose.north_m, pose.east_m, pose.speed_mps,
         ));
         stopped_at = Some((*pose, false));
     }
@@ -432,24 +541,27 @@ fn print_trace_objects(world: &ObstacleWorld, t_s: f64, tracks: &[autopilot::obs
 struct Collision {
     t_s: f64,
     objects: Vec<ObjectId>,
+    situation: Situation,
     event: usize,
 }
 
 /// A collision starts: counted and filed; whether it was unavoidable is
 /// judged at the end of the run ([`judge_collisions`]).
-fn record_collision(world: &ObstacleWorld, rect: &sim::Rectangle, pose: &Pose, result: &mut RunResult) -> Collision {
+fn record_collision(objects: Vec<ObjectId>, situation: Situation, pose: &Pose, result: &mut RunResult) -> Collision {
     result.collisions += 1;
     result.events.push(format!(
-        "t {:.2} COLLISION at {:.2},{:.2} yaw {:.1}° v {:.2}",
+        "t {:.2} COLLISION at {:.2},{:.2} yaw {:.1}° v {:.2} ({})",
         pose.t_s,
         pose.north_m,
         pose.east_m,
         pose.yaw_rad.to_degrees(),
         pose.speed_mps,
+        situation.label(),
     ));
     Collision {
         t_s: pose.t_s,
-        objects: touching(world, rect, pose.t_s),
+        objects,
+        situation,
         event: result.events.len() - 1,
     }
 }
@@ -463,18 +575,12 @@ fn judge_collisions(run: &RunTruth, collisions: &[Collision], result: &mut RunRe
             .iter()
             .map(|&object| run.unavoidable(object, collision.t_s))
             .collect();
-        if let Some(whys) = whys.filter(|w| !w.is_empty()) {
+        let unavoidable = whys.as_ref().is_some_and(|w| !w.is_empty());
+        if let Some(whys) = whys.filter(|_| unavoidable) {
             result.unavoidable += 1;
             result.events[collision.event] += &whys.concat();
         }
-    }
-}
-
-/// The simulated plant's hardest braking.
-fn brake_max_mps2(sim: &Simulation) -> f64 {
-    match sim.world().config().vehicle {
-        VehicleModel::Ackermann(c) => c.brake_max_mps2,
-        VehicleModel::Differential(c) => c.brake_max_mps2,
+        result.collision_situations.push((collision.situation, unavoidable));
     }
 }
 

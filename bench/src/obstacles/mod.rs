@@ -12,7 +12,8 @@
 //! the vehicle's outline (the `VEH_LEN_*`/`VEH_WIDTH` rectangle at the true
 //! pose) and an object's true shape overlapping while the vehicle moves; a
 //! collision is **unavoidable** only if, replayed with the vehicle braking
-//! as hard as the simulated plant can (2 m/s², no delay) from the first
+//! as hard as the simulated plant can (its 2 m/s² limit through the drive's
+//! 0.3 s lag, from a zero command at once; see [`plant`]) from the first
 //! instant the object could be known (the later of when it began the
 //! straight line it hit from and when a scanner's beam first reached it),
 //! along the path it drove, it would still have touched the object (the
@@ -21,7 +22,8 @@
 //! moved in a straight line at its true velocity for up to `OA_HORIZON`,
 //! comes within `OA_MARGIN` of the outline swept along the course the
 //! vehicle was going to drive (the same run without obstacles, from the
-//! true pose onward, for the stopping distance plus the horizon's travel);
+//! true pose onward, for the plant's true stopping distance plus the
+//! horizon's travel; Furrow's `OA_REACT_TIME` and `OA_DECEL` play no part);
 //! a **stall** is more than 30 s at rest, mission unfinished, with the way
 //! clear by that same test. There is no other allowance than 5 mm of
 //! numerical tolerance on the margin (see [`truth::ON_THE_MARGIN_M`]). Min clearance is
@@ -31,8 +33,10 @@
 mod classic;
 mod drive;
 pub mod families;
+mod plant;
 pub mod random;
 mod report;
+mod situation;
 mod tick;
 mod truth;
 mod unavoidable;

@@ -4,22 +4,29 @@
 //! [`RUNS_PER_COURSE`] (one empty run serves them all); `--replay SEED`
 //! runs one again with its events.
 //!
-//! A person's timing is **feasible** when it walks its straight line for
-//! at least the vehicle's stopping time plus 1 s before reaching the point
-//! it aims at (or stands there from the start): a vehicle that sees it can
-//! stop. Shorter leads (someone stepping out at the last moment) are
-//! **infeasible**; their runs are counted apart.
+//! A run's timing is **feasible** when a vehicle with this plant could
+//! have stopped for everyone, judged from the truth on the course (the
+//! run without people) and nothing of Furrow's: for each person whose
+//! true shape the course's outline would touch while moving, braking as
+//! hard as the plant can (see [`super::plant`]) from the instant they could
+//! first be known (the later of when they began the straight line they
+//! touch from and when a scanner's beam first reached them unoccluded, see
+//! [`super::unavoidable`]) must come to rest without touching them. A
+//! person the course never touches needs nothing. Otherwise (someone
+//! stepping out closer than the plant's braking) the timing is
+//! **infeasible**, and the run is counted apart.
 
 use std::f64::consts::{PI, TAU};
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sim::{MovingObstacle, Shape, VehicleOutline};
+use sim::{MovingObstacle, Shape, SimScannerConfig, VehicleOutline};
 
 use super::classic::{PERSON_RADIUS_M, person};
 use super::drive::{Course, Setup, Waypoint};
 use super::families::tightest_turn_m;
-use super::truth::{Limits, TruthLog, rectangle};
+use super::truth::{Limits, MOVING_MPS, TruthLog, rectangle};
+use super::unavoidable::{ObjectId, RunTruth, WorldHistory};
 
 /// Consecutive seeds that share one course.
 pub const RUNS_PER_COURSE: u64 = 10;
@@ -65,17 +72,15 @@ pub fn course(course_seed: u64) -> Course {
     }
 }
 
-/// The people of run `seed` on its course (the empty run's `log`), and
-/// whether every one's timing is feasible.
-pub fn people(seed: u64, log: &TruthLog, outline: &VehicleOutline, limits: &Limits) -> (Setup, bool) {
+/// The people of run `seed` on its course (the empty run's `log`).
+pub fn people(seed: u64, log: &TruthLog, outline: &VehicleOutline) -> Setup {
     let mut rng = ChaCha8Rng::seed_from_u64(0x009E_091E ^ seed);
     let moving: Vec<usize> = (0..log.poses.len())
         .filter(|&i| log.poses[i].speed_mps.abs() > 0.3)
         .collect();
     let mut setup = Setup::default();
-    let mut feasible = true;
     if moving.len() < 100 {
-        return (setup, feasible);
+        return setup;
     }
     let home = rectangle(outline, &log.poses[0]);
     let count = rng.random_range(1..=3);
@@ -101,9 +106,6 @@ pub fn people(seed: u64, log: &TruthLog, outline: &VehicleOutline, limits: &Limi
             let lead_m = speed_mps * lead_s;
             let from = [aim[0] - dir[0] * lead_m, aim[1] - dir[1] * lead_m];
             let to = [aim[0] + dir[0] * 15.0, aim[1] + dir[1] * 15.0];
-            let v = pose.speed_mps.abs();
-            let stopping_s = limits.reaction_s + v / limits.decel_mps2;
-            feasible &= lead_s >= stopping_s + 1.0;
             vanishing(person("person", vec![from, to], speed_mps, arrive_s - lead_s))
         };
         // Nobody starts under or against the vehicle at home.
@@ -116,7 +118,43 @@ pub fn people(seed: u64, log: &TruthLog, outline: &VehicleOutline, limits: &Limi
         }
         setup.world.movers.push(mover);
     }
-    (setup, feasible)
+    setup
+}
+
+/// Whether a vehicle with this plant and these scanners could have stopped
+/// for everyone of `setup` its course touches (see the module header).
+pub fn feasible(
+    setup: &Setup,
+    log: &TruthLog,
+    scanners: &[SimScannerConfig],
+    limits: &Limits,
+    outline: VehicleOutline,
+) -> bool {
+    let history = WorldHistory::new(setup.world.clone());
+    let course = RunTruth {
+        poses: &log.poses,
+        history: &history,
+        scanners,
+        outline,
+        plant: limits.plant,
+    };
+    (0..setup.world.movers.len()).all(|i| {
+        let person = ObjectId::Mover(i);
+        first_touch_s(log, &history, &outline, person).is_none_or(|t_s| course.unavoidable(person, t_s).is_none())
+    })
+}
+
+/// When the course's outline, while moving, first touches `object`.
+fn first_touch_s(log: &TruthLog, history: &WorldHistory, outline: &VehicleOutline, object: ObjectId) -> Option<f64> {
+    log.poses
+        .iter()
+        .filter(|p| p.speed_mps.abs() > MOVING_MPS)
+        .find(|p| {
+            object
+                .shape_at(history, p.t_s)
+                .is_some_and(|s| s.distance_to_rectangle_m(&rectangle(outline, p)) <= 0.0)
+        })
+        .map(|p| p.t_s)
 }
 
 /// Walks off the scanners' world at the end of its path (nobody stays on
@@ -148,8 +186,10 @@ pub fn run(seed: u64, params: &[(String, f64)], log: Option<&TruthLog>) -> Resul
     };
     let sim = super::drive::build_sim(&course, course_seed, params)?;
     let (outline, limits) = super::drive::outline_and_limits(&sim);
+    let scanners: Vec<SimScannerConfig> = sim.world().scanner_configs().cloned().collect();
     drop(sim);
-    let (setup, feasible) = people(seed, log, &outline, &limits);
+    let setup = people(seed, log, &outline);
+    let feasible = feasible(&setup, log, &scanners, &limits, outline);
     let result = super::drive::drive_with(&course, course_seed, params, &setup, log)?;
     Ok(RandomOutcome { seed, feasible, result })
 }
@@ -199,7 +239,9 @@ pub fn replay(seed: u64, params: &[(String, f64)], trace: bool) -> Result<(), St
     let log = super::drive::drive_empty(&c, course_of(seed) + 1, params)?;
     let sim = super::drive::build_sim(&c, course_of(seed) + 1, params)?;
     let (outline, limits) = super::drive::outline_and_limits(&sim);
-    let (mut setup, feasible) = people(seed, &log, &outline, &limits);
+    let scanners: Vec<SimScannerConfig> = sim.world().scanner_configs().cloned().collect();
+    let mut setup = people(seed, &log, &outline);
+    let feasible = feasible(&setup, &log, &scanners, &limits, outline);
     for m in &setup.world.movers {
         println!(
             "person: path {:?} at {:.2} m/s from t {:.2} s",
@@ -229,4 +271,56 @@ pub fn replay(seed: u64, params: &[(String, f64)], trace: bool) -> Result<(), St
         r.min_clearance_m
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::obstacles::plant::PlantBraking;
+    use crate::obstacles::truth::tests::straight;
+    use crate::obstacles::unavoidable::tests::walker;
+
+    fn label(world: sim::ObstacleWorld) -> bool {
+        let log = TruthLog {
+            poses: straight(2.0, 20.0),
+            completion_s: Some(20.0),
+        };
+        let setup = Setup {
+            world,
+            ..Setup::default()
+        };
+        let limits = Limits {
+            margin_m: 0.3,
+            horizon_s: 3.0,
+            plant: PlantBraking {
+                tau_s: 0.3,
+                brake_max_mps2: 2.0,
+            },
+        };
+        feasible(
+            &setup,
+            &log,
+            &[SimScannerConfig::default()],
+            &limits,
+            VehicleOutline::default(),
+        )
+    }
+
+    // The course drives north at 2 m/s; the walkers reach its lane beside
+    // the front at 5.1 s.
+    #[test]
+    fn someone_stepping_out_closer_than_the_plant_brakes_is_infeasible() {
+        assert!(!label(walker(4.6, 13.6, 2.0)));
+    }
+
+    #[test]
+    fn someone_walking_in_from_afar_is_feasible() {
+        assert!(label(walker(0.6, 13.6, 8.0)));
+    }
+
+    #[test]
+    fn someone_the_course_never_touches_needs_nothing() {
+        // Crossing 3 s after the vehicle has passed.
+        assert!(label(walker(7.5, 13.6, 2.0)));
+    }
 }

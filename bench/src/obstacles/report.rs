@@ -1,6 +1,7 @@
 //! The bench's tables.
 
 use super::random::RandomOutcome;
+use super::situation::Breakdown;
 use super::{Outcome, Scenario};
 
 /// Totals over some runs.
@@ -17,6 +18,10 @@ pub struct Tally {
     pub stopped_runs: usize,
     pub min_clearance_m: Option<f64>,
     pub min_rest_clearance_m: Option<f64>,
+    /// Over the rests a vehicle braking at once could have ended 0.3 m
+    /// clear of: the smallest clearance, and how many.
+    pub min_room_rest_clearance_m: Option<f64>,
+    pub room_rests: usize,
     pub max_braking_m: Option<f64>,
     pub time_lost_s: Vec<f64>,
     pub kf_error_mps: Vec<f64>,
@@ -44,6 +49,10 @@ impl Tally {
         for &c in &r.rest_clearance_m {
             self.min_rest_clearance_m = min_opt(self.min_rest_clearance_m, c);
         }
+        for &c in &r.rest_clearance_with_room_m {
+            self.min_room_rest_clearance_m = min_opt(self.min_room_rest_clearance_m, c);
+        }
+        self.room_rests += r.rest_clearance_with_room_m.len();
         for &b in &r.braking_m {
             self.max_braking_m = Some(self.max_braking_m.map_or(b, |m| m.max(b)));
         }
@@ -55,6 +64,12 @@ impl Tally {
     /// Collisions, with the unavoidable ones among them.
     fn collisions_text(&self) -> String {
         format!("{} ({})", self.collisions, self.unavoidable)
+    }
+
+    /// The smallest clearance at rest where there was room for 0.3 m, and
+    /// over how many rests.
+    fn room_rest_text(&self) -> String {
+        format!("{} (n={})", fmt(self.min_room_rest_clearance_m), self.room_rests)
     }
 
     fn lost_text(&self) -> String {
@@ -103,10 +118,11 @@ fn worse(a: &super::RunResult, b: &super::RunResult) -> std::cmp::Ordering {
 /// One row per scenario (a classic one per speed).
 pub fn scenario_table(scenarios: &[Scenario], outcomes: &[Outcome], verbose: bool) {
     println!(
-        "| scenario | runs | completed | collisions (unavoidable) | false stops | stalls | stops | as required | min clearance m | clearance at rest m (min) | stop distance m (max) | time lost s (median / max) | KF |v| err after 1 s m/s (mean / max) | worst run |"
+        "| scenario | runs | completed | collisions (unavoidable) | false stops | stalls | stops | as required | min clearance m | clearance at rest m (min) | at rest with room for 0.3 m, m (min) | stop distance m (max) | time lost s (median / max) | KF |v| err after 1 s m/s (mean / max) | worst run |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---|");
+    println!("|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---|");
     let mut total = Tally::default();
+    let mut clear = Tally::default();
     for (row, scenario) in scenarios.iter().enumerate() {
         let mut speeds: Vec<f64> = outcomes
             .iter()
@@ -127,6 +143,9 @@ pub fn scenario_table(scenarios: &[Scenario], outcomes: &[Outcome], verbose: boo
             for o in &runs {
                 tally.add(&o.result);
                 total.add(&o.result);
+                if matches!(scenario, Scenario::Family(f) if f.must_pass()) {
+                    clear.add(&o.result);
+                }
                 if verbose {
                     println!(
                         "<!-- {} {}: {:?} -->",
@@ -143,6 +162,35 @@ pub fn scenario_table(scenarios: &[Scenario], outcomes: &[Outcome], verbose: boo
     println!(
         "Scenario total: {} runs, {} collisions ({} unavoidable), {} false stops, {} stalls.",
         total.runs, total.collisions, total.unavoidable, total.false_stops, total.stalls
+    );
+    print_targets(&total, &clear);
+}
+
+/// The two figures: what an object 0.5 m clear costs, and the
+/// clearance at rest when there was room to stop.
+fn print_targets(total: &Tally, clear: &Tally) {
+    if clear.runs > 0 {
+        let max_lost = clear.time_lost_s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        println!(
+            "Objects 0.5 m or more clear of the swept outline (families that must pass, {} runs): time lost median / max {} s (target < 1 s); {} runs stopped, {} of {} completed{}.",
+            clear.runs,
+            clear.lost_text(),
+            clear.stopped_runs,
+            clear.completed,
+            clear.runs,
+            if max_lost < 1.0 && clear.completed == clear.runs {
+                ""
+            } else {
+                ": TARGET MISSED"
+            }
+        );
+    }
+    println!(
+        "Clearance at rest after a stop for an object standing still, known (on its line and in a beam) while the outline was at least the plant's stopping distance + 0.3 m from it: min {} m over {} rests (target ≥ 0.3 m); over all {} stops' rests: min {} m.",
+        fmt(total.min_room_rest_clearance_m),
+        total.room_rests,
+        total.stops,
+        fmt(total.min_rest_clearance_m)
     );
 }
 
@@ -173,7 +221,7 @@ fn print_scenario_row(scenario: &Scenario, speed: Option<f64>, runs: &[&Outcome]
         }
     ) || matches!(scenario, Scenario::Family(super::Family::Neighbour { gap_m, .. }) if *gap_m < 0.5);
     println!(
-        "| {name} | {} | {}/{}{} | {} | {} | {} | {} | {required} | {} | {} | {} | {} | {} | {worst} |{}",
+        "| {name} | {} | {}/{}{} | {} | {} | {} | {} | {required} | {} | {} | {} | {} | {} | {} | {worst} |{}",
         tally.runs,
         tally.completed,
         tally.runs,
@@ -184,6 +232,7 @@ fn print_scenario_row(scenario: &Scenario, speed: Option<f64>, runs: &[&Outcome]
         tally.stops,
         fmt(tally.min_clearance_m),
         fmt(tally.min_rest_clearance_m),
+        tally.room_rest_text(),
         fmt(tally.max_braking_m),
         tally.lost_text(),
         tally.kf_text(),
@@ -199,9 +248,18 @@ fn print_scenario_row(scenario: &Scenario, speed: Option<f64>, runs: &[&Outcome]
 /// worst run with its seed.
 pub fn random_table(outcomes: &[RandomOutcome], verbose: bool) {
     println!(
-        "| randomized | runs | completed | collisions (unavoidable) | false stops | stalls | stops | min clearance m | time lost s (median / max) | worst run |"
+        "| randomized | runs | completed | collisions (unavoidable) | false stops | stalls | stops | min clearance m | at rest with room for 0.3 m, m (min) | time lost s (median / max) | worst run |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---|");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|");
+    let mut breakdown = Breakdown::default();
+    for o in outcomes {
+        for &(situation, unavoidable) in &o.result.collision_situations {
+            breakdown.collision(situation, unavoidable);
+        }
+        for &situation in &o.result.false_stop_situations {
+            breakdown.false_stop(situation);
+        }
+    }
     for (label, feasible) in [("feasible timings", true), ("infeasible timings", false)] {
         let runs: Vec<&RandomOutcome> = outcomes.iter().filter(|o| o.feasible == feasible).collect();
         let mut tally = Tally::default();
@@ -226,7 +284,7 @@ pub fn random_table(outcomes: &[RandomOutcome], verbose: bool) {
                 )
             });
         println!(
-            "| {label} | {} | {}/{} | {} | {} | {} | {} | {} | {} | {worst} |",
+            "| {label} | {} | {}/{} | {} | {} | {} | {} | {} | {} | {} | {worst} |",
             tally.runs,
             tally.completed,
             tally.runs,
@@ -235,12 +293,20 @@ pub fn random_table(outcomes: &[RandomOutcome], verbose: bool) {
             tally.stalls,
             tally.stops,
             fmt(tally.min_clearance_m),
+            tally.room_rest_text(),
             tally.lost_text()
         );
     }
     println!();
+    println!("Where the randomized collisions and false stops happened (both timings):");
+    println!();
+    breakdown.print();
+    println!();
     println!(
-        "Collisions (unavoidable): all collisions while moving, and in brackets those the vehicle could not have prevented: replayed braking as hard as the simulated plant can (no delay) from the first instant the object could be known (the later of when it began the straight line it hit from and when a scanner's beam first reached it), along the path driven, it still touches the object."
+        "Collisions (unavoidable): all collisions while moving, and in brackets those the vehicle could not have prevented: replayed braking as hard as the simulated plant can (its braking limit through the drive's lag, from a zero command at once) from the first instant the object could be known (the later of when it began the straight line it hit from and when a scanner's beam first reached it), along the path driven, it still touches the object."
+    );
+    println!(
+        "Timings: feasible when, on the course driven without people, braking the same way from the instant each person could be known avoids everyone the course would touch; infeasible otherwise. False stops: a stop when no true shape, moved on its true velocity for the horizon, comes within OA_MARGIN of the outline swept along the course for the plant's true stopping distance plus the horizon's travel (no OA_REACT_TIME or OA_DECEL in either rule)."
     );
     println!("Replay a run with `furrow-bench obstacles --replay SEED`.");
 }

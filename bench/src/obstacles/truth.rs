@@ -12,10 +12,13 @@
 //! - The **swept outline** at an instant is the union of the outline at the
 //!   true pose and at every pose of the course from there onward (one per
 //!   core tick, 2–4 cm apart, so nothing fits between them) until the
-//!   reference point has driven the stopping distance
-//!   (`v·OA_REACT_TIME + v²/2·OA_DECEL`) plus `v·OA_HORIZON`, with `v` the
-//!   larger of the true speed and the fastest the course drives over the
-//!   next `OA_HORIZON` from there (a vehicle at rest was going to drive on).
+//!   reference point has driven the distance the plant truly needs to stop
+//!   from `v` (its braking limit through the drive's lag, from a zero
+//!   command at that tick: see [`super::plant`]) plus `v·OA_HORIZON`, with
+//!   `v` the larger of the true speed and the fastest the course drives
+//!   over the next `OA_HORIZON` from there (a vehicle at rest was going to
+//!   drive on). Furrow's `OA_REACT_TIME` and `OA_DECEL` play no part: they
+//!   are allowances the autopilot chose, not what the vehicle needs.
 //! - **Way blocked**: some object's true shape, moved in a straight line at
 //!   its true velocity for any time in `[0, OA_HORIZON]`, comes within
 //!   `OA_MARGIN` of the swept outline (touching the margin counts, to the
@@ -36,6 +39,10 @@
 //!   collision counts against the vehicle.
 
 use sim::{MovingObstacle, ObstacleWorld, Rectangle, Shape, VehicleOutline};
+
+use super::plant::PlantBraking;
+use super::situation::ARC_RADIUS_M;
+use super::unavoidable::ObjectId;
 
 /// Below this speed the vehicle is at rest (a collision needs more).
 pub const MOVING_MPS: f64 = 0.01;
@@ -139,13 +146,13 @@ pub fn shape_clearance_m(shape: &Shape, rects: &[Rectangle]) -> f64 {
     best
 }
 
-/// What the judge needs from the parameters.
+/// What the judge needs: the margin and horizon from the parameters, the
+/// braking from the simulated plant.
 #[derive(Clone, Copy, Debug)]
 pub struct Limits {
     pub margin_m: f64,
     pub horizon_s: f64,
-    pub reaction_s: f64,
-    pub decel_mps2: f64,
+    pub plant: PlantBraking,
 }
 
 impl Limits {
@@ -154,10 +161,11 @@ impl Limits {
         gap_m <= self.margin_m + ON_THE_MARGIN_M
     }
 
-    /// Reference-point travel the swept outline covers from speed `v`.
+    /// Reference-point travel the swept outline covers from speed `v`: the
+    /// plant's true stopping distance plus the horizon's travel.
     pub fn reach_m(&self, speed_mps: f64) -> f64 {
         let v = speed_mps.abs();
-        v * self.reaction_s + v * v / (2.0 * self.decel_mps2) + v * self.horizon_s
+        self.plant.stopping_m(v) + v * self.horizon_s
     }
 }
 
@@ -171,6 +179,9 @@ pub struct Judge<'a> {
 
 /// How far ahead of the cursor (path length) the next match is searched.
 const FOLLOW_WINDOW_M: f64 = 3.0;
+/// The course's shape about the cursor is taken over this much path either
+/// side, m.
+const SHAPE_SPAN_M: f64 = 0.5;
 
 impl<'a> Judge<'a> {
     pub fn new(course: &'a TruthLog, outline: VehicleOutline, limits: Limits) -> Self {
@@ -180,6 +191,10 @@ impl<'a> Judge<'a> {
             limits,
             cursor: 0,
         }
+    }
+
+    pub fn limits(&self) -> &Limits {
+        &self.limits
     }
 
     /// Moves the cursor to the course pose nearest `pose`, searching only
@@ -239,9 +254,15 @@ impl<'a> Judge<'a> {
     /// The smallest gap between the swept outline and any object moved
     /// along its true velocity for up to the horizon.
     pub fn nearest_m(&self, world: &ObstacleWorld, t_s: f64, pose: &Pose) -> f64 {
+        self.nearest(world, t_s, pose).map_or(f64::INFINITY, |(gap_m, _)| gap_m)
+    }
+
+    /// [`Self::nearest_m`] and the object it is to.
+    pub fn nearest(&self, world: &ObstacleWorld, t_s: f64, pose: &Pose) -> Option<(f64, ObjectId)> {
         let swept = self.swept(pose);
-        let statics = world.statics.iter().map(|shape| shape_clearance_m(shape, &swept));
-        let movers = world.movers.iter().filter_map(|mover| {
+        let statics = (world.statics.iter().enumerate())
+            .map(|(i, shape)| (shape_clearance_m(shape, &swept), ObjectId::Static(i)));
+        let movers = world.movers.iter().enumerate().filter_map(|(i, mover)| {
             let (at, velocity) = mover.state_at(t_s)?;
             let speed_mps = velocity[0].hypot(velocity[1]);
             let steps = (speed_mps * self.limits.horizon_s / OBJECT_STEP_M).ceil() as usize;
@@ -252,8 +273,41 @@ impl<'a> Judge<'a> {
                     shape_clearance_m(&mover.shape.translated(placed), &swept)
                 })
                 .reduce(f64::min)
+                .map(|gap_m| (gap_m, ObjectId::Mover(i)))
         });
-        statics.chain(movers).fold(f64::INFINITY, f64::min)
+        statics.chain(movers).min_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
+    /// Whether the course turns tighter than [`ARC_RADIUS_M`] about the
+    /// cursor (over [`SHAPE_SPAN_M`] of path either side), and whether it
+    /// drives in reverse there (the nearest pose that moves, ahead first).
+    pub fn course_here(&self) -> (bool, bool) {
+        let poses = &self.course.poses;
+        if poses.is_empty() {
+            return (false, false);
+        }
+        let at = self.cursor.min(poses.len() - 1);
+        let span = |indices: &mut dyn Iterator<Item = usize>| {
+            let (mut last, mut length_m) = (at, 0.0);
+            for i in indices {
+                length_m += poses[i].distance_to(poses[last].north_m, poses[last].east_m);
+                last = i;
+                if length_m >= SHAPE_SPAN_M {
+                    break;
+                }
+            }
+            (last, length_m)
+        };
+        let (back, back_m) = span(&mut (0..at).rev());
+        let (ahead, ahead_m) = span(&mut (at + 1..poses.len()));
+        let turn_rad = autopilot::geo::wrap_pi(poses[ahead].yaw_rad - poses[back].yaw_rad).abs();
+        let length_m = back_m + ahead_m;
+        let arc = length_m > 0.1 && turn_rad / length_m > 1.0 / ARC_RADIUS_M;
+        let moving = |p: &&Pose| p.speed_mps.abs() > 0.3;
+        let reverse = (poses[at..].iter().find(moving))
+            .or_else(|| poses[..at].iter().rev().find(moving))
+            .is_some_and(|p| p.speed_mps < 0.0);
+        (arc, reverse)
     }
 }
 
@@ -287,8 +341,10 @@ pub(in crate::obstacles) mod tests {
     const LIMITS: Limits = Limits {
         margin_m: 0.3,
         horizon_s: 3.0,
-        reaction_s: 0.15,
-        decel_mps2: 1.0,
+        plant: PlantBraking {
+            tau_s: 0.3,
+            brake_max_mps2: 2.0,
+        },
     };
 
     fn post(north_m: f64, east_m: f64) -> ObstacleWorld {
@@ -306,11 +362,15 @@ pub(in crate::obstacles) mod tests {
         let course = straight_course(1.0);
         let judge = Judge::new(&course, VehicleOutline::default(), LIMITS);
         let at = course.poses[0];
-        // Reach at 1 m/s: 0.15 + 0.5 + 3 = 3.65 m, front 3.6 m ahead.
+        // Reach at 1 m/s: the plant stops in 0.16 + 0.177 m, plus 3 m of
+        // horizon: 3.337 m, the front 3.6 m ahead of the reference point.
+        assert!((LIMITS.reach_m(1.0) - 3.337).abs() < 1e-9);
         assert!(judge.way_blocked(&post(5.0, 1.0 + 0.1 + 0.30), 0.0, &at));
         assert!(!judge.way_blocked(&post(5.0, 1.0 + 0.1 + 0.31), 0.0, &at));
-        // Beyond the reach ahead: not yet.
-        assert!(!judge.way_blocked(&post(3.6 + 3.65 + 0.4, 0.0), 0.0, &at));
+        // Within the margin of the swept front (poses 2 cm apart), and
+        // beyond it.
+        assert!(judge.way_blocked(&post(3.6 + 3.337 + 0.1 + 0.28, 0.0), 0.0, &at));
+        assert!(!judge.way_blocked(&post(3.6 + 3.337 + 0.1 + 0.35, 0.0), 0.0, &at));
     }
 
     #[test]

@@ -10,8 +10,9 @@
 //!   dropouts, at the true pose): before that nothing could see it.
 //!
 //! From that instant the run is **replayed with the vehicle braking as hard
-//! as the plant truly can** (the simulated drive's `brake_max_mps2`, from
-//! its speed then, with no delay), along the path it actually drove, while
+//! as the plant truly can** (a zero command to the simulated drive at once:
+//! its braking limit through its lag, see [`super::plant`]), from its speed
+//! then, along the path it actually drove, while
 //! the object moves as it truly did. The collision is unavoidable only if
 //! the outline still touches the object before that braking vehicle comes
 //! to rest. A vehicle at rest at that instant could always have stayed at
@@ -22,6 +23,7 @@ use std::time::Duration;
 
 use sim::{ObstacleWorld, Shape, SimScannerConfig, VehicleOutline, VehicleTruth, render_scan};
 
+use super::plant::PlantBraking;
 use super::truth::{MOVING_MPS, Pose, on_its_line_s, rectangle};
 
 /// Replay time step, s (the core tick).
@@ -87,6 +89,16 @@ impl ObjectId {
         }
     }
 
+    /// Whether it walks at `t_s` (its true velocity; a static never does).
+    pub fn walking(self, world: &ObstacleWorld, t_s: f64) -> bool {
+        match self {
+            ObjectId::Static(_) => false,
+            ObjectId::Mover(i) => world
+                .mover_state(i, t_s)
+                .is_some_and(|(_, v)| v[0].hypot(v[1]) > MOVING_MPS),
+        }
+    }
+
     pub fn label(self) -> String {
         match self {
             ObjectId::Static(i) => format!("static {i}"),
@@ -106,6 +118,15 @@ pub fn touching(world: &ObstacleWorld, rect: &sim::Rectangle, t_s: f64) -> Vec<O
     statics.chain(movers).collect()
 }
 
+/// The object nearest `rect` at `t_s`, and its gap.
+pub fn nearest(world: &ObstacleWorld, rect: &sim::Rectangle, t_s: f64) -> Option<(ObjectId, f64)> {
+    let statics =
+        (world.statics.iter().enumerate()).map(|(i, s)| (ObjectId::Static(i), s.distance_to_rectangle_m(rect)));
+    let movers = (world.movers.iter().enumerate())
+        .filter_map(|(i, m)| Some((ObjectId::Mover(i), m.shape_at(t_s)?.distance_to_rectangle_m(rect))));
+    statics.chain(movers).min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
 /// What the judge of unavoidability needs of a run.
 pub struct RunTruth<'a> {
     /// The run's true poses, one per core tick, from arming to its end.
@@ -113,22 +134,20 @@ pub struct RunTruth<'a> {
     pub history: &'a WorldHistory,
     pub scanners: &'a [SimScannerConfig],
     pub outline: VehicleOutline,
-    /// The plant's hardest braking, m/s².
-    pub brake_mps2: f64,
+    /// How the plant brakes.
+    pub plant: PlantBraking,
 }
 
 impl RunTruth<'_> {
     /// Why the collision with `object` beginning at `t_s` was unavoidable,
     /// or `None` when braking from the instant it could be known avoids it.
     pub fn unavoidable(&self, object: ObjectId, t_s: f64) -> Option<String> {
-        let line_s = object.line_since_s(self.history, t_s);
-        let Some(seen_s) = self.first_seen_s(object, t_s) else {
+        let Some(known_s) = self.known_s(object, t_s) else {
             return Some(format!(
                 " (unavoidable: {} never reached by a beam before)",
                 object.label()
             ));
         };
-        let known_s = line_s.max(seen_s);
         let start = self.poses.partition_point(|p| p.t_s < known_s);
         let from = self.poses.get(start.min(self.poses.len().saturating_sub(1)))?;
         if from.speed_mps.abs() <= MOVING_MPS {
@@ -136,12 +155,19 @@ impl RunTruth<'_> {
         }
         let touch_s = self.braking_touches(object, start)?;
         Some(format!(
-            " (unavoidable: {} known at t {:.2} at {:.2} m/s, still touched braking at {:.1} m/s² from then, at t {touch_s:.2})",
+            " (unavoidable: {} known at t {:.2} at {:.2} m/s, still touched braking as the plant can from then, at t {touch_s:.2})",
             object.label(),
             from.t_s,
             from.speed_mps.abs(),
-            self.brake_mps2
         ))
+    }
+
+    /// The first instant the object, as it is at `t_s`, could be known: the
+    /// later of when it began its present straight line and when a beam
+    /// first reached it (none if no beam did by `t_s`).
+    pub fn known_s(&self, object: ObjectId, t_s: f64) -> Option<f64> {
+        let line_s = object.line_since_s(self.history, t_s);
+        Some(line_s.max(self.first_seen_s(object, t_s)?))
     }
 
     /// The first pose time, up to `until_s`, at which a scanner's beam
@@ -185,7 +211,7 @@ impl RunTruth<'_> {
         })
     }
 
-    /// Replays braking at `brake_mps2` from pose `start` along the poses
+    /// Replays the plant's braking from pose `start` along the poses
     /// driven; the time of the first contact with `object` while the
     /// braking vehicle still moves.
     fn braking_touches(&self, object: ObjectId, start: usize) -> Option<f64> {
@@ -195,12 +221,11 @@ impl RunTruth<'_> {
         let mut k = 0u32;
         loop {
             let tau_s = f64::from(k) * REPLAY_STEP_S;
-            let v_mps = v0_mps - self.brake_mps2 * tau_s;
-            if v_mps <= MOVING_MPS {
+            if self.plant.speed_mps(v0_mps, tau_s) <= MOVING_MPS {
                 return None;
             }
             let t_s = poses[0].t_s + tau_s;
-            let pose = along.at(v0_mps * tau_s - self.brake_mps2 * tau_s * tau_s / 2.0);
+            let pose = along.at(self.plant.distance_m(v0_mps, tau_s));
             let rect = rectangle(&self.outline, &pose);
             if object
                 .shape_at(self.history, t_s)
@@ -257,14 +282,14 @@ impl<'a> PathCursor<'a> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(in crate::obstacles) mod tests {
     use super::*;
     use crate::obstacles::truth::tests::straight;
     use sim::MovingObstacle;
 
     /// A person walking west at 1.5 m/s from `east_m` at `north_m`, from
     /// `start_s`.
-    fn walker(start_s: f64, north_m: f64, east_m: f64) -> ObstacleWorld {
+    pub(in crate::obstacles) fn walker(start_s: f64, north_m: f64, east_m: f64) -> ObstacleWorld {
         ObstacleWorld::new(
             Vec::new(),
             vec![MovingObstacle {
@@ -288,7 +313,10 @@ mod tests {
             history,
             scanners,
             outline: VehicleOutline::default(),
-            brake_mps2: 2.0,
+            plant: PlantBraking {
+                tau_s: 0.3,
+                brake_max_mps2: 2.0,
+            },
         }
     }
 
@@ -350,7 +378,7 @@ mod tests {
                 .unavoidable(ObjectId::Static(0), 4.6)
                 .is_some()
         );
-        // Seen from the start by the front scanner: 1 m of braking was enough.
+        // Seen from the start by the front scanner: 1.1 m of braking was enough.
         let front = [SimScannerConfig::default()];
         assert!(
             judge(&poses, &post, &front)
