@@ -265,14 +265,7 @@ impl Run {
             sigma_mm,
             normalised_error,
             sigma_deg,
-            texts: texts
-                .iter()
-                .filter(|t| !t.starts_with(CHANGE) && !t.starts_with(TRUTH))
-                .rev()
-                .take(4)
-                .rev()
-                .cloned()
-                .collect(),
+            texts: last_said(&texts, 4),
             plans: texts
                 .iter()
                 .filter(|t| PLAN_TEXTS.iter().any(|p| t.contains(p)))
@@ -344,6 +337,19 @@ impl Run {
         };
         self.goal(label, gcs::set_mode(10), goal)
     }
+}
+
+/// The vehicle's last `n` texts (and `MISSION_ITEM_REACHED`s), without
+/// the bench's own notes.
+fn last_said(texts: &[String], n: usize) -> Vec<String> {
+    let said: Vec<&String> = texts
+        .iter()
+        .filter(|t| !t.starts_with(CHANGE) && !t.starts_with(TRUTH))
+        .collect();
+    said[said.len().saturating_sub(n)..]
+        .iter()
+        .map(|t| t.to_string())
+        .collect()
 }
 
 /// How the bench's text list carries a `MISSION_ITEM_REACHED`.
