@@ -1,12 +1,14 @@
 //! The manoeuvre section of `furrow-bench tracking`: GUIDED pose goals 1–10 m
 //! away in eight directions (ahead, beside, behind, inside the turning
 //! circle), all to be reached facing north as the vehicle starts, then RTL
-//! back home from there, on both vehicle models. Everything is measured
+//! back home from there, then the same pose as an AUTO mission's stop with
+//! a heading (NAV_WAYPOINT param 4, `MNV_WP_YAW` 1), on both vehicle models. Everything is measured
 //! from the simulator's truth: the final pose against the goal
 //! (`WP_STOP_TOL_MM` / `WP_STOP_TOL_DEG`, the defaults 10 mm and 0.05°),
 //! the changes of direction the wheels really made, the turns on the spot
 //! (a differential vehicle's pivots: turning while the centre stands), failsafes, and
-//! "Reached" claims made for a stop the truth has out of tolerance.
+//! "Reached" claims (`MISSION_ITEM_REACHED` in AUTO) made for a stop the
+//! truth has out of tolerance.
 //!
 //! The goal is the one the vehicle was given: a GUIDED target as its
 //! 1e-7° MAVLink coordinates carry it (up to 5.6 mm from the point the bench
@@ -17,6 +19,8 @@
 use std::time::Duration;
 
 use mavlink::dialects::ardupilotmega::MavMessage;
+use mission::command::{cmd, frame};
+use mission::{MissionItem, MissionType, Plan};
 use vehicle_types::GeoPoint as SimGeoPoint;
 
 use autopilot::edge::clock::InstantTimer;
@@ -66,6 +70,9 @@ struct Outcome {
     sigma_deg: f64,
     /// The vehicle's last texts.
     texts: Vec<String>,
+    /// What the vehicle said it planned and retried: the manoeuvres, the
+    /// misses and the re-tries, in order.
+    plans: Vec<String>,
 }
 
 impl Outcome {
@@ -93,9 +100,13 @@ struct Goal {
 struct Run {
     sim: Simulation,
     timer: InstantTimer,
+    /// The goal being driven to: at a miss, the truth's error from it is
+    /// noted among the texts (what a retry has to correct).
+    goal: Option<Goal>,
 }
 
 impl Run {
+    /// `MNV_WP_YAW` is 1: a mission stop's heading is driven to.
     /// `walk_m`: the GNSS's slow wander (simulated and as the estimator
     /// models it), or the default.
     fn new(model: ModelKind, seed: u64, walk_m: Option<f64>) -> Run {
@@ -105,6 +116,10 @@ impl Run {
             ..SimulationConfig::default()
         };
         let mut sim = Simulation::new(&config, SimulationParams::new(model));
+        sim.core_mut()
+            .params_mut()
+            .set_by_name("MNV_WP_YAW", 1.0)
+            .expect("a declared parameter in range");
         if let Some(walk_m) = walk_m {
             for name in ["SIM_GPS_WALK", "EKF_GPS_WALK"] {
                 sim.core_mut()
@@ -117,6 +132,7 @@ impl Run {
         let mut run = Run {
             sim,
             timer: InstantTimer::default(),
+            goal: None,
         };
         run.drive_until(5.0, |_| false);
         gcs::send(&mut run.sim, gcs::set_mode(15));
@@ -137,14 +153,19 @@ impl Run {
             // A long text goes out in 50-character chunks, several a step.
             let before = texts.len();
             for o in out.mavlink.drain(..) {
-                if let MavMessage::STATUSTEXT(t) = o.message {
-                    texts.push(t.text.to_str().unwrap_or("").to_string());
+                match o.message {
+                    MavMessage::STATUSTEXT(t) => texts.push(t.text.to_str().unwrap_or("").to_string()),
+                    MavMessage::MISSION_ITEM_REACHED(r) => texts.push(format!("{ITEM_REACHED} {}", r.seq)),
+                    _ => {}
                 }
             }
             let speed = self.sim.world().truth().speed_mps;
             if speed.abs() > 0.02 {
                 if last_sign != 0.0 && speed.signum() != last_sign {
                     changes += 1;
+                    // Where among the texts the wheels changed direction.
+                    let way = if speed > 0.0 { "forwards" } else { "in reverse" };
+                    texts.push(format!("{CHANGE} {way}]"));
                 }
                 last_sign = speed.signum();
             }
@@ -153,6 +174,11 @@ impl Run {
                 pivots += 1;
             }
             pivoting = turning && (pivoting || speed.abs() <= 0.02);
+            let missed = texts[before..].iter().any(|t| MISSES.iter().any(|m| t.contains(m)));
+            if let Some(goal) = self.goal.filter(|_| missed) {
+                let (mm, deg) = self.error(&goal);
+                texts.push(format!("{TRUTH} {mm:.1} mm, yaw {deg:.3}°]"));
+            }
             if texts[before..].iter().any(|t| done(t)) {
                 break;
             }
@@ -195,12 +221,9 @@ impl Run {
 
     fn goal(&mut self, label: String, message: MavMessage, goal: Goal) -> Outcome {
         let start_s = self.sim.time().as_secs_f64();
+        self.goal = Some(goal);
         gcs::send(&mut self.sim, message);
-        let verdict = |t: &str| {
-            ["Reached destination", "Destination NOT reached", "Stopped at"]
-                .iter()
-                .any(|v| t.starts_with(v))
-        };
+        let verdict = |t: &str| VERDICTS.iter().any(|v| t.starts_with(v));
         let (texts, direction_changes, pivots) = self.drive_until(TIMEOUT_S, verdict);
         let (verdict_mm, _) = self.error(&goal);
         let at_verdict = *self.sim.world().truth();
@@ -223,8 +246,12 @@ impl Run {
         Outcome {
             label,
             within: position_mm <= TOL_M * 1000.0 && yaw_deg.abs() <= TOL_DEG,
-            claimed: texts.iter().any(|t| t.starts_with("Reached destination")),
-            unconfirmed: texts.iter().any(|t| t.starts_with("Stopped at")),
+            claimed: texts
+                .iter()
+                .any(|t| t.starts_with("Reached destination") || t.starts_with(ITEM_REACHED)),
+            unconfirmed: texts
+                .iter()
+                .any(|t| t.starts_with("Stopped at") || t.starts_with(UNCLAIMED_ITEM)),
             position_mm,
             yaw_deg,
             direction_changes,
@@ -238,7 +265,12 @@ impl Run {
             sigma_mm,
             normalised_error,
             sigma_deg,
-            texts: texts.iter().rev().take(4).rev().cloned().collect(),
+            texts: last_said(&texts, 4),
+            plans: texts
+                .iter()
+                .filter(|t| PLAN_TEXTS.iter().any(|p| t.contains(p)))
+                .cloned()
+                .collect(),
         }
     }
 
@@ -273,7 +305,77 @@ impl Run {
         };
         self.goal(label, gcs::set_mode(11), goal)
     }
+
+    /// AUTO: a mission whose one stop is `north_m`, `east_m` facing north
+    /// (NAV_WAYPOINT param 4), started where the vehicle stands; the goal as
+    /// the item's coordinates carry it.
+    fn mission(&mut self, label: String, north_m: f64, east_m: f64) -> Outcome {
+        let p = self.sim.world().local_to_geodetic(north_m, east_m);
+        let stop = GeoPoint::new(p.lat_deg, p.lon_deg, 0.0);
+        let home = self.sim.core().home().expect("home is set before arming");
+        let item = |seq: u16, at: &GeoPoint, yaw_deg: f32| MissionItem {
+            seq,
+            frame: frame::GLOBAL_RELATIVE_ALT_INT,
+            command: cmd::NAV_WAYPOINT,
+            current: false,
+            autocontinue: true,
+            params: [0.0, 0.0, 0.0, yaw_deg],
+            x: at.lat_e7(),
+            y: at.lon_e7(),
+            z: 0.0,
+        };
+        let items = vec![item(0, &home, 0.0), item(1, &stop, 0.0)];
+        self.sim
+            .core_mut()
+            .load_plan(MissionType::Mission, Plan::new(MissionType::Mission, items));
+        let sent = GeoPoint::from_e7(stop.lat_e7(), stop.lon_e7(), 0.0);
+        let (north_m, east_m) = self.local(&sent);
+        let goal = Goal {
+            north_m,
+            east_m,
+            yaw_rad: 0.0,
+        };
+        self.goal(label, gcs::set_mode(10), goal)
+    }
 }
+
+/// The vehicle's last `n` texts (and `MISSION_ITEM_REACHED`s), without
+/// the bench's own notes.
+fn last_said(texts: &[String], n: usize) -> Vec<String> {
+    let said: Vec<&String> = texts
+        .iter()
+        .filter(|t| !t.starts_with(CHANGE) && !t.starts_with(TRUTH))
+        .collect();
+    said[said.len().saturating_sub(n)..]
+        .iter()
+        .map(|t| t.to_string())
+        .collect()
+}
+
+/// How the bench's text list carries a `MISSION_ITEM_REACHED`.
+const ITEM_REACHED: &str = "[MISSION_ITEM_REACHED]";
+/// The texts (and AUTO's `MISSION_ITEM_REACHED`) that end a goal.
+const VERDICTS: [&str; 7] = [
+    "Reached destination",
+    "Destination NOT reached",
+    "Stopped at",
+    ITEM_REACHED,
+    "Waypoint #1 NOT reached",
+    UNCLAIMED_ITEM,
+    "Manoeuvre refused",
+];
+/// AUTO's verdict on a stop in tolerance it cannot confirm (GUIDED's and
+/// RTL's start "Stopped at").
+const UNCLAIMED_ITEM: &str = "Waypoint #1 not claimed";
+/// How the bench's text list marks a change of direction of the truth.
+const CHANGE: &str = "[changed direction:";
+/// The texts that say a stop missed and is tried again…
+const MISSES: [&str; 2] = ["Missed (", "missed: retry"];
+/// …and how the bench's text list notes the truth's error then.
+const TRUTH: &str = "[truth then:";
+/// The texts that say what was planned, missed and tried again, and the
+/// changes of direction among them.
+const PLAN_TEXTS: [&str; 7] = ["Manoeuvre", "Missed", "missed", "trying again", "Stop", CHANGE, TRUTH];
 
 /// GNSS receivers the goals are driven with: the simulator's default (a
 /// wander of 5 mm per axis, which alone keeps a perfect stop within 10 mm
@@ -285,17 +387,17 @@ const RECEIVERS: [(&str, Option<f64>); 2] = [("walk 5 mm", None), ("walk 1 mm", 
 pub fn report(seeds: u64) {
     println!();
     println!(
-        "## manoeuvres: GUIDED to a pose {DISTANCES_M:?} m away in {BEARINGS} directions, facing north as at the start, then RTL (seeds 1..={seeds}; truth)"
+        "## manoeuvres: GUIDED to a pose {DISTANCES_M:?} m away in {BEARINGS} directions, facing north as at the start, then RTL, then AUTO to the same pose (a mission stop with a heading) (seeds 1..={seeds}; truth)"
     );
     println!();
     println!(
         "| model | GNSS | leg | goals | reached within 10 mm & 0.05° | \"Reached\" claimed | false \"Reached\" | stopped, unconfirmed | most direction changes | most turns on the spot | failsafes | p95 mm | worst mm | worst yaw ° | median s | estimate error > 2σ / > 3σ (axes) | most moved after the verdict mm / ° |"
     );
     println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
-    let mut misses = Vec::new();
+    let (mut misses, mut many_changes) = (Vec::new(), Vec::new());
     for model in [ModelKind::Ackermann, ModelKind::Differential] {
         for (receiver, walk_m) in RECEIVERS {
-            drive_goals(model, receiver, walk_m, seeds, &mut misses);
+            drive_goals(model, receiver, walk_m, seeds, &mut misses, &mut many_changes);
         }
     }
     println!();
@@ -303,11 +405,19 @@ pub fn report(seeds: u64) {
         "The last column is the estimate's error from the truth at the verdict on each axis (north, east) in the estimator's own σ of that axis: a true σ has 4.6 % beyond 2σ and 0.27 % beyond 3σ."
     );
     print_misses(&misses);
+    print_many_changes(&many_changes);
 }
 
 /// Every goal and RTL on one model and receiver: two rows, and the misses.
-fn drive_goals(model: ModelKind, receiver: &str, walk_m: Option<f64>, seeds: u64, misses: &mut Vec<Outcome>) {
-    let (mut guided, mut rtl) = (Vec::new(), Vec::new());
+fn drive_goals(
+    model: ModelKind,
+    receiver: &str,
+    walk_m: Option<f64>,
+    seeds: u64,
+    misses: &mut Vec<Outcome>,
+    many_changes: &mut Vec<Outcome>,
+) {
+    let (mut guided, mut rtl, mut auto) = (Vec::new(), Vec::new(), Vec::new());
     for seed in 1..=seeds {
         for (i, &distance) in DISTANCES_M.iter().enumerate() {
             for b in 0..BEARINGS {
@@ -321,17 +431,44 @@ fn drive_goals(model: ModelKind, receiver: &str, walk_m: Option<f64>, seeds: u64
                 );
                 guided.push(run.guided(format!("{label} GUIDED"), north, east));
                 rtl.push(run.rtl(format!("{label} RTL")));
+                auto.push(run.mission(format!("{label} AUTO"), north, east));
             }
         }
     }
     print_row(model, receiver, "GUIDED", &guided);
     print_row(model, receiver, "RTL", &rtl);
+    print_row(model, receiver, "AUTO", &auto);
+    let all: Vec<Outcome> = guided.into_iter().chain(rtl).chain(auto).collect();
+    many_changes.extend(all.iter().filter(|o| o.direction_changes > MOST_CHANGES).cloned());
     misses.extend(
-        guided
-            .into_iter()
-            .chain(rtl)
+        all.into_iter()
             .filter(|o| !o.within || o.failsafes > 0 || o.moved_after()),
     );
+}
+
+/// The target's most changes of direction per goal: goals that took more
+/// are listed with what the vehicle planned.
+const MOST_CHANGES: usize = 3;
+
+fn print_many_changes(outcomes: &[Outcome]) {
+    println!();
+    println!(
+        "Goals that took more than {MOST_CHANGES} changes of direction, with what the vehicle planned and retried:"
+    );
+    println!();
+    if outcomes.is_empty() {
+        println!("- none");
+    }
+    for o in outcomes {
+        println!(
+            "- {}: {} changes, {:.1} mm, yaw {:.3}°: {}",
+            o.label,
+            o.direction_changes,
+            o.position_mm,
+            o.yaw_deg,
+            o.plans.join(" | ")
+        );
+    }
 }
 
 fn print_misses(misses: &[Outcome]) {
@@ -342,7 +479,7 @@ fn print_misses(misses: &[Outcome]) {
     println!();
     for o in misses {
         println!(
-            "- {}: {:.1} mm, yaw {:.3}° ({:.1} mm at the verdict, then moved {:.1} mm and {:.3}°; estimate {:.1} mm from the truth, σ {:.1} mm, error {:+.1}σ north {:+.1}σ east, {:.3}°){}{}: {}",
+            "- {}: {:.1} mm, yaw {:.3}° ({:.1} mm at the verdict, then moved {:.1} mm and {:.3}°; estimate {:.1} mm from the truth, σ {:.1} mm, error {:+.1}σ north {:+.1}σ east, {:.3}°){}{}: {} (planned: {})",
             o.label,
             o.position_mm,
             o.yaw_deg,
@@ -362,7 +499,8 @@ fn print_misses(misses: &[Outcome]) {
                 ""
             },
             if o.failsafes > 0 { ", FAILSAFE" } else { "" },
-            o.texts.join(" | ")
+            o.texts.join(" | "),
+            o.plans.join(" | ")
         );
     }
 }

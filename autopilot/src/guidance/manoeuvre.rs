@@ -10,6 +10,10 @@
 //!
 //! Cheapest: the length plus `CUSP_COST_M` per change of direction (each is
 //! a stop and a rest), within the limits on length and direction changes.
+//! A manoeuvre that follows driving to the same goal (a retry after a miss,
+//! the turn onto a far goal's heading after its straight leg) counts a first
+//! stroke against the way the vehicle last drove as a change of direction
+//! too: the limit is on the changes the wheels make on the way to the goal.
 //!
 //! A vehicle that can turn on the spot (differential drive, pivots allowed)
 //! also has the pivot plan: turn in place to face the goal (or away from it,
@@ -50,6 +54,9 @@ pub struct ManoeuvreConfig {
     pub max_direction_changes: usize,
     /// The vehicle may turn on the spot (differential drive, `MNV_PIVOT`).
     pub pivots: bool,
+    /// The way the vehicle last drove towards this goal, if it did: a first
+    /// stroke the other way is a change of direction.
+    pub arriving: Option<Direction>,
 }
 
 /// A planned manoeuvre: strokes of one gear each, stopping between them.
@@ -76,6 +83,19 @@ impl Manoeuvre {
             .count()
     }
 
+    /// Changes between forward and reverse after arriving driving
+    /// `arriving`: the first stroke may be one too.
+    pub fn direction_changes_after(&self, arriving: Option<Direction>) -> usize {
+        let first = self.strokes.first().map(|s| s.direction);
+        let turns_back = arriving.is_some() && first.is_some() && arriving != first;
+        self.direction_changes() + usize::from(turns_back)
+    }
+
+    /// The way the last stroke drives (none for a pivot alone).
+    pub fn last_direction(&self) -> Option<Direction> {
+        self.strokes.last().map(|s| s.direction)
+    }
+
     /// The headings the vehicle turns on the spot to, in order, from
     /// `start_yaw_rad`.
     pub fn pivot_headings(&self, start_yaw_rad: f64) -> Vec<f64> {
@@ -94,9 +114,9 @@ impl Manoeuvre {
         out
     }
 
-    pub fn cost_m(&self, start_yaw_rad: f64) -> f64 {
+    pub fn cost_m(&self, start_yaw_rad: f64, arriving: Option<Direction>) -> f64 {
         self.length_m()
-            + CUSP_COST_M * self.direction_changes() as f64
+            + CUSP_COST_M * self.direction_changes_after(arriving) as f64
             + PIVOT_COST_M * self.pivot_headings(start_yaw_rad).len() as f64
     }
 }
@@ -264,20 +284,20 @@ pub fn plan(start: &Pose, goal: Ned, yaw_rad: Option<f64>, config: &ManoeuvreCon
             candidates(start, &goal, config)
         })
         .collect();
-    let fitting_changes = all
-        .iter()
-        .filter(|m| m.direction_changes() <= config.max_direction_changes);
+    let changes = |m: &Manoeuvre| m.direction_changes_after(config.arriving);
+    let fitting_changes = all.iter().filter(|m| changes(m) <= config.max_direction_changes);
+    let cost = |m: &Manoeuvre| m.cost_m(start.yaw_rad, config.arriving);
     let best = fitting_changes
         .clone()
         .filter(|m| m.length_m() <= config.max_length_m)
-        .min_by(|a, b| a.cost_m(start.yaw_rad).total_cmp(&b.cost_m(start.yaw_rad)));
+        .min_by(|a, b| cost(a).total_cmp(&cost(b)));
     if let Some(best) = best {
         return Ok(best.clone());
     }
     match fitting_changes.map(Manoeuvre::length_m).min_by(f64::total_cmp) {
         Some(shortest_m) => Err(Refusal::TooLong { shortest_m }),
         None => Err(Refusal::TooManyDirectionChanges {
-            fewest: all.iter().map(Manoeuvre::direction_changes).min().unwrap_or(0),
+            fewest: all.iter().map(changes).min().unwrap_or(0),
         }),
     }
 }
@@ -295,6 +315,7 @@ mod tests {
             max_length_m: 60.0,
             max_direction_changes: 3,
             pivots: false,
+            arriving: None,
         }
     }
 
@@ -387,6 +408,38 @@ mod tests {
     }
 
     #[test]
+    fn a_first_stroke_against_the_way_it_arrived_is_a_change_of_direction() {
+        // Straight ahead: one forward stroke, no change of its own…
+        let ahead = Ned::new(4.0, 0.0);
+        let m = plan(&start(), ahead, Some(0.0), &config()).unwrap();
+        assert_eq!((m.direction_changes(), m.direction_changes_after(None)), (0, 0));
+        // …but one after arriving in reverse, so a limit of none refuses it.
+        assert_eq!(m.direction_changes_after(Some(Direction::Reverse)), 1);
+        let arrived_reversing = ManoeuvreConfig {
+            max_direction_changes: 0,
+            arriving: Some(Direction::Reverse),
+            ..config()
+        };
+        assert_eq!(
+            plan(&start(), ahead, Some(0.0), &arrived_reversing),
+            Err(Refusal::TooManyDirectionChanges { fewest: 1 })
+        );
+        // Any goal planned after arriving either way keeps to the limit,
+        // the junction counted.
+        for arriving in [Direction::Forward, Direction::Reverse] {
+            let cfg = ManoeuvreConfig {
+                arriving: Some(arriving),
+                ..config()
+            };
+            for (north, east) in [(0.02, 0.01), (1.0, 2.0), (-3.0, 1.0), (0.0, -0.5)] {
+                let m = plan(&start(), Ned::new(north, east), Some(0.0), &cfg).unwrap();
+                check_shape(&m, &start(), &cfg).unwrap();
+                assert!(m.direction_changes_after(Some(arriving)) <= 3, "{m:?}");
+            }
+        }
+    }
+
+    #[test]
     fn a_vehicle_that_pivots_turns_on_the_spot_for_a_goal_beside() {
         let cfg = ManoeuvreConfig {
             pivots: true,
@@ -404,6 +457,28 @@ mod tests {
         // The same goal without pivots takes arcs and is longer.
         let arcs = plan(&start(), Ned::new(0.0, 3.0), Some(0.0), &config()).unwrap();
         assert!(!arcs.pivots && arcs.length_m() > 3.0);
+    }
+
+    #[test]
+    fn a_centimetre_miss_of_a_vehicle_that_pivots_is_a_turn_drive_turn() {
+        // A retry 12 mm short and to the side: face the goal, drive the
+        // 12 mm, turn back (not a turn on the spot alone, which cannot
+        // move the vehicle), whichever way the vehicle arrived.
+        for arriving in [None, Some(Direction::Forward), Some(Direction::Reverse)] {
+            let cfg = ManoeuvreConfig {
+                pivots: true,
+                arriving,
+                ..config()
+            };
+            let goal = Ned::new(0.008, 0.009);
+            let m = plan(&start(), goal, Some(0.0), &cfg).unwrap();
+            assert!(m.pivots, "{m:?}");
+            assert_eq!(m.strokes.len(), 1, "{m:?}");
+            assert!((m.length_m() - 0.008f64.hypot(0.009)).abs() < 1e-12, "{}", m.length_m());
+            assert!(m.strokes[0].end.position.distance_to(&goal) < 1e-12);
+            assert_eq!(m.direction_changes_after(arriving), 0, "{m:?}");
+            assert_eq!(m.pivot_headings(0.0).len(), 2, "{m:?}");
+        }
     }
 
     #[test]
@@ -432,7 +507,7 @@ mod tests {
             prop_assert!(m.direction_changes() <= cfg.max_direction_changes);
             prop_assert!(m.length_m() <= cfg.max_length_m);
             let pivot_plan_cost = distance + 2.0 * PIVOT_COST_M;
-            prop_assert!(m.cost_m(start_yaw) <= pivot_plan_cost + 1e-9, "{} > {}", m.cost_m(start_yaw), pivot_plan_cost);
+            prop_assert!(m.cost_m(start_yaw, None) <= pivot_plan_cost + 1e-9, "{} > {}", m.cost_m(start_yaw, None), pivot_plan_cost);
             if m.pivots {
                 let last = m.strokes.last().unwrap();
                 prop_assert!(last.end.position.distance_to(&goal) < 1e-9);
@@ -458,7 +533,7 @@ mod tests {
                 let goal_pose = Pose { position: goal, yaw_rad: yaw };
                 for other in candidates(&start(), &goal_pose, &cfg) {
                     if other.direction_changes() <= cfg.max_direction_changes && other.length_m() <= cfg.max_length_m {
-                        prop_assert!(m.cost_m(0.0) <= other.cost_m(0.0) + 1e-9);
+                        prop_assert!(m.cost_m(0.0, None) <= other.cost_m(0.0, None) + 1e-9);
                     }
                 }
             }

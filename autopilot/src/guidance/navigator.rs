@@ -1279,6 +1279,7 @@ mod tests {
             max_length_m: 60.0,
             max_direction_changes: 3,
             pivots,
+            arriving: None,
         };
         let m = plan(&start, goal, yaw_deg.map(f64::to_radians), &mc).expect("a manoeuvre");
         let mut nav = Navigator::default();

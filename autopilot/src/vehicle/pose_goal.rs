@@ -55,6 +55,34 @@ pub(super) struct PoseGoal {
     /// The mission item this is the stop of (AUTO), reported reached or
     /// not by the final stop.
     pub seq: Option<u16>,
+    /// Changes between forward and reverse planned on the way to this goal
+    /// so far, and the way the last leg or stroke drives: a retry or the
+    /// turn onto the heading after a leg has what is left of `MNV_DIR_MAX`.
+    pub direction_changes: usize,
+    pub last_direction: Option<Direction>,
+}
+
+impl PoseGoal {
+    fn new(point: Ned, yaw_rad: Option<f64>, speed_mps: Option<f64>, seq: Option<u16>) -> PoseGoal {
+        PoseGoal {
+            point,
+            yaw_rad,
+            speed_mps,
+            retried: false,
+            turn_after_leg: false,
+            seq,
+            direction_changes: 0,
+            last_direction: None,
+        }
+    }
+
+    /// Notes a leg or manoeuvre driven towards the goal: `changes` within
+    /// it, and the way it starts and ends.
+    fn drive(&mut self, changes: usize, first: Option<Direction>, last: Option<Direction>) {
+        let turns_back = self.last_direction.is_some() && first.is_some() && first != self.last_direction;
+        self.direction_changes += changes + usize::from(turns_back);
+        self.last_direction = last.or(self.last_direction);
+    }
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -66,6 +94,10 @@ pub(super) struct PoseGoalState {
     /// A mission stop that ended out of tolerance: it is not reported
     /// reached.
     pub missed_seq: Option<u16>,
+    /// A mission stop with a heading that ended in tolerance by the
+    /// estimate, which is not sure of it: not claimed reached either (a
+    /// pose stop is a precision claim, as GUIDED's "Reached destination").
+    pub unconfirmed_seq: Option<u16>,
     /// A GUIDED/RTL stop in tolerance by the estimate, waiting for the
     /// estimate to be sure of it.
     pub confirming: Option<Confirming>,
@@ -91,6 +123,19 @@ impl Core {
             max_length_m: f64::from(m.length_max_m.get(t)),
             max_direction_changes: m.direction_changes_max.get(t).max(0) as usize,
             pivots: m.pivot.get(t) && self.drive_train == DriveTrain::Differential,
+            arriving: None,
+        }
+    }
+
+    /// The limits for driving on towards `goal`: the changes of direction
+    /// already planned on the way to it come off `MNV_DIR_MAX`, and a first
+    /// stroke against the way it last drove is one more.
+    pub(super) fn manoeuvre_config_towards(&self, goal: &PoseGoal) -> ManoeuvreConfig {
+        let config = self.manoeuvre_config();
+        ManoeuvreConfig {
+            max_direction_changes: config.max_direction_changes.saturating_sub(goal.direction_changes),
+            arriving: goal.last_direction,
+            ..config
         }
     }
 
@@ -100,14 +145,7 @@ impl Core {
         let Some(frame) = self.frame() else {
             return false;
         };
-        let goal = PoseGoal {
-            point: frame.to_local(&target),
-            yaw_rad,
-            speed_mps,
-            retried: false,
-            turn_after_leg: false,
-            seq: None,
-        };
+        let goal = PoseGoal::new(frame.to_local(&target), yaw_rad, speed_mps, None);
         self.goals.goal = Some(goal);
         self.goals.confirming = None;
         self.drive_to_goal(goal, false)
@@ -123,12 +161,8 @@ impl Core {
         seq: u16,
     ) -> bool {
         let goal = PoseGoal {
-            point,
-            yaw_rad: Some(yaw_rad),
-            speed_mps,
             retried: true,
-            turn_after_leg: false,
-            seq: Some(seq),
+            ..PoseGoal::new(point, Some(yaw_rad), speed_mps, Some(seq))
         };
         self.goals.goal = Some(goal);
         self.goals.confirming = None;
@@ -163,6 +197,7 @@ impl Core {
         };
         if let Some((direction, turn_after_leg)) = leg {
             goal.turn_after_leg = turn_after_leg;
+            goal.drive(0, Some(direction), Some(direction));
             self.goals.goal = Some(goal);
             self.navigator.set_target(
                 start.position,
@@ -176,8 +211,11 @@ impl Core {
             );
             return true;
         }
-        match plan(&start, goal.point, goal.yaw_rad, &self.manoeuvre_config()) {
+        match plan(&start, goal.point, goal.yaw_rad, &self.manoeuvre_config_towards(&goal)) {
             Ok(manoeuvre) => {
+                let first = manoeuvre.strokes.first().map(|s| s.direction);
+                goal.drive(manoeuvre.direction_changes(), first, manoeuvre.last_direction());
+                self.goals.goal = Some(goal);
                 let pivots = manoeuvre.pivot_headings(start.yaw_rad).len();
                 if manoeuvre.direction_changes() > 0 || manoeuvre_only || pivots > 0 {
                     self.send_text(
@@ -272,7 +310,12 @@ impl Core {
                 );
                 goal.retried = true;
                 self.goals.goal = Some(goal);
-                self.drive_to_goal(goal, true);
+                if !self.drive_to_goal(goal, true) {
+                    self.send_text(
+                        MavSeverity::MAV_SEVERITY_WARNING,
+                        &format!("Destination NOT reached: {miss}"),
+                    );
+                }
             }
             _ => self.send_text(
                 MavSeverity::MAV_SEVERITY_WARNING,

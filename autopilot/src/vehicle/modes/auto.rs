@@ -119,6 +119,13 @@ impl Core {
                         &format!("Waypoint #{seq} NOT reached: stop out of tolerance"),
                     );
                 }
+                Action::Reached(seq) if self.goals.unconfirmed_seq == Some(seq) => {
+                    self.goals.unconfirmed_seq = None;
+                    self.send_text(
+                        MavSeverity::MAV_SEVERITY_INFO,
+                        &format!("Waypoint #{seq} not claimed: stop unconfirmed"),
+                    );
+                }
                 Action::Reached(seq) => {
                     self.send(
                         Destination::AllLinks,

@@ -4,7 +4,7 @@
 
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
-use crate::guidance::manoeuvre::plan;
+use crate::guidance::manoeuvre::{ManoeuvreConfig, plan};
 use crate::guidance::navigator::StopReport;
 use crate::guidance::reeds_shepp::Pose;
 use crate::modes::Mode;
@@ -28,6 +28,7 @@ impl Core {
             self.report_stop(report);
             if report.seq.is_some() && !self.retry_mission_stop(report) {
                 self.goals.missed_seq = report.seq.filter(|_| !report.within_tolerance);
+                self.goals.unconfirmed_seq = report.seq.filter(|_| self.unconfirmed_pose_stop(report));
             }
         }
         self.advance_detour();
@@ -66,7 +67,12 @@ impl Core {
             yaw_rad: estimate.yaw_rad,
         };
         let goal = report.goal;
-        match plan(&start, goal.position, Some(goal.yaw_rad), &self.manoeuvre_config()) {
+        match plan(
+            &start,
+            goal.position,
+            Some(goal.yaw_rad),
+            &self.mission_retry_config(seq),
+        ) {
             Ok(manoeuvre) => {
                 self.send_text(
                     MavSeverity::MAV_SEVERITY_WARNING,
@@ -91,11 +97,39 @@ impl Core {
         }
     }
 
+    /// A mission stop with a heading (a pose goal) in tolerance by the
+    /// estimate, which cannot confirm it (its σ reaches past the
+    /// tolerance). A stop without a heading is reported reached by the
+    /// estimate's verdict alone: the mission's progress, as ArduPilot's.
+    fn unconfirmed_pose_stop(&self, report: &StopReport) -> bool {
+        let pose_stop = self.goals.goal.is_some_and(|g| g.seq.is_some() && g.seq == report.seq);
+        pose_stop
+            && report.within_tolerance
+            && self
+                .unconfirmed_because(report.position_error_m(), report.yaw_error_rad)
+                .is_some()
+    }
+
+    /// The limits for a mission stop's retry: what is left of
+    /// `MNV_DIR_MAX` after the pose goal's manoeuvre, or after the straight
+    /// leg into a stop without a heading (a first stroke against the way it
+    /// drove is a change of direction).
+    fn mission_retry_config(&self, seq: u16) -> ManoeuvreConfig {
+        match self.goals.goal.filter(|g| g.seq == Some(seq)) {
+            Some(goal) => self.manoeuvre_config_towards(&goal),
+            None => ManoeuvreConfig {
+                arriving: self.navigator.target().map(|t| t.direction),
+                ..self.manoeuvre_config()
+            },
+        }
+    }
+
     /// The achieved stop error, as the estimate has it once the vehicle
     /// rests: what an integrator checks a docking against. A stop in
     /// tolerance the estimate is not sure of says so, with the σ that keeps
-    /// it from being confirmed (AUTO still reports the item reached: the
-    /// estimate's verdict is its progress signal, as ArduPilot's); a stop
+    /// it from being confirmed (AUTO still reports a stop without a heading
+    /// reached: the estimate's verdict is its progress signal, as
+    /// ArduPilot's; a pose stop is not claimed); a stop
     /// that took longer than [`SETTLE_TARGET_S`] to settle says what it
     /// spent the time on.
     fn report_stop(&mut self, report: &StopReport) {
