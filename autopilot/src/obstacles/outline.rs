@@ -194,7 +194,11 @@ pub(crate) fn least_length(vectors: &[(f64, f64)]) -> f64 {
     let near_sq = least_sq * (1.0 + 1e-9) + f64::MIN_POSITIVE;
     vectors
         .iter()
-        .filter(|v| !(squared(v) > near_sq))
+        // A NaN length is kept, as the plain fold would see it.
+        .filter(|v| {
+            let sq = squared(v);
+            sq <= near_sq || sq.is_nan()
+        })
         .map(|v| v.0.hypot(v.1))
         .fold(f64::INFINITY, f64::min)
 }
