@@ -53,7 +53,7 @@
 //!
 //! Sources: docs/references.md §Seed 004.
 
-use super::outline::{Outline, segment_distance};
+use super::outline::{Outline, least_length, segment_offset};
 use super::{Footprint, Pose};
 use crate::geo::{Ned, wrap_pi};
 use crate::guidance::path::{LegPath, Piece};
@@ -409,7 +409,9 @@ impl SweptPath {
         let standing = obstacle_mps == 0.0;
         // Once per query: a polygon's extent is a dozen square roots.
         let extent_m = shape.extent_m();
-        let gap_now = self.shape_gap(0, shape, extent_m, (0.0, 0.0), f64::INFINITY);
+        if self.beyond_reach(centre, extent_m, obstacle_mps, threshold, horizon_s) {
+            return None;
+        }
         let mut t = 0.0;
         loop {
             let along_m = drive.along_m(t).min(self.length_m());
@@ -417,6 +419,9 @@ impl SweptPath {
             let sample = self.sample_at(along_m);
             let gap = self.shape_gap_at(&sample, shape, extent_m, shift, threshold);
             if gap <= threshold {
+                // Only a contact needs the exact gap now (a polygon's is
+                // dozens of distances).
+                let gap_now = self.shape_gap(0, shape, extent_m, (0.0, 0.0), f64::INFINITY);
                 let closing = t > 0.0 || self.closing_now(shape, extent_m, velocity, speed, gap_now);
                 return Some(Contact {
                     time_s: t,
@@ -436,6 +441,24 @@ impl SweptPath {
                 return None;
             }
         }
+    }
+
+    /// Whether a shape reaching `extent_m` from `centre`, moving at
+    /// `obstacle_mps` for `horizon_s`, stays further than `threshold` from
+    /// every outline along the path: its centre stays more than reach +
+    /// extent + threshold beyond the box of the reference points along one
+    /// axis (an interpolated pose's reference point lies in that box too).
+    /// The search would find no contact either; this saves its steps for the
+    /// tracks far from the path.
+    fn beyond_reach(&self, centre: Ned, extent_m: f64, obstacle_mps: f64, threshold: f64, horizon_s: f64) -> bool {
+        let moved_m = if obstacle_mps == 0.0 {
+            0.0
+        } else {
+            obstacle_mps * horizon_s.max(0.0)
+        };
+        // A micrometre for the rounding of the poses and the gaps.
+        let reach = self.reach_m + extent_m + moved_m + threshold + 1e-6;
+        reach.is_finite() && self.far_from_bounds(centre, reach)
     }
 
     /// How far an interpolated pose can be off the path: the sagitta of one
@@ -647,7 +670,8 @@ fn rect_gap(front_m: f64, rear_m: f64, half_width_m: f64, x: f64, y: f64) -> f64
     (dx * dx + dy * dy).sqrt()
 }
 
-/// Distance between a convex polygon (body frame, either winding) and the
+/// Distance between a convex polygon (body frame, either winding, at most
+/// [`MAX_VERTICES`](super::outline::MAX_VERTICES) corners) and the
 /// rectangle: 0 when they overlap (no separating axis among the rectangle's
 /// two and the polygon's edge normals), else the least corner-to-edge
 /// distance either way.
@@ -673,12 +697,13 @@ fn polygon_rect_gap(polygon: &[(f64, f64)], front_m: f64, rear_m: f64, half_widt
     let mid = polygon
         .iter()
         .fold((0.0, 0.0), |acc, p| (acc.0 + p.0 * inv, acc.1 + p.1 * inv));
-    let mut from_rect = f64::INFINITY;
+    // Each corner's offset from each edge; the least length is taken once.
+    let mut offsets = [(0.0, 0.0); 4 * super::outline::MAX_VERTICES];
     let mut separated = false;
     for i in 0..n {
         let (a, b) = (polygon[i], polygon[(i + 1) % n]);
-        for &c in &corners {
-            from_rect = from_rect.min(segment_distance(a, b, c));
+        for (o, &c) in offsets[4 * i..4 * i + 4].iter_mut().zip(&corners) {
+            *o = segment_offset(a, b, c);
         }
         // Separating axis: an edge's normal with every rectangle corner
         // strictly on the far side from the polygon (for a segment, on
@@ -704,7 +729,7 @@ fn polygon_rect_gap(polygon: &[(f64, f64)], front_m: f64, rear_m: f64, half_widt
     if !(axis_separated || separated) && n >= 2 {
         return 0.0;
     }
-    from_polygon.min(from_rect)
+    from_polygon.min(least_length(&offsets[..4 * n]))
 }
 
 #[cfg(test)]
@@ -905,6 +930,38 @@ mod tests {
                 .pose(turning.pose_count())
                 .is_some_and(|p| p.position.east_m < -0.5)
         );
+    }
+
+    #[test]
+    fn a_shape_judged_beyond_reach_never_comes_within_the_threshold() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let (mut beyond, mut checked) = (0, 0);
+        for _ in 0..400 {
+            let curvature = rng.random_range(-0.3..0.3);
+            let swept = arc(curvature, rng.random_bool(0.3), &AGV, rng.random_range(0.5..12.0));
+            let centre = Ned::new(rng.random_range(-20.0..20.0), rng.random_range(-20.0..20.0));
+            let radius_m = rng.random_range(0.1..1.0);
+            let shape = Shape::Disc { centre, radius_m };
+            let velocity: (f64, f64) = (rng.random_range(-1.5..1.5), rng.random_range(-1.5..1.5));
+            let (speed_mps, horizon_s, threshold) = (rng.random_range(0.0..2.0), 4.0, 0.3);
+            let obstacle_mps = velocity.0.hypot(velocity.1);
+            if !swept.beyond_reach(centre, radius_m, obstacle_mps, threshold, horizon_s) {
+                continue;
+            }
+            beyond += 1;
+            // Every centimetre of the vehicle's or the shape's motion.
+            let steps = ((speed_mps + obstacle_mps) * horizon_s / 0.01).ceil() as usize + 1;
+            for k in 0..=steps {
+                let t = horizon_s * k as f64 / steps as f64;
+                let sample = swept.sample_at((speed_mps * t).min(swept.length_m()));
+                let shift = (velocity.0 * t, velocity.1 * t);
+                let gap = swept.shape_gap_at(&sample, &shape, radius_m, shift, f64::INFINITY);
+                assert!(gap > threshold, "{centre:?} at {t} s: {gap}");
+                checked += 1;
+            }
+        }
+        assert!(beyond > 100 && checked > 10_000, "{beyond} shapes, {checked} instants");
     }
 
     #[test]
