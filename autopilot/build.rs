@@ -45,7 +45,39 @@ fn watch_head() {
     }
 }
 
+/// Whether the C library here is glibc `major.minor` or newer
+/// (`getconf GNU_LIBC_VERSION` says e.g. "glibc 2.36").
+fn host_glibc_at_least(major: u32, minor: u32) -> bool {
+    let Ok(out) = Command::new("getconf").arg("GNU_LIBC_VERSION").output() else {
+        return false;
+    };
+    let text = String::from_utf8_lossy(&out.stdout);
+    let version = text.trim().strip_prefix("glibc ").unwrap_or("");
+    let mut parts = version.split('.').map(|p| p.parse::<u32>().ok());
+    match (parts.next().flatten(), parts.next().flatten()) {
+        (Some(a), Some(b)) => (a, b) >= (major, minor),
+        _ => false,
+    }
+}
+
+/// Links `furrow` with packed relative relocations (DT_RELR): the ~16,000
+/// pointers in read-only data that a position-independent binary has the
+/// loader fix up at start took 0.4 MB of `.rela.dyn`, read at every start
+/// and resident from then on; packed they take 3 kB (RSS of `furrow sitl`
+/// 0.5 MB less). The loader must know the format (glibc 2.36 and later), so
+/// only a native build on such a glibc gets it: the binary runs where it
+/// was built, and a cross build is linked as before.
+fn pack_relative_relocs() {
+    let var = |name: &str| std::env::var(name).unwrap_or_default();
+    let native = var("TARGET") == var("HOST");
+    let linux_gnu = var("CARGO_CFG_TARGET_OS") == "linux" && var("CARGO_CFG_TARGET_ENV") == "gnu";
+    if native && linux_gnu && host_glibc_at_least(2, 36) {
+        println!("cargo:rustc-link-arg-bins=-Wl,-z,pack-relative-relocs");
+    }
+}
+
 fn main() {
+    pack_relative_relocs();
     println!("cargo:rerun-if-env-changed=FURROW_GIT_HASH");
     let from_env = std::env::var("FURROW_GIT_HASH").ok();
     let from_git = || {

@@ -100,6 +100,7 @@ fn in_process(seconds: f64, logging: bool) {
     let corners = [(40.0, 0.0), (40.0, 40.0), (0.0, 40.0), (0.0, 0.0)];
     let mut corner = 0;
     let start = Instant::now();
+    let cpu_start_s = crate::fleet::process::cpu_s(std::process::id());
     let stages_before = sim.stage_times();
     let mut driving = false;
     let mut odometer_m = 0.0;
@@ -137,6 +138,7 @@ fn in_process(seconds: f64, logging: bool) {
         allocations.add(change.allocations + change.reallocations, kind);
     }
     let wall = start.elapsed().as_secs_f64();
+    let cpu_s = crate::fleet::process::cpu_s(std::process::id()) - cpu_start_s;
     let stages = stage_delta(sim.stage_times(), stages_before);
     let ticks = sim.core().scheduler().tick_stats();
     let us = |ns: u64| ns as f64 / 1000.0;
@@ -151,13 +153,8 @@ fn in_process(seconds: f64, logging: bool) {
             log_bytes as f64 / 1e3 / sim.time().as_secs_f64()
         );
     }
-    println!(
-        "  {:.0}x real time ({:.3} s wall), {} corners reached, odometer {:.0} m",
-        sim.time().as_secs_f64() / wall,
-        wall,
-        corner - 1,
-        odometer_m
-    );
+    print_speed(sim.time().as_secs_f64(), wall, cpu_s);
+    println!("  {} corners reached, odometer {odometer_m:.0} m", corner - 1);
     println!(
         "  core tick: {} ticks, median {:.2} us, p99 {:.2} us, max {:.1} us",
         ticks.runs,
@@ -171,6 +168,18 @@ fn in_process(seconds: f64, logging: bool) {
         Some(ekf) => crate::ekf_cost::print(ekf),
         None => println!("EKF cost: the filter never started"),
     }
+}
+
+/// Simulated seconds per wall second and per CPU second of this process.
+/// Wall time counts the time other processes held the cores; the process's
+/// own CPU time (utime + stime, /proc/self/stat) does not.
+fn print_speed(simulated_s: f64, wall_s: f64, cpu_s: f64) {
+    println!(
+        "  {:.0}x real time ({wall_s:.3} s wall); {:.0}x per CPU second of this process ({cpu_s:.3} s CPU; load average {})",
+        simulated_s / wall_s,
+        simulated_s / cpu_s.max(1e-3),
+        crate::fleet::load_average()
+    );
 }
 
 /// The Ackermann simulation with the onboard log on or off, past its
@@ -348,7 +357,7 @@ fn real_process(seconds: f64, logging: bool) -> Result<(), String> {
     let stopped = sitl.interrupt(Duration::from_secs(10));
     let logs = autopilot::logging::store::LogStore::new(&data).list();
     let log_bytes: u64 = logs.iter().map(|l| l.size_bytes).sum();
-    let (sim_ratio, rss_kb, peak_kb, rss_breakdown) = result?;
+    let (speed, rss_kb, peak_kb, rss_breakdown) = result?;
     println!(
         "furrow sitl --speedup max, a ground station on TCP, {seconds:.0} s wall, {}:",
         log_label(logging)
@@ -360,7 +369,12 @@ fn real_process(seconds: f64, logging: bool) -> Result<(), String> {
             log_bytes as f64 / 1e6
         );
     }
-    println!("  {sim_ratio:.0}x real time (SYSTEM_TIME.time_boot_ms over wall time)");
+    println!(
+        "  {:.0}x real time (SYSTEM_TIME.time_boot_ms over wall time); {:.0}x per CPU second of the process (load average {})",
+        speed.per_wall_s,
+        speed.per_cpu_s,
+        crate::fleet::load_average()
+    );
     println!(
         "  RSS {:.1} MB (peak {:.1} MB)",
         rss_kb as f64 / 1024.0,
@@ -392,9 +406,15 @@ fn param_set(stream: &mut TcpStream, name: &str, value: f32) -> Result<(), Strin
     Ok(())
 }
 
+/// Simulated seconds per wall second and per CPU second of the process.
+struct Speed {
+    per_wall_s: f64,
+    per_cpu_s: f64,
+}
+
 /// Connects, sets the log on or off, measures simulated time over `seconds`
 /// of wall time, reads RSS.
-fn watch(sitl: &SitlProcess, seconds: f64, logging: bool) -> Result<(f64, u64, u64, String), String> {
+fn watch(sitl: &SitlProcess, seconds: f64, logging: bool) -> Result<(Speed, u64, u64, String), String> {
     let port = sitl.tcp_port;
     let stream = TcpStream::connect(("127.0.0.1", port)).map_err(|e| format!("connect: {e}"))?;
     stream
@@ -419,8 +439,14 @@ fn watch(sitl: &SitlProcess, seconds: f64, logging: bool) -> Result<(f64, u64, u
         newest.ok_or_else(|| "no SYSTEM_TIME".to_string())
     };
     let (t0, b0) = latest(Instant::now() + Duration::from_secs(1))?;
+    let cpu0_s = crate::fleet::process::cpu_s(sitl.pid());
     let (t1, b1) = latest(t0 + autopilot::time::duration_from_secs(seconds))?;
-    let ratio = f64::from(b1.wrapping_sub(b0)) / 1000.0 / (t1 - t0).as_secs_f64();
+    let cpu_s = crate::fleet::process::cpu_s(sitl.pid()) - cpu0_s;
+    let simulated_s = f64::from(b1.wrapping_sub(b0)) / 1000.0;
+    let speed = Speed {
+        per_wall_s: simulated_s / (t1 - t0).as_secs_f64(),
+        per_cpu_s: simulated_s / cpu_s.max(1e-3),
+    };
     let status = std::fs::read_to_string(format!("/proc/{}/status", sitl.pid())).unwrap_or_default();
     let field = |name: &str| {
         status
@@ -431,7 +457,7 @@ fn watch(sitl: &SitlProcess, seconds: f64, logging: bool) -> Result<(f64, u64, u
             .unwrap_or(0)
     };
     let breakdown = rss_breakdown(sitl.pid());
-    Ok((ratio, field("VmRSS:"), field("VmHWM:"), breakdown))
+    Ok((speed, field("VmRSS:"), field("VmHWM:"), breakdown))
 }
 
 /// Where the process's resident memory is, from /proc/PID/smaps: its own

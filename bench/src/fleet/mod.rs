@@ -17,7 +17,7 @@
 //! Everything received is checked against the official schemas.
 
 mod broker;
-mod process;
+pub(crate) mod process;
 mod start;
 
 use std::collections::BTreeMap;
@@ -526,7 +526,8 @@ fn order(serial: &str, order_id: &str, nodes: &[(&str, f64, f64)]) -> Value {
     })
 }
 
-fn load_average() -> String {
+/// The 1-minute load average, as /proc/loadavg says it.
+pub(crate) fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")
         .ok()
         .and_then(|l| l.split_whitespace().next().map(str::to_owned))
