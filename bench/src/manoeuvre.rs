@@ -97,14 +97,16 @@ struct Run {
 
 impl Run {
     /// `walk_m`: the GNSS's slow wander (simulated and as the estimator
-    /// models it), or the default.
-    fn new(model: ModelKind, seed: u64, walk_m: Option<f64>) -> Run {
+    /// models it), or the default; `params` (NAME, value) set first.
+    fn new(model: ModelKind, seed: u64, walk_m: Option<f64>, params: &[(String, f64)]) -> Run {
         let config = SimulationConfig {
             model,
             seed,
             ..SimulationConfig::default()
         };
-        let mut sim = Simulation::new(&config, SimulationParams::new(model));
+        let mut sim_params = SimulationParams::new(model);
+        sim_params.apply(params).expect("checked before the runs");
+        let mut sim = Simulation::new(&config, sim_params);
         if let Some(walk_m) = walk_m {
             for name in ["SIM_GPS_WALK", "EKF_GPS_WALK"] {
                 sim.core_mut()
@@ -282,7 +284,8 @@ const RECEIVERS: [(&str, Option<f64>); 2] = [("walk 5 mm", None), ("walk 1 mm", 
 
 /// Runs every goal (and RTL from it) on both models with `seeds` seeds
 /// each and prints the table.
-pub fn report(seeds: u64) {
+/// With `params` (NAME, value) set on every vehicle.
+pub fn report(seeds: u64, params: &[(String, f64)]) {
     println!();
     println!(
         "## manoeuvres: GUIDED to a pose {DISTANCES_M:?} m away in {BEARINGS} directions, facing north as at the start, then RTL (seeds 1..={seeds}; truth)"
@@ -295,7 +298,7 @@ pub fn report(seeds: u64) {
     let mut misses = Vec::new();
     for model in [ModelKind::Ackermann, ModelKind::Differential] {
         for (receiver, walk_m) in RECEIVERS {
-            drive_goals(model, receiver, walk_m, seeds, &mut misses);
+            drive_goals(model, (receiver, walk_m), seeds, params, &mut misses);
         }
     }
     println!();
@@ -306,7 +309,13 @@ pub fn report(seeds: u64) {
 }
 
 /// Every goal and RTL on one model and receiver: two rows, and the misses.
-fn drive_goals(model: ModelKind, receiver: &str, walk_m: Option<f64>, seeds: u64, misses: &mut Vec<Outcome>) {
+fn drive_goals(
+    model: ModelKind,
+    (receiver, walk_m): (&str, Option<f64>),
+    seeds: u64,
+    params: &[(String, f64)],
+    misses: &mut Vec<Outcome>,
+) {
     let (mut guided, mut rtl) = (Vec::new(), Vec::new());
     for seed in 1..=seeds {
         for (i, &distance) in DISTANCES_M.iter().enumerate() {
@@ -314,7 +323,7 @@ fn drive_goals(model: ModelKind, receiver: &str, walk_m: Option<f64>, seeds: u64
                 let bearing = (b as f64 * 360.0 / BEARINGS as f64).to_radians();
                 let (north, east) = (distance * bearing.cos(), distance * bearing.sin());
                 let run_seed = seed * 100 + (i * BEARINGS + b) as u64;
-                let mut run = Run::new(model, run_seed, walk_m);
+                let mut run = Run::new(model, run_seed, walk_m, params);
                 let label = format!(
                     "{model:?} {receiver} seed {run_seed}: {distance} m at {:.0}°",
                     bearing.to_degrees()
