@@ -29,14 +29,6 @@ const DIFFERENTIAL_DECEL_MPS2: f64 = 1.0;
 /// 16–19 mm wide (p99) at the turn-in lead of 0.12 s, 10–12 mm at 0.2 s,
 /// and wider again from 0.3 s.
 const DIFFERENTIAL_FF_EXIT_S: f64 = 0.2;
-/// No speed-ramp lead on a skid-steer vehicle (`ATC_DRV_LAG`, s), although
-/// its wheel drives lag (0.2 s simulated): the lead pushes both sides
-/// harder while it speeds up out of a corner, the moment it needs the
-/// speed difference to take the turn out. Measured (`furrow-bench tracking
-/// --seeds 2`, p99 of the first 3 m after a corner): 10.7 mm with a 0.2 s
-/// lead against 8.9 mm without on the AGV course, 13.2 against 12.2 mm on
-/// the square.
-const DIFFERENTIAL_DRIVE_LAG_S: f64 = 0.0;
 
 /// Overrides the declared defaults for `drive`.
 pub fn apply(builder: &mut ParamTableBuilder, drive: DriveTrain) {
@@ -52,7 +44,6 @@ pub fn apply(builder: &mut ParamTableBuilder, drive: DriveTrain) {
             builder.override_default("ATC_ACCEL_MAX", DIFFERENTIAL_ACCEL_MPS2);
             builder.override_default("ATC_DECEL_MAX", DIFFERENTIAL_DECEL_MPS2);
             builder.override_default("PVW_FF_EXIT", DIFFERENTIAL_FF_EXIT_S);
-            builder.override_default("ATC_DRV_LAG", DIFFERENTIAL_DRIVE_LAG_S);
             // Two driven wheels turn it on the spot: manoeuvres may.
             builder.override_default("MNV_PIVOT", 1.0);
         }
