@@ -108,14 +108,16 @@ struct Run {
 impl Run {
     /// `MNV_WP_YAW` is 1: a mission stop's heading is driven to.
     /// `walk_m`: the GNSS's slow wander (simulated and as the estimator
-    /// models it), or the default.
-    fn new(model: ModelKind, seed: u64, walk_m: Option<f64>) -> Run {
+    /// models it), or the default; `params` (NAME, value) set first.
+    fn new(model: ModelKind, seed: u64, walk_m: Option<f64>, params: &[(String, f64)]) -> Run {
         let config = SimulationConfig {
             model,
             seed,
             ..SimulationConfig::default()
         };
-        let mut sim = Simulation::new(&config, SimulationParams::new(model));
+        let mut sim_params = SimulationParams::new(model);
+        sim_params.apply(params).expect("checked before the runs");
+        let mut sim = Simulation::new(&config, sim_params);
         sim.core_mut()
             .params_mut()
             .set_by_name("MNV_WP_YAW", 1.0)
@@ -384,7 +386,8 @@ const RECEIVERS: [(&str, Option<f64>); 2] = [("walk 5 mm", None), ("walk 1 mm", 
 
 /// Runs every goal (and RTL from it) on both models with `seeds` seeds
 /// each and prints the table.
-pub fn report(seeds: u64) {
+/// With `params` (NAME, value) set on every vehicle.
+pub fn report(seeds: u64, params: &[(String, f64)]) {
     println!();
     println!(
         "## manoeuvres: GUIDED to a pose {DISTANCES_M:?} m away in {BEARINGS} directions, facing north as at the start, then RTL, then AUTO to the same pose (a mission stop with a heading) (seeds 1..={seeds}; truth)"
@@ -397,7 +400,7 @@ pub fn report(seeds: u64) {
     let (mut misses, mut many_changes) = (Vec::new(), Vec::new());
     for model in [ModelKind::Ackermann, ModelKind::Differential] {
         for (receiver, walk_m) in RECEIVERS {
-            drive_goals(model, receiver, walk_m, seeds, &mut misses, &mut many_changes);
+            drive_goals(model, (receiver, walk_m), seeds, params, &mut misses, &mut many_changes);
         }
     }
     println!();
@@ -411,9 +414,9 @@ pub fn report(seeds: u64) {
 /// Every goal and RTL on one model and receiver: two rows, and the misses.
 fn drive_goals(
     model: ModelKind,
-    receiver: &str,
-    walk_m: Option<f64>,
+    (receiver, walk_m): (&str, Option<f64>),
     seeds: u64,
+    params: &[(String, f64)],
     misses: &mut Vec<Outcome>,
     many_changes: &mut Vec<Outcome>,
 ) {
@@ -424,7 +427,7 @@ fn drive_goals(
                 let bearing = (b as f64 * 360.0 / BEARINGS as f64).to_radians();
                 let (north, east) = (distance * bearing.cos(), distance * bearing.sin());
                 let run_seed = seed * 100 + (i * BEARINGS + b) as u64;
-                let mut run = Run::new(model, run_seed, walk_m);
+                let mut run = Run::new(model, run_seed, walk_m, params);
                 let label = format!(
                     "{model:?} {receiver} seed {run_seed}: {distance} m at {:.0}°",
                     bearing.to_degrees()

@@ -205,14 +205,14 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
     if !(args.timeout_s.is_finite() && args.timeout_s > 0.0) {
         return Err(format!("--timeout-s {}: must be a positive number", args.timeout_s));
     }
-    if let Some(seeds) = args.manoeuvres_only {
-        super::manoeuvre::report(seeds.max(1));
-        return Ok(());
-    }
-    let courses = load_courses(&args.courses)?;
     // Refuse a bad --param before running anything.
     let mut probe = SimulationParams::new(ModelKind::Ackermann);
     probe.apply(&args.params)?;
+    if let Some(seeds) = args.manoeuvres_only {
+        super::manoeuvre::report(seeds.max(1), &args.params);
+        return Ok(());
+    }
+    let courses = load_courses(&args.courses)?;
     let value = |name: &str| probe.table.value_of(name).unwrap_or(f64::NAN);
     let (noise_mm, walk_mm) = (value("SIM_GPS_NOISE") * 1000.0, value("SIM_GPS_WALK") * 1000.0);
     let (rate_hz, heading_deg) = (value("SIM_GPS_RATE"), value("SIM_HDG_NOISE"));
@@ -263,7 +263,7 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
     }
     if args.courses.is_empty() {
         super::magnetic::report(args.seeds.min(4));
-        super::manoeuvre::report(1);
+        super::manoeuvre::report(1, &args.params);
     }
     Ok(())
 }
@@ -648,7 +648,7 @@ fn classify_error(
 }
 
 /// The simulator's point in the autopilot's frame, through WGS-84.
-fn true_local(sim: &Simulation, frame: &LocalFrame, north_m: f64, east_m: f64) -> Ned {
+pub(crate) fn true_local(sim: &Simulation, frame: &LocalFrame, north_m: f64, east_m: f64) -> Ned {
     let g = sim.world().local_to_geodetic(north_m, east_m);
     frame.to_local(&g)
 }

@@ -1,6 +1,9 @@
 //! Speed → throttle, as ArduPilot Rover does it: feed-forward from the cruise
 //! model (`CRUISE_SPEED` reached at `CRUISE_THROTTLE`) plus a PI correction
 //! on the speed error, with acceleration limits on the demanded speed.
+//! While the demand ramps at the acceleration limit, the feed-forward leads
+//! the ramp by the drive's lag, so the wheels follow the ramp rather than
+//! trail it.
 
 use crate::control::pid::{PidGains, PidState, PidTerms};
 
@@ -12,6 +15,8 @@ pub struct SpeedControlConfig {
     pub cruise_throttle: f64,
     pub accel_max_mps2: f64,
     pub decel_max_mps2: f64,
+    /// The drive's first-order lag (s); 0: no lead.
+    pub drive_lag_s: f64,
 }
 
 /// When braking to rest ends.
@@ -74,14 +79,16 @@ impl SpeedController {
         } else {
             config.accel_max_mps2
         } * dt_s;
-        self.limited_mps += step.clamp(-limit, limit);
+        let change = step.clamp(-limit, limit);
+        self.limited_mps += change;
 
         let full_throttle_speed = if config.cruise_throttle > 0.0 {
             config.cruise_speed_mps / config.cruise_throttle
         } else {
             1.0
         };
-        let feed_forward = self.limited_mps / full_throttle_speed.max(1e-3);
+        let lead_mps = ramp_lead_mps(config, change, change != step && !slowing, dt_s);
+        let feed_forward = (self.limited_mps + lead_mps) / full_throttle_speed.max(1e-3);
         self.last_terms = match measured_mps {
             Some(measured) => self.pid.update(&config.gains, self.limited_mps - measured, dt_s),
             None => {
@@ -133,6 +140,20 @@ impl SpeedController {
     }
 }
 
+/// How far ahead of the demand the drive is commanded while the demand
+/// speeds up at the acceleration limit (`ramping`): a first-order drive of
+/// lag τ trails a ramp of slope a by τ·a, and one commanded τ·a ahead
+/// follows it. Only at the limit: there the slope is the controller's own
+/// and known, not the derivative of a demand that may be noisy. Slowing
+/// down gets none: stops are planned with room for the lag.
+fn ramp_lead_mps(config: &SpeedControlConfig, change_mps: f64, ramping: bool, dt_s: f64) -> f64 {
+    if ramping && dt_s > 0.0 && config.drive_lag_s > 0.0 {
+        config.drive_lag_s * change_mps / dt_s
+    } else {
+        0.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -149,6 +170,7 @@ mod tests {
             cruise_throttle: 0.5,
             accel_max_mps2: 1.0,
             decel_max_mps2: 2.0,
+            drive_lag_s: 0.0,
         }
     }
 
@@ -167,6 +189,59 @@ mod tests {
             c.update(&config(), 2.0, Some(0.0), 0.02);
         }
         assert!((c.limited_demand_mps() - 1.0).abs() < 1e-9, "1 m/s² for 1 s");
+    }
+
+    /// The true speed of a first-order drive of lag `tau_s` (throttle 1 =
+    /// 4 m/s, the cruise model of `config`) after each tick of a start from
+    /// rest towards 2 m/s, feed-forward alone.
+    fn start_through_lag(drive_lag_s: f64, tau_s: f64) -> Vec<(f64, f64)> {
+        let config = SpeedControlConfig {
+            drive_lag_s,
+            ..config()
+        };
+        let mut c = SpeedController::default();
+        c.reset(0.0);
+        let (dt, mut v) = (0.02, 0.0);
+        (0..100)
+            .map(|_| {
+                let command_mps = 4.0 * c.update(&config, 2.0, None, dt);
+                v += (command_mps - v) * (1.0 - (-dt / tau_s).exp());
+                (c.limited_demand_mps(), v)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_lead_makes_a_lagging_drive_follow_the_ramp() {
+        let tau = 0.3;
+        // Without the lead the wheels trail the 1 m/s² ramp by τ·a = 0.3 m/s.
+        let trailing = start_through_lag(0.0, tau);
+        let (demand, v) = trailing[49];
+        assert!((demand - v - 0.3).abs() < 0.03, "{demand} {v}");
+        // With it they follow the ramp, within half a tick's worth of it
+        // (the command holds over a tick the ramp climbs through), and do
+        // not overshoot its end.
+        let leading = start_through_lag(tau, tau);
+        for &(demand, v) in &leading {
+            assert!((demand - v).abs() <= 0.011, "{demand} {v}");
+        }
+        assert!(leading.iter().all(|&(_, v)| v <= 2.0));
+    }
+
+    #[test]
+    fn no_lead_when_slowing_or_below_the_limit() {
+        let config = SpeedControlConfig {
+            drive_lag_s: 0.3,
+            ..config()
+        };
+        let mut c = SpeedController::default();
+        c.reset(1.0);
+        // A demand change within the limit, and braking: feed-forward alone.
+        assert!((c.update(&config, 1.01, None, 0.02) - 1.01 / 4.0).abs() < 1e-12);
+        assert!((c.update(&config, 0.0, None, 0.02) - 0.97 / 4.0).abs() < 1e-12);
+        // Speeding up in reverse leads the other way.
+        c.reset(0.0);
+        assert!((c.update(&config, -1.0, None, 0.02) - (-0.02 - 0.3) / 4.0).abs() < 1e-12);
     }
 
     #[test]

@@ -156,6 +156,7 @@ impl Core {
             cruise_throttle: f64::from(nav.cruise_throttle_pct.get(t)) / 100.0,
             accel_max_mps2: f64::from(nav.accel_max_mps2.get(t)),
             decel_max_mps2: self.decel_limit_mps2(),
+            drive_lag_s: f64::from(nav.drive_lag_s.get(t)),
         }
     }
 

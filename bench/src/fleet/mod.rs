@@ -55,6 +55,10 @@ pub struct FleetBenchArgs {
 }
 
 const MAP: &str = "bench";
+/// The simulated car's drive lag (s): the lead the latency run also times.
+const LEAD_S: f64 = 0.3;
+/// Every node's `allowedDeviationXY` (m).
+const ALLOWED_DEVIATION_M: f64 = 0.3;
 /// Ports 15760… and 24550… (instance 1000 on): clear of a ground station's.
 const INSTANCE: &str = "1000";
 
@@ -218,7 +222,17 @@ impl Bench<'_> {
             median_max(&node_ms),
             node_ms.len()
         );
-        print_starts(&start::starts(orders.max(3))?, &moving_ms);
+        let orders = orders.max(3);
+        let measured = start::measure(orders, &[])?;
+        print_starts(&measured.starts, &moving_ms, "");
+        let lead = [("ATC_DRV_LAG".to_owned(), LEAD_S)];
+        let with_lead = start::measure(orders, &lead)?;
+        print_starts(
+            &with_lead.starts,
+            &moving_ms,
+            &format!(" with ATC_DRV_LAG={LEAD_S} (the throttle leads the ramp by the drive's lag)"),
+        );
+        print_nodes(&measured.nodes);
         Ok(())
     }
 
@@ -320,29 +334,72 @@ impl Bench<'_> {
 }
 
 /// The in-process starts, and what they add to the end-to-end `driving`.
-fn print_starts(starts: &[start::Start], driving_ms: &[f64]) {
+fn print_starts(starts: &[start::Start], driving_ms: &[f64], label: &str) {
     let column = |f: fn(&start::Start) -> f64| starts.iter().map(f).collect::<Vec<f64>>();
-    let commanded = column(|s| s.commanded_ms);
-    let moving = column(|s| s.moving_ms);
     println!(
-        "order's tick -> truly moving, in-process ({} starts from rest, simulated ms = wall ms at speedup 1; median / max):",
+        "order's tick -> truly moving, in-process{label} ({} starts from rest, simulated ms = wall ms at speedup 1; median / max):",
         starts.len()
     );
-    println!("  -> drive commanded (driving)          {}", median_max(&commanded));
     println!(
-        "  -> state with driving leaves the core {}",
+        "  -> drive commanded (driving)              {}",
+        median_max(&column(|s| s.commanded_ms))
+    );
+    println!(
+        "  -> state with driving leaves the core     {}",
         median_max(&column(|s| s.state_driving_ms))
     );
+    let floor = column(|s| s.rest_floor_mps).into_iter().fold(0.0, f64::max);
     println!(
-        "  -> wheels turning (truth > 1 mm/s)    {}",
-        median_max(&column(|s| s.turning_ms))
+        "  -> moving (true speed above its rest floor, at most {floor:.1e} m/s) {}",
+        median_max(&column(|s| s.moving_ms))
     );
-    println!("  -> truth past 3 cm/s                  {}", median_max(&moving));
-    let after_command: Vec<f64> = starts.iter().map(|s| s.moving_ms - s.commanded_ms).collect();
-    if let (Some(e2e), Some(rest)) = (median(driving_ms), median(&after_command)) {
+    println!(
+        "  -> true speed past driving's 3 cm/s       {}",
+        median_max(&column(|s| s.driving_speed_ms))
+    );
+    let Some(e2e) = median(driving_ms) else {
+        return;
+    };
+    for (what, mark) in [
+        ("moving", column(|s| s.moving_ms - s.commanded_ms)),
+        ("past 3 cm/s", column(|s| s.driving_speed_ms - s.commanded_ms)),
+    ] {
+        if let Some(rest) = median(&mark) {
+            println!(
+                "  order sent -> {what}, end to end ~ {:.1} ms (the state with driving, {e2e:.1}, plus commanded -> {what}, {rest:.1})",
+                e2e + rest
+            );
+        }
+    }
+}
+
+/// Node reached -> its `state`, in-process, pass-through and stop nodes
+/// apart (a stop is reached once the vehicle rests on it).
+fn print_nodes(nodes: &[start::NodeReach]) {
+    for stops in [false, true] {
+        let of =
+            |f: fn(&start::NodeReach) -> f64| nodes.iter().filter(|n| n.stops == stops).map(f).collect::<Vec<f64>>();
+        let count = nodes.iter().filter(|n| n.stops == stops).count();
         println!(
-            "  order sent -> truth past 3 cm/s, end to end ~ {:.1} ms (the state with driving, {e2e:.1}, plus commanded -> 3 cm/s, {rest:.1})",
-            e2e + rest
+            "node reached -> state with it leaves the core, in-process, {count} {} nodes (simulated ms; median / max):",
+            if stops { "stop" } else { "pass-through" }
+        );
+        println!(
+            "  from the navigator's arrival              {}",
+            median_max(&of(|n| n.from_decision_ms))
+        );
+        println!(
+            "  from the truth {}   {}",
+            if stops {
+                "at rest within the deviation"
+            } else {
+                "abreast of the node         "
+            },
+            median_max(&of(|n| n.from_truth_ms))
+        );
+        println!(
+            "  truth's distance from the node then (cm)  {}",
+            median_max(&of(|n| 100.0 * n.distance_at_state_m))
         );
     }
 }
@@ -508,7 +565,7 @@ fn order(serial: &str, order_id: &str, nodes: &[(&str, f64, f64)]) -> Value {
         .enumerate()
         .map(|(i, (id, x, y))| {
             json!({"nodeId": id, "sequenceId": 2 * i, "released": true, "actions": [],
-                   "nodePosition": {"x": x, "y": y, "mapId": MAP, "allowedDeviationXY": 0.3}})
+                   "nodePosition": {"x": x, "y": y, "mapId": MAP, "allowedDeviationXY": ALLOWED_DEVIATION_M}})
         })
         .collect();
     let edge_list: Vec<Value> = nodes

@@ -1,12 +1,23 @@
-//! Order → truly moving, in-process: one simulated vehicle (the Ackermann
-//! car `furrow sitl` runs) is sent orders through its VDA 5050 inputs, and
-//! each start is timed in simulated time from the tick the order arrives in
-//! (at speedup 1 simulated time is wall time): to the first tick whose
-//! drive demand moves (what `driving` reports), to the first `state` that
-//! says so, to the wheels turning (the simulator's true speed above
-//! 1 mm/s), and to the true speed past 3 cm/s.
+//! Order → truly moving and node reached → `state`, in-process: one
+//! simulated vehicle (the Ackermann car `furrow sitl` runs) is sent orders
+//! through its VDA 5050 inputs, and each is timed in simulated time (at
+//! speedup 1 simulated time is wall time).
+//!
+//! A start is timed from the tick the order arrives in: to the first tick
+//! whose drive demand moves (what `driving` reports), to the first `state`
+//! that says so, to the true body moving, and to its true speed past
+//! `driving`'s 3 cm/s. "Moving" is read from the simulator's truth: the
+//! simulated drive has no noise, so at rest the true speed is only the
+//! fading tail of the last stop; the body moves once its true speed rises
+//! above the largest it showed during the rest before the order.
+//!
+//! A node is timed from the truth reaching it (abreast of a pass-through
+//! node; at rest within the allowed deviation of a stop) and from the
+//! navigator's decision that it has arrived, to the first `state` that
+//! names it `lastNodeId` as it leaves the core.
+//!
 //! A real order also waits for the next tick (up to one period) and its
-//! MQTT transit: the end-to-end figures above it say what those add.
+//! MQTT transit: the end-to-end figures above these say what those add.
 
 use std::time::Duration;
 
@@ -16,10 +27,13 @@ use autopilot::time::FrozenTimer;
 use autopilot::vehicle::FleetMessage;
 use vehicle_types::ActuatorDemand;
 
-/// The true speed that counts as moving (m/s): `driving`'s threshold.
-const MOVING_MPS: f64 = 0.03;
-/// The wheels turn (m/s).
-const TURNING_MPS: f64 = 0.001;
+/// `driving`'s speed threshold for an estimate (m/s).
+const DRIVING_MPS: f64 = 0.03;
+/// Rest before each order (s): the last stop's drive tail fades.
+const REST_S: f64 = 5.0;
+/// Slower than this the vehicle has come to rest on a stop (m/s): the
+/// tracking bench's line between driving and resting.
+const RESTING_MPS: f64 = 0.01;
 
 /// Milliseconds from an order's tick to each mark of its start.
 #[derive(Clone, Copy, Debug, Default)]
@@ -27,19 +41,49 @@ pub struct Start {
     pub commanded_ms: f64,
     /// The first `state` that says `driving` leaves the core.
     pub state_driving_ms: f64,
-    pub turning_ms: f64,
+    /// The true speed first above its rest floor.
     pub moving_ms: f64,
+    /// The true speed first past [`DRIVING_MPS`].
+    pub driving_speed_ms: f64,
+    /// The largest true speed during the rest before the order (m/s).
+    pub rest_floor_mps: f64,
 }
 
-/// `orders` starts, each from rest, each order 12 m north of where the
-/// vehicle stands.
-pub fn starts(orders: usize) -> Result<Vec<Start>, String> {
+/// One node of an order as the vehicle reached it: ms of simulated time
+/// from each mark to the first `state` naming it `lastNodeId` (negative:
+/// the state came first).
+#[derive(Clone, Copy, Debug)]
+pub struct NodeReach {
+    /// The order's last node: the vehicle stops on it.
+    pub stops: bool,
+    /// From the navigator's first tick of arrival.
+    pub from_decision_ms: f64,
+    /// From the truth reaching the node: a pass-through node once the
+    /// vehicle is abreast of it (along the edge), a stop once the vehicle
+    /// has slowed below [`RESTING_MPS`] within the allowed deviation.
+    pub from_truth_ms: f64,
+    /// The truth's distance from the node when the state leaves (m).
+    pub distance_at_state_m: f64,
+}
+
+/// What the in-process orders measured.
+#[derive(Default)]
+pub struct Measured {
+    pub starts: Vec<Start>,
+    pub nodes: Vec<NodeReach>,
+}
+
+/// `orders` orders, each from rest, each of three nodes 6 m apart north of
+/// where the vehicle stands, with `params` set (NAME, value).
+pub fn measure(orders: usize, params: &[(String, f64)]) -> Result<Measured, String> {
     let model = ModelKind::Ackermann;
     let config = SimulationConfig {
         model,
         ..SimulationConfig::default()
     };
-    let mut sim = Simulation::new(&config, SimulationParams::new(model));
+    let mut sim_params = SimulationParams::new(model);
+    sim_params.apply(params)?;
+    let mut sim = Simulation::new(&config, sim_params);
     sim.core_mut().enable_vda5050(AgentConfig {
         map_id: super::MAP.into(),
         ..AgentConfig::default()
@@ -50,36 +94,34 @@ pub fn starts(orders: usize) -> Result<Vec<Start>, String> {
     })
     .then_some(())
     .ok_or("no fix within 60 s")?;
-    let mut starts = Vec::new();
+    let mut measured = Measured::default();
     for k in 0..orders {
-        // At rest, and the estimate settled.
-        run_until(&mut sim, 5.0, |_| false);
+        let rest_floor_mps = rest(&mut sim, REST_S);
         let at = sim.core().estimator().estimate().position;
         let (x, y) = (at.east_m, at.north_m);
         let nodes = [("a", x, y), ("b", x, y + 6.0), ("c", x, y + 12.0)];
         let order = super::order("start", &format!("start-{k}"), &nodes);
         let payload = serde_json::to_vec(&order).map_err(|e| e.to_string())?;
         sim.inputs_mut().vda5050.push((vda5050::Topic::Order, payload));
-        starts.push(time_start(&mut sim)?);
-        let finished = run_until(&mut sim, 60.0, |s| {
-            s.core().fleet_agent().is_some_and(|a| !a.has_order()) && s.world().truth().speed_mps.abs() < 1e-3
-        });
-        if !finished {
-            return Err(format!("order start-{k} did not finish within 60 s"));
-        }
+        measured.starts.push(time_start(&mut sim, rest_floor_mps)?);
+        let reached = follow_nodes(&mut sim, &nodes, 60.0)
+            .ok_or_else(|| format!("order start-{k} did not finish within 60 s"))?;
+        measured.nodes.extend(reached);
     }
-    Ok(starts)
+    Ok(measured)
 }
 
 /// Steps from the tick the order is in until the true speed passes
-/// [`MOVING_MPS`].
-fn time_start(sim: &mut Simulation) -> Result<Start, String> {
+/// [`DRIVING_MPS`].
+fn time_start(sim: &mut Simulation, rest_floor_mps: f64) -> Result<Start, String> {
     let mut start = Start {
         state_driving_ms: f64::NAN,
+        commanded_ms: f64::NAN,
+        moving_ms: f64::NAN,
+        rest_floor_mps,
         ..Start::default()
     };
-    let (mut commanded, mut turning) = (false, false);
-    let mut t0 = None;
+    let mut t0_ms = None;
     for _ in 0..500 {
         let wall = sim.time();
         let out = sim.step(wall, &mut FrozenTimer);
@@ -88,27 +130,109 @@ fn time_start(sim: &mut Simulation) -> Result<Start, String> {
             .vda5050
             .drain(..)
             .any(|m| matches!(m, FleetMessage::State(state) if state.driving));
+        // The order is in the first tick stepped: its time is 0.
         let now_ms = sim.time().as_secs_f64() * 1e3;
-        let t0 = *t0.get_or_insert(now_ms);
-        let since_ms = now_ms - t0;
+        let since_ms = now_ms - *t0_ms.get_or_insert(now_ms);
         let speed_mps = sim.world().truth().speed_mps.abs();
-        if says_driving && start.state_driving_ms.is_nan() {
-            start.state_driving_ms = since_ms;
-        }
-        if !commanded && moves(sim.last_demand()) {
-            commanded = true;
-            start.commanded_ms = since_ms;
-        }
-        if !turning && speed_mps > TURNING_MPS {
-            turning = true;
-            start.turning_ms = since_ms;
-        }
-        if speed_mps > MOVING_MPS {
-            start.moving_ms = since_ms;
+        let first = |mark: &mut f64, now: bool| {
+            if now && mark.is_nan() {
+                *mark = since_ms;
+            }
+        };
+        first(&mut start.state_driving_ms, says_driving);
+        first(&mut start.commanded_ms, moves(sim.last_demand()));
+        first(&mut start.moving_ms, speed_mps > rest_floor_mps);
+        if speed_mps > DRIVING_MPS {
+            start.driving_speed_ms = since_ms;
             return Ok(start);
         }
     }
     Err("the vehicle did not move within 500 ticks of the order".into())
+}
+
+/// Marks of one node, in simulated ms.
+#[derive(Clone, Copy)]
+struct Marks {
+    truth_ms: f64,
+    decision_ms: f64,
+    state_ms: f64,
+    distance_at_state_m: f64,
+}
+
+/// Steps until the order is done and the vehicle at rest, timing each of
+/// `nodes` after the first (id, map x, map y: the map is the estimator's
+/// frame here).
+fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) -> Option<Vec<NodeReach>> {
+    let frame = sim.core().estimator().frame().copied()?;
+    let mut marks = vec![
+        Marks {
+            truth_ms: f64::NAN,
+            decision_ms: f64::NAN,
+            state_ms: f64::NAN,
+            distance_at_state_m: f64::NAN,
+        };
+        nodes.len()
+    ];
+    let mut was_arrived = sim.core().navigator().arrived();
+    let end = sim.time() + Duration::from_secs_f64(seconds);
+    while sim.time() < end {
+        let wall = sim.time();
+        let out = sim.step(wall, &mut FrozenTimer);
+        out.mavlink.clear();
+        let named: Vec<String> = out
+            .vda5050
+            .drain(..)
+            .filter_map(|m| match m {
+                FleetMessage::State(state) => Some(state.last_node_id),
+                _ => None,
+            })
+            .collect();
+        let now_ms = sim.time().as_secs_f64() * 1e3;
+        let truth = *sim.world().truth();
+        let at = crate::tracking::true_local(sim, &frame, truth.north_m, truth.east_m);
+        let arrived = sim.core().navigator().arrived();
+        for i in 1..nodes.len() {
+            let ((_, x0, y0), (_, x, y)) = (nodes[i - 1], nodes[i]);
+            let (dx, dy) = (at.east_m - x, at.north_m - y);
+            let truly = if i + 1 == nodes.len() {
+                dx.hypot(dy) <= super::ALLOWED_DEVIATION_M && truth.speed_mps.abs() < RESTING_MPS
+            } else {
+                // Abreast of the node or past it, along the edge.
+                dx * (x - x0) + dy * (y - y0) >= 0.0
+            };
+            if truly && marks[i].truth_ms.is_nan() {
+                marks[i].truth_ms = now_ms;
+            }
+        }
+        // The leg being driven ends at the first node not yet named.
+        if let Some(i) = (1..nodes.len()).find(|&i| marks[i].state_ms.is_nan()) {
+            let (id, x, y) = nodes[i];
+            let m = &mut marks[i];
+            if arrived && !was_arrived && m.decision_ms.is_nan() {
+                m.decision_ms = now_ms;
+            }
+            if named.iter().any(|named| named == id) {
+                m.state_ms = now_ms;
+                m.distance_at_state_m = (at.east_m - x).hypot(at.north_m - y);
+            }
+        }
+        was_arrived = arrived;
+        if sim.core().fleet_agent().is_some_and(|a| !a.has_order()) && truth.speed_mps.abs() < 1e-3 {
+            break;
+        }
+    }
+    marks[1..]
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            (!m.state_ms.is_nan()).then(|| NodeReach {
+                stops: k + 2 == nodes.len(),
+                from_decision_ms: m.state_ms - m.decision_ms,
+                from_truth_ms: m.state_ms - m.truth_ms,
+                distance_at_state_m: m.distance_at_state_m,
+            })
+        })
+        .collect()
 }
 
 fn moves(demand: ActuatorDemand) -> bool {
@@ -116,6 +240,16 @@ fn moves(demand: ActuatorDemand) -> bool {
         ActuatorDemand::Ackermann { throttle, .. } => throttle != 0.0,
         ActuatorDemand::Differential { left, right } => left != 0.0 || right != 0.0,
     }
+}
+
+/// Steps `seconds` at rest; the largest true speed seen (m/s).
+fn rest(sim: &mut Simulation, seconds: f64) -> f64 {
+    let mut floor_mps: f64 = 0.0;
+    run_until(sim, seconds, |s| {
+        floor_mps = floor_mps.max(s.world().truth().speed_mps.abs());
+        false
+    });
+    floor_mps
 }
 
 /// Steps (wall time following simulated time) until `done` or `seconds`.
