@@ -106,6 +106,7 @@
 //! Sources: docs/references.md §Seed 002.
 
 use super::magnetic_estimate::TapeEstimate;
+use super::magnetic_slope::ReadingSlope;
 use super::magnetic_turn::{TurnBackModel, search_speed_mps};
 
 /// Probes per sensor.
@@ -609,6 +610,9 @@ struct SensorTrack {
     rate_mps: f64,
     /// How long it has been on the tape without a break.
     on_tape_s: f64,
+    /// A line through its readings since it found the tape: its rate before
+    /// the low-pass one has settled.
+    slope: ReadingSlope,
     /// While it is off the tape: the side the tape is on (±1), once known.
     /// It cannot change without the sensor seeing the tape on the way
     /// across, so it is kept until then.
@@ -616,6 +620,16 @@ struct SensorTrack {
 }
 
 impl SensorTrack {
+    /// Its rate: the low-pass one once settled, before that the line
+    /// through its readings once there are enough; `None` until then.
+    fn known_rate_mps(&self, config: &MagneticGuideConfig) -> Option<f64> {
+        if self.on_tape_s >= rate_settle_s(config) {
+            Some(self.rate_mps)
+        } else {
+            self.slope.rate_mps()
+        }
+    }
+
     fn update(&mut self, reading_m: Option<f64>, cutoff_hz: f64, dt_s: f64) {
         self.rate_mps = match (self.current_m, reading_m) {
             (Some(last), Some(now)) if dt_s > 0.0 => low_pass(self.rate_mps, (now - last) / dt_s, cutoff_hz, dt_s),
@@ -625,6 +639,7 @@ impl SensorTrack {
             (Some(_), Some(_)) => self.on_tape_s + dt_s.max(0.0),
             _ => 0.0,
         };
+        self.slope.update(reading_m, dt_s);
         self.current_m = reading_m;
         if let Some(now) = reading_m.filter(|r| *r != 0.0) {
             self.side = Some(now.signum());
@@ -986,14 +1001,23 @@ impl MagneticGuide {
             Sensor::Front => (self.front, config.front_x_m, -1.0),
             Sensor::Rear => (self.rear, config.rear_x_m, 1.0),
         };
-        let settled = seen_track.on_tape_s >= rate_settle_s(config) && seen_m.abs() <= trust_m;
+        let low_pass_settled = seen_track.on_tape_s >= rate_settle_s(config) && seen_m.abs() <= trust_m;
+        // With nothing carried forward, a line through the seen sensor's
+        // first readings is the best there is (see `ReadingSlope`).
+        let fitted = predicted_other_m.is_none() && seen_track.slope.rate_mps().is_some();
+        let settled = low_pass_settled || fitted;
         let from_rate_m = self.other_sensor_m(config, &seen_track, x_m, seen_m, towards, input);
         let estimate_m = predicted_other_m.filter(|_| !settled).unwrap_or(from_rate_m);
+        // The side is decided once the rate has settled, or the line puts
+        // the blind sensor clearly on one side; until then it is a guess,
+        // kept open.
+        let decided = seen_track.on_tape_s >= rate_settle_s(config)
+            || (fitted && estimate_m.abs() >= 0.5 * config.sensor_reach_m());
         let lost = match seen {
             Sensor::Front => &mut self.rear,
             Sensor::Rear => &mut self.front,
         };
-        (Self::place_lost(lost, &seen_track, estimate_m, config), settled)
+        (Self::place_lost(lost, decided, estimate_m, config), settled)
     }
 
     /// The other sensor's deviation from this one (`track`, at `x_m`,
@@ -1019,8 +1043,9 @@ impl MagneticGuide {
     ) -> f64 {
         let (speed_mps, yaw_rate) = (input.speed_mps, input.yaw_rate_rad_s);
         let moving = speed_mps.abs() > MIN_RATE_SPEED_MPS;
+        let rate_mps = track.known_rate_mps(config).unwrap_or(track.rate_mps);
         let tan_alpha = if moving {
-            (track.rate_mps + yaw_rate * x_m) / speed_mps
+            (rate_mps + yaw_rate * x_m) / speed_mps
         } else {
             0.0
         };
@@ -1198,16 +1223,16 @@ impl MagneticGuide {
     /// Where a sensor that is off the tape probably has it: at least just
     /// past its outermost probe, on the side it last saw it (the tape left
     /// through that edge) or, never having seen it, on the side the other
-    /// sensor's reading and rate put it (decided once that rate has settled);
+    /// sensor's reading and rate put it (decided once that rate has settled,
+    /// or a line through its first readings puts it clearly on one side);
     /// further out if they say so.
-    fn place_lost(lost: &mut SensorTrack, seen: &SensorTrack, estimate_m: f64, config: &MagneticGuideConfig) -> f64 {
+    fn place_lost(lost: &mut SensorTrack, decided: bool, estimate_m: f64, config: &MagneticGuideConfig) -> f64 {
         let edge_m = LOST_EDGE_PITCHES * config.probe_pitch_m;
         let side = match lost.side {
             Some(side) => side,
             None if estimate_m == 0.0 => return 0.0,
             None => {
-                let settle_s = rate_settle_s(config);
-                if seen.on_tape_s >= settle_s {
+                if decided {
                     lost.side = Some(estimate_m.signum());
                 }
                 estimate_m.signum()
