@@ -613,6 +613,10 @@ struct SensorTrack {
     /// A line through its readings since it found the tape: its rate before
     /// the low-pass one has settled.
     slope: ReadingSlope,
+    /// It found the tape after being off it, and has read it since: an edge
+    /// reading then is the tape coming in, where it reads, not "this far or
+    /// further" (see [`pushed_out`]).
+    came_in: bool,
     /// While it is off the tape: the side the tape is on (±1), once known.
     /// It cannot change without the sensor seeing the tape on the way
     /// across, so it is kept until then.
@@ -640,6 +644,11 @@ impl SensorTrack {
             _ => 0.0,
         };
         self.slope.update(reading_m, dt_s);
+        self.came_in = match (self.current_m, reading_m) {
+            (None, Some(_)) => true,
+            (Some(_), Some(_)) => self.came_in,
+            _ => false,
+        };
         self.current_m = reading_m;
         if let Some(now) = reading_m.filter(|r| *r != 0.0) {
             self.side = Some(now.signum());
@@ -935,7 +944,18 @@ impl MagneticGuide {
         };
         let trust_m = config.sensor_reach_m() - TRUST_MARGIN_PITCHES * config.probe_pitch_m.abs();
         let trusted = |e: f64| e.abs() <= trust_m;
-        let (e1, e2, fresh) = match (pushed_out(front_m, pf, trust_m), pushed_out(rear_m, pr, trust_m)) {
+        // A sensor the tape has just come into reads where the tape is.
+        let front_used = if self.front.came_in {
+            front_m
+        } else {
+            pushed_out(front_m, pf, trust_m)
+        };
+        let rear_used = if self.rear.came_in {
+            rear_m
+        } else {
+            pushed_out(rear_m, pr, trust_m)
+        };
+        let (e1, e2, fresh) = match (front_used, rear_used) {
             (Some(f), Some(r)) => (
                 f,
                 r,
