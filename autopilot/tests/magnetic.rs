@@ -290,16 +290,22 @@ fn both_sensors_lost_searches_back_towards_the_side_last_seen() {
 }
 
 /// Seed §4.3 (Fig. 4c): a start with no sensor on the tape drives straight
-/// at the search speed until one triggers, then corrects.
+/// at the search speed until one triggers, then corrects. "Straight" is
+/// along the curve it took over: engaged from rest, straight; engaged
+/// while following an arc (knocked off it), on along the arc, which a
+/// truly straight drive off its outside would never meet again.
 #[test]
 fn a_start_off_the_tape_goes_straight_until_a_sensor_triggers() {
     let cfg = guide_config(0.3);
-    // Steering when the mode engaged is no clue where the tape is.
+    let mut from_rest = MagneticGuide::default();
+    let s = from_rest.update(&cfg, &input(0, 0), 0.02);
+    assert!(s.lost);
+    assert_eq!((s.steer_rad, s.speed_mps), (0.0, cfg.lost_speed_mps));
     let mut guide = MagneticGuide::engaged_at(0.2);
     for _ in 0..100 {
         let s = guide.update(&cfg, &input(0, 0), 0.02);
         assert!(s.lost);
-        assert_eq!((s.steer_rad, s.speed_mps), (0.0, cfg.lost_speed_mps));
+        assert_eq!((s.steer_rad, s.speed_mps), (0.2, cfg.lost_speed_mps));
     }
     // The front sensor finds the tape on its right: steer right.
     let s = guide.update(&cfg, &input(probes(&[2, 3, 4]), 0), 0.02);

@@ -38,8 +38,11 @@
 //!   outermost probe (±8 pitches), or further out if the other sensor's rate
 //!   says so (that rate is v·tan α − ω·x, so it gives α), on the side the
 //!   tape left it or, never having seen the tape, the side that rate puts it,
-//!   decided once the rate has settled; the tape cannot change sides of a
-//!   sensor unseen;
+//!   decided once the rate has settled or a line through the seen sensor's
+//!   first readings ([`super::magnetic_slope::ReadingSlope`], four readings)
+//!   puts it clearly on one side, and kept open until then; the tape cannot
+//!   change sides of a sensor unseen. A sensor the tape has just come into
+//!   reads where the tape is: its edge reading is not pushed out (below);
 //! - the approach angle is limited to what keeps both sensors on the tape:
 //!   with the midpoint at lateral y and the body at angle α to the tape the
 //!   sensors are at y ± (d/2)·sin α, so both read it while |y| + (d/2)·|sin α|
@@ -81,7 +84,9 @@
 //!   the search speed with the steering the integral learnt (straight on a
 //!   straight, as the seed's §4.3 and Fig. 4c; along an arc it keeps the
 //!   approach instead of leaving the arc for good). Never having seen the
-//!   tape (a start off it), straight at once, as the seed, at the speed
+//!   tape (a start off it), straight at once, as the seed ("straight"
+//!   along the curve the guide took over: on along an arc it was knocked
+//!   off, which a truly straight drive off its outside never meets), at the speed
 //!   from which the steering can still turn along the tape before the
 //!   sensor that finds it has crossed it
 //!   ([`MagneticGuideConfig::off_tape_speed_mps`]; `lost_speed_mps` was
@@ -1178,11 +1183,14 @@ impl MagneticGuide {
         self.lost_s += dt_s.max(0.0);
         if !self.seen_tape {
             // Seed §4.3: a start off the tape drives straight until a sensor
-            // finds it.
+            // finds it; "straight" along the curve the guide took over
+            // (its integral, 0 from rest). Found in SITL: knocked off the
+            // outside of an arc it was following and driving truly
+            // straight, the robot never met the tape again.
             let speed_mps = *self
                 .off_tape_speed_mps
                 .get_or_insert_with(|| config.off_tape_speed_mps(self.steer.integral()));
-            return (0.0, speed_mps);
+            return (self.steer.integral(), speed_mps);
         }
         if self.lost_s <= config.lost_hold_s {
             // A gap between the sensors' ranges, or an edge probe
