@@ -290,16 +290,22 @@ fn both_sensors_lost_searches_back_towards_the_side_last_seen() {
 }
 
 /// Seed §4.3 (Fig. 4c): a start with no sensor on the tape drives straight
-/// at the search speed until one triggers, then corrects.
+/// at the search speed until one triggers, then corrects. "Straight" is
+/// along the curve it took over: engaged from rest, straight; engaged
+/// while following an arc (knocked off it), on along the arc, which a
+/// truly straight drive off its outside would never meet again.
 #[test]
 fn a_start_off_the_tape_goes_straight_until_a_sensor_triggers() {
     let cfg = guide_config(0.3);
-    // Steering when the mode engaged is no clue where the tape is.
+    let mut from_rest = MagneticGuide::default();
+    let s = from_rest.update(&cfg, &input(0, 0), 0.02);
+    assert!(s.lost);
+    assert_eq!((s.steer_rad, s.speed_mps), (0.0, cfg.lost_speed_mps));
     let mut guide = MagneticGuide::engaged_at(0.2);
     for _ in 0..100 {
         let s = guide.update(&cfg, &input(0, 0), 0.02);
         assert!(s.lost);
-        assert_eq!((s.steer_rad, s.speed_mps), (0.0, cfg.lost_speed_mps));
+        assert_eq!((s.steer_rad, s.speed_mps), (0.2, cfg.lost_speed_mps));
     }
     // The front sensor finds the tape on its right: steer right.
     let s = guide.update(&cfg, &input(probes(&[2, 3, 4]), 0), 0.02);
@@ -447,6 +453,35 @@ fn a_sensor_off_the_tape_is_placed_on_the_side_the_tape_left_it() {
     guide.update(&cfg, &input(probes(&[14, 15, 16]), centred), 0.02);
     let s = guide.update(&cfg, &input(0, centred), 0.02);
     assert!(s.front_used_m <= -0.08 && s.angle_rad < 0.0 && s.lateral_m < 0.0);
+}
+
+/// One sensor on the tape from the start, the other never having seen it:
+/// which side the blind one is on follows from how the seen one's reading
+/// moves, within five readings (0.1 s; the low-pass rate needs 0.16 s).
+/// The rear's tape moving out to the left (the body turning away from a
+/// tape on its left) puts the front one further left; moving in, the front
+/// one has crossed it. Those readings also start the dead reckoning: the
+/// rear then leaving the tape too, the guide still knows where it is and
+/// steers back (it used to wait 0.16 s for the low-pass rate, and a sensor
+/// leaving sooner left it with nothing to carry forward).
+#[test]
+fn the_blind_sensors_side_follows_the_seen_ones_motion() {
+    let cfg = MagneticGuideConfig::default();
+    // Three probes centred on probe i read (17 − 2i)·5 mm: 11 → −25 mm, 15 → −65 mm.
+    let rear = |i: u32| probes(&[i - 1, i, i + 1]);
+    for (centres, side) in [([11, 12, 13, 14, 15], -1.0), ([15, 14, 13, 12, 11], 1.0)] {
+        let mut guide = MagneticGuide::default();
+        let mut s = guide.update(&cfg, &input(0, rear(centres[0])), 0.02);
+        for i in &centres[1..] {
+            s = guide.update(&cfg, &input(0, rear(*i)), 0.02);
+        }
+        assert!(side * s.front_used_m >= 0.08, "{side}: {s:?}");
+        assert!(side * s.angle_rad > 0.0, "{side}: {s:?}");
+        if side < 0.0 {
+            let s = guide.update(&cfg, &input(0, 0), 0.02);
+            assert!(s.lost && s.lateral_m < -0.05 && s.steer_rad < 0.0, "{s:?}");
+        }
+    }
 }
 
 #[test]

@@ -43,6 +43,17 @@ pub struct BoundCase {
     pub tolerance_m: f64,
 }
 
+/// The best manoeuvre: the correction limit towards the tape (or away,
+/// if not `towards_first`) for `first_s`, the other way for `second_s`,
+/// then straight; back within the tolerance after `time_s`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Manoeuvre {
+    pub time_s: f64,
+    pub towards_first: bool,
+    pub first_s: f64,
+    pub second_s: f64,
+}
+
 /// The pose relative to the tape (the x axis): rear axle lateral `y_m` on
 /// the start's side, heading `psi_rad` away from the tape, steering
 /// `steer_rad` (positive turns away).
@@ -57,7 +68,13 @@ impl BoundCase {
     /// The best time found, seconds; `None` if no manoeuvre of the family
     /// gets back within the tolerance.
     pub fn best_time_s(&self) -> Option<f64> {
-        let mut best: Option<f64> = None;
+        self.best_manoeuvre().map(|m| m.time_s)
+    }
+
+    /// The fastest manoeuvre of the family, `None` if none gets back within
+    /// the tolerance.
+    pub fn best_manoeuvre(&self) -> Option<Manoeuvre> {
+        let mut best: Option<Manoeuvre> = None;
         for towards_first in [true, false] {
             let phases = (LONGEST_PHASE_S / PHASE_STEP_S).round() as usize;
             for i in 0..=phases {
@@ -65,12 +82,34 @@ impl BoundCase {
                 let Some(second_s) = self.aligning_second_phase_s(towards_first, first_s) else {
                     continue;
                 };
-                if let Some(t) = self.reacquire_time_s(towards_first, first_s, second_s) {
-                    best = Some(best.map_or(t, |b: f64| b.min(t)));
+                if let Some(time_s) = self.reacquire_time_s(towards_first, first_s, second_s)
+                    && best.is_none_or(|b| time_s < b.time_s)
+                {
+                    best = Some(Manoeuvre {
+                        time_s,
+                        towards_first,
+                        first_s,
+                        second_s,
+                    });
                 }
             }
         }
         best
+    }
+
+    /// The yaw rate at the correction limit, rad/s: how fast the heading
+    /// can turn at all.
+    pub fn yaw_rate_at_limit_rad_s(&self) -> f64 {
+        self.speed_mps * self.correction_rad.tan() / self.wheelbase_m
+    }
+
+    /// The time to slew the steering from straight to the limit, s.
+    pub fn slew_to_limit_s(&self) -> f64 {
+        if self.steer_rate_rad_s > 0.0 {
+            self.correction_rad / self.steer_rate_rad_s
+        } else {
+            f64::INFINITY
+        }
     }
 
     fn start(&self) -> State {

@@ -38,8 +38,11 @@
 //!   outermost probe (±8 pitches), or further out if the other sensor's rate
 //!   says so (that rate is v·tan α − ω·x, so it gives α), on the side the
 //!   tape left it or, never having seen the tape, the side that rate puts it,
-//!   decided once the rate has settled; the tape cannot change sides of a
-//!   sensor unseen;
+//!   decided once the rate has settled or a line through the seen sensor's
+//!   first readings ([`super::magnetic_slope::ReadingSlope`], four readings)
+//!   puts it clearly on one side, and kept open until then; the tape cannot
+//!   change sides of a sensor unseen. A sensor the tape has just come into
+//!   reads where the tape is: its edge reading is not pushed out (below);
 //! - the approach angle is limited to what keeps both sensors on the tape:
 //!   with the midpoint at lateral y and the body at angle α to the tape the
 //!   sensors are at y ± (d/2)·sin α, so both read it while |y| + (d/2)·|sin α|
@@ -81,7 +84,9 @@
 //!   the search speed with the steering the integral learnt (straight on a
 //!   straight, as the seed's §4.3 and Fig. 4c; along an arc it keeps the
 //!   approach instead of leaving the arc for good). Never having seen the
-//!   tape (a start off it), straight at once, as the seed, at the speed
+//!   tape (a start off it), straight at once, as the seed ("straight"
+//!   along the curve the guide took over: on along an arc it was knocked
+//!   off, which a truly straight drive off its outside never meets), at the speed
 //!   from which the steering can still turn along the tape before the
 //!   sensor that finds it has crossed it
 //!   ([`MagneticGuideConfig::off_tape_speed_mps`]; `lost_speed_mps` was
@@ -106,6 +111,7 @@
 //! Sources: docs/references.md §Seed 002.
 
 use super::magnetic_estimate::TapeEstimate;
+use super::magnetic_slope::ReadingSlope;
 use super::magnetic_turn::{TurnBackModel, search_speed_mps};
 
 /// Probes per sensor.
@@ -609,6 +615,13 @@ struct SensorTrack {
     rate_mps: f64,
     /// How long it has been on the tape without a break.
     on_tape_s: f64,
+    /// A line through its readings since it found the tape: its rate before
+    /// the low-pass one has settled.
+    slope: ReadingSlope,
+    /// It found the tape after being off it, and has read it since: an edge
+    /// reading then is the tape coming in, where it reads, not "this far or
+    /// further" (see [`pushed_out`]).
+    came_in: bool,
     /// While it is off the tape: the side the tape is on (±1), once known.
     /// It cannot change without the sensor seeing the tape on the way
     /// across, so it is kept until then.
@@ -616,6 +629,16 @@ struct SensorTrack {
 }
 
 impl SensorTrack {
+    /// Its rate: the low-pass one once settled, before that the line
+    /// through its readings once there are enough; `None` until then.
+    fn known_rate_mps(&self, config: &MagneticGuideConfig) -> Option<f64> {
+        if self.on_tape_s >= rate_settle_s(config) {
+            Some(self.rate_mps)
+        } else {
+            self.slope.rate_mps()
+        }
+    }
+
     fn update(&mut self, reading_m: Option<f64>, cutoff_hz: f64, dt_s: f64) {
         self.rate_mps = match (self.current_m, reading_m) {
             (Some(last), Some(now)) if dt_s > 0.0 => low_pass(self.rate_mps, (now - last) / dt_s, cutoff_hz, dt_s),
@@ -624,6 +647,12 @@ impl SensorTrack {
         self.on_tape_s = match (self.current_m, reading_m) {
             (Some(_), Some(_)) => self.on_tape_s + dt_s.max(0.0),
             _ => 0.0,
+        };
+        self.slope.update(reading_m, dt_s);
+        self.came_in = match (self.current_m, reading_m) {
+            (None, Some(_)) => true,
+            (Some(_), Some(_)) => self.came_in,
+            _ => false,
         };
         self.current_m = reading_m;
         if let Some(now) = reading_m.filter(|r| *r != 0.0) {
@@ -920,7 +949,18 @@ impl MagneticGuide {
         };
         let trust_m = config.sensor_reach_m() - TRUST_MARGIN_PITCHES * config.probe_pitch_m.abs();
         let trusted = |e: f64| e.abs() <= trust_m;
-        let (e1, e2, fresh) = match (pushed_out(front_m, pf, trust_m), pushed_out(rear_m, pr, trust_m)) {
+        // A sensor the tape has just come into reads where the tape is.
+        let front_used = if self.front.came_in {
+            front_m
+        } else {
+            pushed_out(front_m, pf, trust_m)
+        };
+        let rear_used = if self.rear.came_in {
+            rear_m
+        } else {
+            pushed_out(rear_m, pr, trust_m)
+        };
+        let (e1, e2, fresh) = match (front_used, rear_used) {
             (Some(f), Some(r)) => (
                 f,
                 r,
@@ -986,14 +1026,23 @@ impl MagneticGuide {
             Sensor::Front => (self.front, config.front_x_m, -1.0),
             Sensor::Rear => (self.rear, config.rear_x_m, 1.0),
         };
-        let settled = seen_track.on_tape_s >= rate_settle_s(config) && seen_m.abs() <= trust_m;
+        let low_pass_settled = seen_track.on_tape_s >= rate_settle_s(config) && seen_m.abs() <= trust_m;
+        // With nothing carried forward, a line through the seen sensor's
+        // first readings is the best there is (see `ReadingSlope`).
+        let fitted = predicted_other_m.is_none() && seen_track.slope.rate_mps().is_some();
+        let settled = low_pass_settled || fitted;
         let from_rate_m = self.other_sensor_m(config, &seen_track, x_m, seen_m, towards, input);
         let estimate_m = predicted_other_m.filter(|_| !settled).unwrap_or(from_rate_m);
+        // The side is decided once the rate has settled, or the line puts
+        // the blind sensor clearly on one side; until then it is a guess,
+        // kept open.
+        let decided = seen_track.on_tape_s >= rate_settle_s(config)
+            || (fitted && estimate_m.abs() >= 0.5 * config.sensor_reach_m());
         let lost = match seen {
             Sensor::Front => &mut self.rear,
             Sensor::Rear => &mut self.front,
         };
-        (Self::place_lost(lost, &seen_track, estimate_m, config), settled)
+        (Self::place_lost(lost, decided, estimate_m, config), settled)
     }
 
     /// The other sensor's deviation from this one (`track`, at `x_m`,
@@ -1019,8 +1068,9 @@ impl MagneticGuide {
     ) -> f64 {
         let (speed_mps, yaw_rate) = (input.speed_mps, input.yaw_rate_rad_s);
         let moving = speed_mps.abs() > MIN_RATE_SPEED_MPS;
+        let rate_mps = track.known_rate_mps(config).unwrap_or(track.rate_mps);
         let tan_alpha = if moving {
-            (track.rate_mps + yaw_rate * x_m) / speed_mps
+            (rate_mps + yaw_rate * x_m) / speed_mps
         } else {
             0.0
         };
@@ -1133,11 +1183,14 @@ impl MagneticGuide {
         self.lost_s += dt_s.max(0.0);
         if !self.seen_tape {
             // Seed §4.3: a start off the tape drives straight until a sensor
-            // finds it.
+            // finds it; "straight" along the curve the guide took over
+            // (its integral, 0 from rest). Found in SITL: knocked off the
+            // outside of an arc it was following and driving truly
+            // straight, the robot never met the tape again.
             let speed_mps = *self
                 .off_tape_speed_mps
                 .get_or_insert_with(|| config.off_tape_speed_mps(self.steer.integral()));
-            return (0.0, speed_mps);
+            return (self.steer.integral(), speed_mps);
         }
         if self.lost_s <= config.lost_hold_s {
             // A gap between the sensors' ranges, or an edge probe
@@ -1198,16 +1251,16 @@ impl MagneticGuide {
     /// Where a sensor that is off the tape probably has it: at least just
     /// past its outermost probe, on the side it last saw it (the tape left
     /// through that edge) or, never having seen it, on the side the other
-    /// sensor's reading and rate put it (decided once that rate has settled);
+    /// sensor's reading and rate put it (decided once that rate has settled,
+    /// or a line through its first readings puts it clearly on one side);
     /// further out if they say so.
-    fn place_lost(lost: &mut SensorTrack, seen: &SensorTrack, estimate_m: f64, config: &MagneticGuideConfig) -> f64 {
+    fn place_lost(lost: &mut SensorTrack, decided: bool, estimate_m: f64, config: &MagneticGuideConfig) -> f64 {
         let edge_m = LOST_EDGE_PITCHES * config.probe_pitch_m;
         let side = match lost.side {
             Some(side) => side,
             None if estimate_m == 0.0 => return 0.0,
             None => {
-                let settle_s = rate_settle_s(config);
-                if seen.on_tape_s >= settle_s {
+                if decided {
                     lost.side = Some(estimate_m.signum());
                 }
                 estimate_m.signum()

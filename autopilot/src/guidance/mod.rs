@@ -4,6 +4,7 @@
 
 pub mod magnetic;
 pub mod magnetic_estimate;
+pub mod magnetic_slope;
 pub mod magnetic_turn;
 pub mod manoeuvre;
 pub mod navigator;
