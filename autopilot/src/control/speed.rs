@@ -19,6 +19,18 @@ pub struct SpeedControlConfig {
     pub drive_lag_s: f64,
 }
 
+/// Braking with an accelerometer: the speed demand opposes the motion by
+/// this many times the speed braked on, plus [`BRAKE_FLOOR_MPS`]. A drive
+/// that follows its demand with a lag then brakes at its own limit until
+/// close to rest and reaches zero in finite time, not along the lag's
+/// exponential tail; a gain of 2 stays well damped with the measurement a
+/// tick late (3.4 would ring at 50 Hz with a 0.3 s drive lag). Braking
+/// ends at [`BRAKE_REST_MPS`] (measured in `tests/obstacle_brake.rs`: at
+/// 0.03 rest came up to 0.2 s later, at 0 the roll back reached 3.5 cm/s).
+const BRAKE_GAIN: f64 = 2.0;
+const BRAKE_FLOOR_MPS: f64 = 0.1;
+const BRAKE_REST_MPS: f64 = 0.02;
+
 /// When braking to rest ends.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BrakeLimits {
@@ -41,12 +53,16 @@ pub struct SpeedController {
     braked: bool,
     /// How long the present braking has lasted (s).
     braking_s: f64,
+    /// While braking with an accelerometer: the speed measured when the
+    /// braking began, carried on with the measured acceleration (m/s).
+    braked_on_mps: Option<f64>,
 }
 
 impl SpeedController {
     pub fn reset(&mut self, current_speed_mps: f64) {
         self.braked = false;
         self.braking_s = 0.0;
+        self.braked_on_mps = None;
         self.pid.reset();
         self.limited_mps = current_speed_mps;
     }
@@ -72,6 +88,7 @@ impl SpeedController {
     ) -> f64 {
         self.braked = false;
         self.braking_s = 0.0;
+        self.braked_on_mps = None;
         let step = desired_mps - self.limited_mps;
         let slowing = desired_mps.abs() < self.limited_mps.abs() || desired_mps * self.limited_mps < 0.0;
         let limit = if slowing {
@@ -101,19 +118,30 @@ impl SpeedController {
         (feed_forward + correction).clamp(-1.0, 1.0)
     }
 
-    /// Throttle that brakes to rest: a demand of 0 at once (what a stop's
-    /// feed-forward asks) plus the P correction on the speed still measured,
-    /// so the drive's own lag does not leave the vehicle creeping. No
-    /// integrator: one wound up while braking would drive the vehicle the
-    /// other way once stopped. Nothing once the speed has been at or below
-    /// `limits.rest_mps` or the braking has lasted `limits.max_s` (a speed
-    /// measurement biased off zero must not keep it creeping), until driven
-    /// again; nothing without a measurement; never a push the way it is
-    /// moving.
+    /// Throttle that brakes to rest. Nothing once at rest or after
+    /// `limits.max_s` (a speed measurement biased off zero must not keep
+    /// it creeping), until driven again; nothing without a measurement;
+    /// never a push the way it is moving.
+    ///
+    /// With the longitudinal acceleration (`accel_mps2`, the IMU's, each
+    /// tick), the speed braked on is the one measured when the braking
+    /// began, carried on with that acceleration: the speed estimate moves
+    /// only with each GNSS velocity, a tenth of a second apart and behind,
+    /// with centimetres per second of noise, and a brake closed on it
+    /// either stops short of zero (the drive's lag then leaves the vehicle
+    /// creeping for a second) or, harder, overshoots into reverse. The
+    /// demand opposes the motion ([`BRAKE_GAIN`], [`BRAKE_FLOOR_MPS`]) until
+    /// that speed reaches zero, which is rest. An accelerometer bias of
+    /// 0.03 m/s² moves that moment by under 3 cm/s over a one-second stop.
+    ///
+    /// Without it: the P correction on the speed measured, rest at or below
+    /// `limits.rest_mps`, no integrator (one wound up while braking would
+    /// drive the vehicle the other way once stopped).
     pub fn brake(
         &mut self,
         config: &SpeedControlConfig,
         measured_mps: Option<f64>,
+        accel_mps2: Option<f64>,
         limits: &BrakeLimits,
         dt_s: f64,
     ) -> f64 {
@@ -125,18 +153,53 @@ impl SpeedController {
         self.limited_mps = 0.0;
         self.last_terms = PidTerms::default();
         self.last_feed_forward = 0.0;
-        match measured_mps {
-            Some(v) if !self.braked && v.abs() > limits.rest_mps => {
-                let throttle = (-config.gains.kp * v).clamp(-1.0, 1.0);
+        let Some(measured) = measured_mps else {
+            return 0.0;
+        };
+        if self.braked {
+            return 0.0;
+        }
+        match accel_mps2.filter(|a| a.is_finite()) {
+            Some(accel) => self.brake_dead_reckoned(config, measured, accel, dt_s),
+            None if measured.abs() > limits.rest_mps => {
+                let throttle = (-config.gains.kp * measured).clamp(-1.0, 1.0);
                 // Braking opposes the motion; a NaN gain gives nothing.
-                if throttle * v < 0.0 { throttle } else { 0.0 }
+                if throttle * measured < 0.0 { throttle } else { 0.0 }
             }
-            Some(_) => {
+            None => {
                 self.braked = true;
                 0.0
             }
-            None => 0.0,
         }
+    }
+
+    /// [`Self::brake`] on the speed carried on with the acceleration.
+    fn brake_dead_reckoned(&mut self, config: &SpeedControlConfig, measured: f64, accel: f64, dt_s: f64) -> f64 {
+        let speed = match self.braked_on_mps {
+            None => measured,
+            Some(v) => v + accel * dt_s.max(0.0),
+        };
+        let started = *self.braked_on_mps.get_or_insert(measured);
+        self.braked_on_mps = Some(speed);
+        // Down to the last centimetres per second, or crossed zero (or
+        // nothing to brake from, or NaN): at rest. Stopping the brake a
+        // little short of zero leaves the drive's lag a short tail, where
+        // braking on to the dead-reckoned zero would roll it back by the
+        // reckoning's error (a GNSS speed up to 0.1 s old at the start,
+        // the accelerometer's bias).
+        let ahead_mps = speed * started.signum();
+        if ahead_mps.is_nan() || ahead_mps <= BRAKE_REST_MPS {
+            self.braked = true;
+            return 0.0;
+        }
+        let demand_mps = -(BRAKE_GAIN * speed + BRAKE_FLOOR_MPS * speed.signum());
+        let full_throttle_speed = if config.cruise_throttle > 0.0 {
+            config.cruise_speed_mps / config.cruise_throttle
+        } else {
+            1.0
+        };
+        let throttle = (demand_mps / full_throttle_speed.max(1e-3)).clamp(-1.0, 1.0);
+        if throttle * speed < 0.0 { throttle } else { 0.0 }
     }
 }
 
@@ -254,12 +317,12 @@ mod tests {
             rest_mps: 0.02,
             max_s: 3.0,
         };
-        assert!((c.brake(&config(), Some(1.0), &limits, 0.02) + 0.2).abs() < 1e-12);
-        assert!((c.brake(&config(), Some(-0.5), &limits, 0.02) - 0.1).abs() < 1e-12);
-        assert_eq!(c.brake(&config(), None, &limits, 0.02), 0.0);
-        assert_eq!(c.brake(&config(), Some(0.015), &limits, 0.02), 0.0);
+        assert!((c.brake(&config(), Some(1.0), None, &limits, 0.02) + 0.2).abs() < 1e-12);
+        assert!((c.brake(&config(), Some(-0.5), None, &limits, 0.02) - 0.1).abs() < 1e-12);
+        assert_eq!(c.brake(&config(), None, None, &limits, 0.02), 0.0);
+        assert_eq!(c.brake(&config(), Some(0.015), None, &limits, 0.02), 0.0);
         // At rest once, speed noise does not start it braking again.
-        assert_eq!(c.brake(&config(), Some(0.04), &limits, 0.02), 0.0);
+        assert_eq!(c.brake(&config(), Some(0.04), None, &limits, 0.02), 0.0);
         // Nothing is left to drive on with afterwards.
         assert_eq!(c.limited_demand_mps(), 0.0);
         assert!(c.update(&config(), 0.0, Some(0.0), 0.02).abs() < 1e-12);
@@ -274,7 +337,9 @@ mod tests {
         let mut c = SpeedController::default();
         c.reset(0.0);
         // A measurement stuck at 1 cm/s: braked against for 1 s, then not.
-        let throttles: Vec<f64> = (0..60).map(|_| c.brake(&config(), Some(0.01), &limits, 0.02)).collect();
+        let throttles: Vec<f64> = (0..60)
+            .map(|_| c.brake(&config(), Some(0.01), None, &limits, 0.02))
+            .collect();
         assert!(throttles[..45].iter().all(|&t| t < 0.0), "{throttles:?}");
         assert!(throttles[55..].iter().all(|&t| t == 0.0), "{throttles:?}");
     }

@@ -198,7 +198,8 @@ impl Core {
             }
             Demand::Brake => {
                 let config = self.speed_control_config();
-                let throttle = self.speed_control.brake(&config, measured, &BRAKE_LIMITS, dt_s);
+                let accel = self.longitudinal_accel_mps2();
+                let throttle = self.speed_control.brake(&config, measured, accel, &BRAKE_LIMITS, dt_s);
                 (self.braking_steering(), throttle)
             }
             Demand::Manual { steering, throttle } => {
@@ -235,6 +236,16 @@ impl Core {
             actuators: mixer::mix(self.drive_train, steering, throttle),
             wheels,
         };
+    }
+
+    /// The IMU's forward specific force, while it reports: on level ground
+    /// the vehicle's acceleration along its heading (a slope adds g·sin of
+    /// its pitch, a few hundredths of g over one short stop).
+    fn longitudinal_accel_mps2(&self) -> Option<f64> {
+        let imu = self.estimator.imu();
+        imu.fresh(self.now.boot)
+            .then(|| imu.last().map(|s| s.accel_mps2[0]))
+            .flatten()
     }
 
     /// Steering while braking for an obstacle: an Ackermann vehicle keeps
