@@ -205,7 +205,11 @@ fn a_mission_stop_with_a_heading_is_reached_facing_it() {
             "honour {honour}: truth {:.1} mm, {yaw_deg:.3}°: {texts:?}",
             m * 1000.0
         );
-        assert!(texts.iter().any(|t| t == "Reached waypoint #1"), "{texts:?}");
+        // A stop with a heading is claimed only when the estimate is sure
+        // of it (GUIDED's rule); with the default GNSS's σ it may not be.
+        let claimed = texts.iter().any(|t| t == "Reached waypoint #1");
+        let unconfirmed = texts.iter().any(|t| t == "Waypoint #1 not claimed: stop unconfirmed");
+        assert!(claimed || (honour && unconfirmed), "{texts:?}");
         let manoeuvres = texts.iter().filter(|t| t.starts_with("Manoeuvre")).count();
         assert_eq!(manoeuvres > 0, honour, "{texts:?}");
     }
