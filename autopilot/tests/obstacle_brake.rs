@@ -14,9 +14,8 @@
 mod common;
 
 use autopilot::sitl::simulation::ModelKind;
-use common::{Harness, item};
-use mission::command::{cmd, frame};
-use mission::{MissionType, Plan};
+use common::{Harness, speed_then_waypoints};
+use mission::MissionType;
 use sim::{ObstacleWorld, Shape};
 
 /// The simulated drive's braking limit (`sim::AckermannConfig`'s and
@@ -30,25 +29,6 @@ const AT_REST_MPS: f64 = 0.01;
 /// old and carries an accelerometer bias (0.03 m/s² in the simulator)
 /// over the stop.
 const ROLL_AFTER_REST_MPS: f64 = 0.02;
-
-/// Home, DO_CHANGE_SPEED, then one waypoint `north_m` ahead.
-fn straight(speed_mps: f32, north_m: f64) -> Plan {
-    Plan::new(
-        MissionType::Mission,
-        vec![
-            item(0, cmd::NAV_WAYPOINT, frame::LOCAL_NED, [0.0; 4], 0.0, 0.0),
-            item(
-                1,
-                cmd::DO_CHANGE_SPEED,
-                frame::MISSION,
-                [1.0, speed_mps, -1.0, 0.0],
-                0.0,
-                0.0,
-            ),
-            item(2, cmd::NAV_WAYPOINT, frame::LOCAL_NED, [0.0; 4], north_m, 0.0),
-        ],
-    )
-}
 
 /// How a stop went, from the truth: the speed when the stop was decided,
 /// how long it took to come to rest, and the fastest it moved afterwards
@@ -73,9 +53,10 @@ fn stop_for_person(seed: u64, model: ModelKind, speed_mps: f32, at_m: f64, hold_
     h.sim
         .world_mut()
         .set_obstacles(Some(ObstacleWorld::new(vec![person], Vec::new())));
-    h.sim
-        .core_mut()
-        .load_plan(MissionType::Mission, straight(speed_mps, at_m + 20.0));
+    h.sim.core_mut().load_plan(
+        MissionType::Mission,
+        speed_then_waypoints(speed_mps, &[(at_m + 20.0, 0.0)]),
+    );
     h.run_for(3.0);
     h.arm();
     h.set_mode(10);

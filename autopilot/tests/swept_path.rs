@@ -8,8 +8,7 @@ use std::time::Duration;
 use autopilot::edge::clock::InstantTimer;
 use autopilot::sitl::gcs;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
-use common::{Harness, item};
-use mission::command::{cmd, frame};
+use common::{Harness, speed_then_waypoints};
 use mission::{ExecState, MissionType, Plan};
 use sim::{MovingObstacle, ObstacleWorld, Rectangle, Shape};
 
@@ -17,32 +16,6 @@ use sim::{MovingObstacle, ObstacleWorld, Rectangle, Shape};
 const FRONT_M: f64 = 3.6;
 const REAR_M: f64 = 0.8;
 const HALF_WIDTH_M: f64 = 1.0;
-
-/// Home, DO_CHANGE_SPEED, then drive-through waypoints (the last a stop).
-fn mission(speed_mps: f32, points: &[(f64, f64)]) -> Plan {
-    let mut items = vec![
-        item(0, cmd::NAV_WAYPOINT, frame::LOCAL_NED, [0.0; 4], 0.0, 0.0),
-        item(
-            1,
-            cmd::DO_CHANGE_SPEED,
-            frame::MISSION,
-            [1.0, speed_mps, -1.0, 0.0],
-            0.0,
-            0.0,
-        ),
-    ];
-    for (i, &(n, e)) in points.iter().enumerate() {
-        items.push(item(
-            (i + 2) as u16,
-            cmd::NAV_WAYPOINT,
-            frame::LOCAL_NED,
-            [0.0; 4],
-            n,
-            e,
-        ));
-    }
-    Plan::new(MissionType::Mission, items)
-}
 
 /// The vehicle's true outline.
 fn true_outline(sim: &Simulation) -> Rectangle {
@@ -136,7 +109,12 @@ fn a_person_inside_a_turn_is_stopped_for_before_contact_and_passed_after() {
         radius_m: 0.25,
     };
     let world = ObstacleWorld::new(vec![person], Vec::new());
-    let (outcome, h) = run_mission(world, mission(1.1, &[(30.0, 0.0), (30.0, 30.0)]), 150.0, Some(10.0));
+    let (outcome, h) = run_mission(
+        world,
+        speed_then_waypoints(1.1, &[(30.0, 0.0), (30.0, 30.0)]),
+        150.0,
+        Some(10.0),
+    );
     println!("person in turn: {outcome:?}");
     assert!(outcome.completed, "did not complete: {:?}", h.texts());
     assert!(outcome.min_moving_m > 0.0, "touched the person: {outcome:?}");
@@ -146,7 +124,7 @@ fn a_person_inside_a_turn_is_stopped_for_before_contact_and_passed_after() {
 
 /// Runs the straight 45 m mission at 1 m/s past `beside` and without it.
 fn pass_beside(beside: Shape) -> (Outcome, f64, Vec<String>) {
-    let plan = || mission(1.0, &[(45.0, 0.0)]);
+    let plan = || speed_then_waypoints(1.0, &[(45.0, 0.0)]);
     let empty = run_mission(ObstacleWorld::default(), plan(), 120.0, None).0;
     let (outcome, h) = run_mission(ObstacleWorld::new(vec![beside], Vec::new()), plan(), 120.0, None);
     let lost_s = outcome.seconds - empty.seconds;

@@ -9,7 +9,8 @@ use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, Simul
 use autopilot::time::FrozenTimer;
 use autopilot::vehicle::Outbound;
 use mavlink::dialects::ardupilotmega::{MavCmd, MavMessage};
-use mission::MissionItem;
+use mission::command::{cmd, frame};
+use mission::{MissionItem, MissionType, Plan};
 
 pub struct Harness {
     pub sim: Simulation,
@@ -125,4 +126,30 @@ pub fn item(seq: u16, command: u16, frame: u8, params: [f32; 4], north_m: f64, e
         y: (east_m * 1e4).round() as i32,
         z: 0.0,
     }
+}
+
+/// Home, DO_CHANGE_SPEED, then drive-through waypoints (the last a stop).
+pub fn speed_then_waypoints(speed_mps: f32, points: &[(f64, f64)]) -> Plan {
+    let mut items = vec![
+        item(0, cmd::NAV_WAYPOINT, frame::LOCAL_NED, [0.0; 4], 0.0, 0.0),
+        item(
+            1,
+            cmd::DO_CHANGE_SPEED,
+            frame::MISSION,
+            [1.0, speed_mps, -1.0, 0.0],
+            0.0,
+            0.0,
+        ),
+    ];
+    for (i, &(n, e)) in points.iter().enumerate() {
+        items.push(item(
+            (i + 2) as u16,
+            cmd::NAV_WAYPOINT,
+            frame::LOCAL_NED,
+            [0.0; 4],
+            n,
+            e,
+        ));
+    }
+    Plan::new(MissionType::Mission, items)
 }
