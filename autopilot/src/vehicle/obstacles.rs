@@ -1145,8 +1145,14 @@ impl Core {
 /// Returns that have stayed on one outline for `STILL_S` are a standing
 /// object whatever its centroid's velocity says.
 fn moving(track: &Track) -> bool {
+    shows_speed(track, 2.0)
+}
+
+/// Faster than a standing object's noise and than `sigmas` of its filter's
+/// velocity σ, its returns not shown to be still.
+fn shows_speed(track: &Track, sigmas: f64) -> bool {
     let speed = track.speed_mps();
-    speed >= STATIC_SPEED_MPS && speed > 2.0 * track.velocity_sigma_mps && track.still_s < STILL_S
+    speed >= STATIC_SPEED_MPS && speed > sigmas * track.velocity_sigma_mps && track.still_s < STILL_S
 }
 
 /// Whether a track is predicted at its velocity: faster than a standing
@@ -1160,12 +1166,8 @@ fn moving(track: &Track) -> bool {
 /// them. A new track's velocity is not settled (a sliver seen at the
 /// field's edge for 0.2 s: 0.5 m/s at σ 0.6), so it still needs two.
 fn walking(track: &Track, view: &ViewChange) -> bool {
-    let speed_mps = track.speed_mps();
     let sigmas = if track.age_s >= SETTLED_S { 1.0 } else { 2.0 };
-    speed_mps >= STATIC_SPEED_MPS
-        && speed_mps > sigmas * track.velocity_sigma_mps
-        && track.still_s < STILL_S
-        && speed_mps > view.centroid_speed_mps(track)
+    shows_speed(track, sigmas) && track.speed_mps() > view.centroid_speed_mps(track)
 }
 
 /// How fast the vehicle's own motion can walk a standing object's centroid:
