@@ -20,6 +20,7 @@ use super::actions::{ActionMapping, ActionOutput, ActionRunner, Scope, mapping};
 use super::map::MapPose;
 use super::order::{OrderBook, OrderContext, Verdict, error};
 use super::trajectory::Nurbs;
+use super::traversal::{self, Fix, Watch};
 
 /// How the agent is set up.
 #[derive(Clone, Debug, PartialEq)]
@@ -63,8 +64,18 @@ pub struct VehicleView {
     /// Wall time (message pacing).
     pub wall_s: f64,
     pub pose: Option<MapPose>,
-    /// The sequenceId of the node the navigator has arrived at, if any.
+    /// The pose while an order is driven (or an order or instant action
+    /// came), with what the estimate is sure of: nodes count as traversed
+    /// by it.
+    pub fix: Option<Fix>,
+    /// The sequenceId of the node whose leg the navigator has finished:
+    /// driven through it (it switches legs `WP_RADIUS` ahead of a node, or
+    /// in the middle of a corner's arc), or come to rest on it. It moves
+    /// the driving on; the node is reported by [`Self::fix`].
     pub arrived_at: Option<u32>,
+    /// The vehicle stands still (the drive held neutral and the sensors
+    /// agree): a node it stops on counts from then.
+    pub at_rest: bool,
     pub driving: bool,
     pub operating_mode: OperatingMode,
     /// The e-stop the state reports (a change sends a state).
@@ -145,6 +156,15 @@ pub struct Agent {
     last_fingerprint: Option<Fingerprint>,
     /// Bumped on every change of the order's progress.
     order_generation: u64,
+    /// Nodes at the head of the order the navigator has finished the legs
+    /// to and that are not traversed yet: the driving is this far ahead
+    /// of the report.
+    passed: usize,
+    /// How close the vehicle has come to the next node to traverse.
+    watch: Watch,
+    /// The leg to a node traversed before the navigator finished it,
+    /// driven on until it does.
+    held_leg: Option<Leg>,
     /// The chords of the held edges' trajectories, by edge sequenceId
     /// (cut once, when the edge comes).
     paths: BTreeMap<u32, Arc<[(f64, f64)]>>,
@@ -195,6 +215,9 @@ impl Agent {
             last_visualization_wall_s: None,
             last_fingerprint: None,
             order_generation: 0,
+            passed: 0,
+            watch: Watch::default(),
+            held_leg: None,
             paths: BTreeMap::new(),
         }
     }
@@ -249,11 +272,7 @@ impl Agent {
         for (topic, payload) in std::mem::take(&mut self.inbox) {
             self.handle(topic, &payload, view);
         }
-        if let Some(seq) = view.arrived_at
-            && self.order.nodes.first().is_some_and(|n| n.sequence_id == seq)
-        {
-            self.reach_next_node();
-        }
+        self.traverse_nodes(view);
         let outputs = self.actions.step(view.boot_s, self.paused, &self.config.mappings);
         self.outputs.extend(outputs);
         for action in self.actions.take_finished() {
@@ -284,21 +303,24 @@ impl Agent {
         if self.paused || !in_charge || self.actions.blocks_driving() {
             return Command::Hold;
         }
-        let Some((edge, node)) = self.order.next_leg() else {
-            return Command::Hold;
+        match &self.held_leg {
+            Some(leg) => Command::Drive(leg.clone()),
+            None => self.leg_command(self.passed).map_or(Command::Hold, Command::Drive),
+        }
+    }
+
+    /// The leg to the `i`-th node still held.
+    fn leg_command(&self, i: usize) -> Option<Leg> {
+        let (edge, node) = self.order.leg_at(i)?;
+        let from = match i {
+            0 => self.order.last_node.as_ref(),
+            _ => self.order.nodes.get(i - 1),
         };
-        let Some(from) = self.order.last_node.as_ref().and_then(map_xy) else {
-            return Command::Hold;
-        };
-        let Some(to) = map_xy(node) else {
-            return Command::Hold;
-        };
+        let (from, to) = (from.and_then(map_xy)?, map_xy(node)?);
         let reverse = drives_in_reverse(edge);
-        let after = self.order.edges.get(1).zip(self.order.nodes.get(1));
-        let drive_through = after
-            .filter(|(e, n)| e.released && n.released && drives_in_reverse(e) == reverse && !has_blocking_action(node));
+        let drive_through = self.drive_through(i);
         let position = node.node_position.as_ref();
-        Command::Drive(Leg {
+        Some(Leg {
             node_sequence_id: node.sequence_id,
             from,
             to,
@@ -317,10 +339,73 @@ impl Agent {
         })
     }
 
+    /// The edge and node after the node at `i` when the vehicle drives
+    /// through it onto them (released, the same way, no blocking action
+    /// at the node); `None`: it stops there.
+    fn drive_through(&self, i: usize) -> Option<(&Edge, &Node)> {
+        let (edge, node) = (self.order.edges.get(i)?, self.order.nodes.get(i)?);
+        let after = self.order.edges.get(i + 1).zip(self.order.nodes.get(i + 1));
+        after.filter(|(e, n)| {
+            e.released && n.released && drives_in_reverse(e) == drives_in_reverse(edge) && !has_blocking_action(node)
+        })
+    }
+
+    /// The navigator's finished legs move the driving on; the nodes the
+    /// vehicle has truly come to (see [`traversal`]) are reported, in
+    /// order, and one driven past without being within its deviation is
+    /// reported with an error saying so.
+    fn traverse_nodes(&mut self, view: &VehicleView) {
+        if let Some(seq) = view.arrived_at {
+            if self.held_leg.as_ref().is_some_and(|l| l.node_sequence_id == seq) {
+                self.held_leg = None;
+            } else if self.order.nodes.get(self.passed).is_some_and(|n| n.sequence_id == seq) {
+                self.passed += 1;
+            }
+        }
+        while let Some(node) = self.order.nodes.first() {
+            let stops = self.drive_through(0).is_none();
+            let driven_past = self.passed > 0;
+            match self
+                .watch
+                .judge(node, view.fix.as_ref(), stops, view.at_rest, driven_past)
+            {
+                traversal::Verdict::No => break,
+                traversal::Verdict::Traversed => {}
+                traversal::Verdict::Missed { closest_m, allowed_m } => {
+                    let text = if closest_m <= allowed_m {
+                        format!(
+                            "node {} passed {closest_m:.2} m from it, within {allowed_m:.2} m only by the estimate (its uncertainty or heading reaches past the allowed deviation)",
+                            node.node_id
+                        )
+                    } else {
+                        format!(
+                            "node {} passed {closest_m:.2} m from it: outside its allowedDeviationXY {allowed_m:.2} m",
+                            node.node_id
+                        )
+                    };
+                    let refs = vec![
+                        ("nodeId", node.node_id.clone()),
+                        ("sequenceId", node.sequence_id.to_string()),
+                    ];
+                    self.errors.push(error("nodeMissed", text, refs));
+                }
+            }
+            if self.passed == 0 && !stops && self.held_leg.is_none() {
+                // Traversed before the navigator is done with its leg (the
+                // middle of a corner's arc comes later): it drives the leg
+                // on as planned.
+                self.held_leg = self.leg_command(0);
+            }
+            self.passed = self.passed.saturating_sub(1);
+            self.reach_next_node();
+        }
+    }
+
     fn reach_next_node(&mut self) {
         let Some((node, edge)) = self.order.reach_next() else {
             return;
         };
+        self.watch = Watch::default();
         if let Some(edge) = edge {
             self.actions.leave_edge(edge.sequence_id);
             self.paths.remove(&edge.sequence_id);
@@ -380,6 +465,9 @@ impl Agent {
         self.errors.clear();
         self.cut_trajectories(new_order);
         if new_order {
+            self.passed = 0;
+            self.watch = Watch::default();
+            self.held_leg = None;
             self.actions.forget_done();
             self.paused = false;
             self.add_order_actions(0);
@@ -484,6 +572,9 @@ impl Agent {
             return;
         }
         self.order.cancel();
+        self.passed = 0;
+        self.watch = Watch::default();
+        self.held_leg = None;
         self.paths.clear();
         self.actions.cancel_all();
         self.actions.add_done(action, ActionStatus::Running, "stopping".into());

@@ -10,6 +10,7 @@
 //! - [`factsheet`]: the `factsheet` from the vehicle's parameters;
 //! - [`loads`]: the loads on the vehicle, from its pick and drop actions;
 //! - [`trajectory`]: an edge's NURBS, checked and cut into chords;
+//! - [`traversal`]: when a node counts as traversed;
 //! - [`publish`]: headers stamped and topics, QoS and retain for each.
 //!
 //! All of it is pure; the core steps the agent (`vehicle/fleet.rs`) and the
@@ -24,6 +25,7 @@ pub mod order;
 pub mod publish;
 pub mod state;
 pub mod trajectory;
+pub mod traversal;
 
 pub use agent::{Agent, AgentConfig, Command, Leg, OrderEvent, Publish, VehicleView};
 pub use state::VehicleReport;

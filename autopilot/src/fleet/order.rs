@@ -99,7 +99,12 @@ impl OrderBook {
 
     /// The next edge and node to drive, when both are released.
     pub fn next_leg(&self) -> Option<(&Edge, &Node)> {
-        let (edge, node) = (self.edges.first()?, self.nodes.first()?);
+        self.leg_at(0)
+    }
+
+    /// The `i`-th edge and node still held, when both are released.
+    pub fn leg_at(&self, i: usize) -> Option<(&Edge, &Node)> {
+        let (edge, node) = (self.edges.get(i)?, self.nodes.get(i)?);
         (edge.released && node.released).then_some((edge, node))
     }
 

@@ -8,6 +8,7 @@ use vda5050::state::{ActionStatus, EStop, OperatingMode};
 
 use super::agent::{Agent, AgentConfig, Command, Publish, VehicleView};
 use super::map::MapPose;
+use super::traversal::Fix;
 
 fn agent() -> Agent {
     Agent::new(AgentConfig {
@@ -16,16 +17,31 @@ fn agent() -> Agent {
     })
 }
 
+/// The estimate's 95 % radius in these tests (m).
+const BOUND_M: f64 = 0.01;
+
 fn view(t: f64) -> VehicleView {
+    at(t, 0.0, 0.0)
+}
+
+/// A view with the vehicle at map (x, y), heading east.
+fn at(t: f64, x_m: f64, y_m: f64) -> VehicleView {
+    let pose = MapPose {
+        x_m,
+        y_m,
+        theta_rad: 0.0,
+    };
     VehicleView {
         boot_s: t,
         wall_s: t,
-        pose: Some(MapPose {
-            x_m: 0.0,
-            y_m: 0.0,
-            theta_rad: 0.0,
+        pose: Some(pose),
+        fix: Some(Fix {
+            pose,
+            position_bound_m: BOUND_M,
+            yaw_bound_rad: 0.01,
         }),
         arrived_at: None,
+        at_rest: false,
         driving: false,
         operating_mode: OperatingMode::Automatic,
         e_stop: EStop::None,
@@ -80,14 +96,14 @@ fn a_new_order_is_taken_from_its_first_node_and_driven_leg_by_leg() {
     assert_eq!(first.next, Some((20.0, 0.0)));
     assert!(a.take_publish().contains(&Publish::State), "state on a new order");
 
-    let mut at_b = view(5.0);
+    let mut at_b = at(5.0, 10.0, 0.0);
     at_b.arrived_at = Some(2);
     let command = a.step(&at_b);
     assert_eq!((a.order.last_node_id.as_str(), a.order.last_node_sequence_id), ("b", 2));
     let second = leg(&command);
     assert!(second.stop, "c is the last node");
     assert_eq!(second.allowed_deviation_m, Some(ALLOWED_DEVIATION_XY_M));
-    let mut at_c = view(10.0);
+    let mut at_c = at(10.0, 20.0, 0.0);
     at_c.arrived_at = Some(4);
     assert_eq!(a.step(&at_c), Command::Hold);
     assert!(!a.has_order());
@@ -217,7 +233,7 @@ fn an_update_after_completion_continues_from_the_last_node() {
         ),
     );
     a.step(&view(0.0));
-    let mut at_b = view(1.0);
+    let mut at_b = at(1.0, 10.0, 0.0);
     at_b.arrived_at = Some(2);
     a.step(&at_b);
     assert!(!a.has_order());
@@ -259,7 +275,7 @@ fn a_hard_node_action_holds_the_vehicle_until_it_finishes_and_reverse_edges_say_
     assert!(leg(&command).stop, "a blocking action stops at b");
     assert!(!leg(&command).reverse);
     assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Waiting));
-    let mut at_b = view(10.0);
+    let mut at_b = at(10.0, 10.0, 0.0);
     at_b.arrived_at = Some(2);
     assert_eq!(a.step(&at_b), Command::Hold);
     assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Initializing));
@@ -414,7 +430,7 @@ fn a_trajectory_is_driven_as_chords_on_the_curve_and_a_bad_one_is_refused() {
     let first = leg(&a.step(&view(0.0))).clone();
     let straight = first.path.as_deref().expect("a trajectory's chords");
     assert_eq!(straight, [(0.0, 0.0), (10.0, 0.0)]);
-    let mut arrived = view(1.0);
+    let mut arrived = at(1.0, 10.0, 0.0);
     arrived.arrived_at = Some(2);
     let second = leg(&a.step(&arrived)).clone();
     let arc = second.path.as_deref().expect("a trajectory's chords");
@@ -447,4 +463,120 @@ fn a_trajectory_is_driven_as_chords_on_the_curve_and_a_bad_one_is_refused() {
             "{refs:?}"
         );
     }
+}
+
+/// Steps `a` with the vehicle at (x, 0), the navigator's finished leg and
+/// rest as given; the last node reported.
+fn drive_at(a: &mut Agent, t: f64, x: f64, arrived_at: Option<u32>, at_rest: bool) -> (Command, String) {
+    let mut v = at(t, x, 0.0);
+    v.arrived_at = arrived_at;
+    v.at_rest = at_rest;
+    let command = a.step(&v);
+    (command, a.order.last_node_id.clone())
+}
+
+#[test]
+fn a_node_driven_through_is_reported_only_once_within_its_allowed_deviation() {
+    let mut a = agent();
+    send(&mut a, Topic::Order, &three_nodes());
+    a.step(&view(0.0));
+    // The navigator switches legs `WP_RADIUS` (2 m) ahead of b: the
+    // driving moves on, the report does not.
+    let (command, last) = drive_at(&mut a, 5.0, 8.0, Some(2), false);
+    assert_eq!(last, "a", "2 m short of b");
+    assert_eq!(leg(&command).node_sequence_id, 4, "driving on towards c");
+    assert_eq!(a.order.nodes[0].node_id, "b", "b is still to traverse");
+    let (_, last) = drive_at(&mut a, 5.6, 9.0, None, false);
+    assert_eq!(last, "a", "1 m short of b");
+    // Within the deviation only with the estimate's uncertainty added.
+    let edge = 10.0 - ALLOWED_DEVIATION_XY_M + BOUND_M / 2.0;
+    let (_, last) = drive_at(&mut a, 5.7, edge, None, false);
+    assert_eq!(last, "a", "{edge}: within the deviation only without the uncertainty");
+    let (command, last) = drive_at(&mut a, 5.8, 9.8, None, false);
+    assert_eq!(last, "b", "0.2 m from b, within its 0.25 m");
+    assert_eq!(leg(&command).node_sequence_id, 4);
+    assert!(error_types(&a).is_empty(), "{:?}", error_types(&a));
+}
+
+#[test]
+fn a_node_driven_past_outside_its_deviation_is_reported_with_an_error() {
+    let mut a = agent();
+    send(&mut a, Topic::Order, &three_nodes());
+    a.step(&view(0.0));
+    drive_at(&mut a, 5.0, 8.0, Some(2), false);
+    let mut t = 5.0;
+    // Past b 0.4 m to its side: closest at x = 10, then away.
+    for x in [9.0, 9.5, 10.0, 10.02, 10.3] {
+        t += 0.1;
+        let mut v = at(t, x, 0.4);
+        v.arrived_at = None;
+        a.step(&v);
+        if x <= 10.02 {
+            assert_eq!(a.order.last_node_id, "a", "at x {x}: not yet past its closest");
+        }
+    }
+    assert_eq!(a.order.last_node_id, "b", "behind the vehicle");
+    assert_eq!(error_types(&a), vec!["nodeMissed"]);
+    let text = a.errors[0].error_description.clone().unwrap_or_default();
+    assert!(text.contains("0.40 m"), "{text}");
+}
+
+#[test]
+fn a_stop_node_is_reported_once_the_vehicle_rests_within_its_deviation() {
+    let mut a = agent();
+    send(
+        &mut a,
+        Topic::Order,
+        &order(
+            "o1",
+            0,
+            0,
+            &[N("a", 0.0, 0.0, true, None), N("b", 10.0, 0.0, true, None)],
+            &[],
+        ),
+    );
+    a.step(&view(0.0));
+    let (command, last) = drive_at(&mut a, 8.0, 9.9, None, false);
+    assert_eq!(last, "a", "within the deviation, still moving");
+    assert!(leg(&command).stop);
+    let (command, last) = drive_at(&mut a, 8.1, 9.9, None, true);
+    assert_eq!(last, "b", "at rest within the deviation, before the navigator settles");
+    assert_eq!(command, Command::Hold);
+    assert!(!a.has_order());
+}
+
+#[test]
+fn a_stop_the_navigator_settles_outside_the_deviation_is_reported_with_an_error() {
+    let mut a = agent();
+    send(
+        &mut a,
+        Topic::Order,
+        &order(
+            "o1",
+            0,
+            0,
+            &[N("a", 0.0, 0.0, true, None), N("b", 10.0, 0.0, true, None)],
+            &[],
+        ),
+    );
+    a.step(&view(0.0));
+    let (_, last) = drive_at(&mut a, 8.0, 9.5, None, true);
+    assert_eq!(last, "a", "at rest 0.5 m short");
+    let (command, last) = drive_at(&mut a, 9.0, 9.5, Some(2), true);
+    assert_eq!((last.as_str(), command), ("b", Command::Hold));
+    assert_eq!(error_types(&a), vec!["nodeMissed"]);
+}
+
+#[test]
+fn a_node_reached_before_the_navigator_is_done_with_its_leg_keeps_the_leg() {
+    let mut a = agent();
+    send(&mut a, Topic::Order, &three_nodes());
+    a.step(&view(0.0));
+    // Within b's deviation while the navigator still rounds the corner.
+    let (command, last) = drive_at(&mut a, 5.0, 9.9, None, false);
+    assert_eq!(last, "b");
+    assert_eq!(leg(&command).node_sequence_id, 2, "the leg to b is driven on");
+    let (command, _) = drive_at(&mut a, 5.1, 10.0, Some(2), false);
+    assert_eq!(leg(&command).node_sequence_id, 4, "then the one to c");
+    assert_eq!(a.order.last_node_id, "b");
 }

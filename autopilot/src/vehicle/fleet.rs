@@ -7,12 +7,14 @@
 use mavlink::dialects::ardupilotmega::MavSeverity;
 use vda5050::state::OperatingMode;
 
+use super::pose_goal::{CONFIRM_POSITION_SIGMAS, CONFIRM_YAW_SIGMAS};
 use super::{Core, Inputs, Outputs};
 use crate::fleet::actions::ActionOutput;
 use crate::fleet::factsheet::{VehicleDescription, build_factsheet};
 use crate::fleet::map::{MapFrame, MapPose};
 use crate::fleet::order::error;
 use crate::fleet::state::{build_state, build_visualization};
+use crate::fleet::traversal::Fix;
 use crate::fleet::{Agent, AgentConfig, Command, Leg, OrderEvent, Publish, VehicleView};
 use crate::geo::LocalFrame;
 use crate::guidance::navigator::{NavTarget, StopTolerance};
@@ -30,6 +32,9 @@ pub enum FleetMessage {
 
 /// Moving faster than this counts as driving (m/s).
 const DRIVING_SPEED_MPS: f64 = 0.03;
+/// Below this measured speed the vehicle rests (the tracking benchmark's
+/// line between creeping and resting).
+const RESTING_MPS: f64 = 0.01;
 
 /// The core's fleet state: the agent, and the leg being driven.
 pub(super) struct FleetState {
@@ -176,7 +181,11 @@ impl Core {
         };
         fleet.remote_stop &= !armed;
         let remote_stop = fleet.remote_stop;
-        let view = self.fleet_view(!inputs.vda5050.is_empty(), remote_stop);
+        let mut view = self.fleet_view(!inputs.vda5050.is_empty(), remote_stop);
+        // Nodes are judged by the pose while an order is driven.
+        if view.fix.is_none() && self.fleet_drives() {
+            view.fix = self.fleet_fix();
+        }
         let Some(fleet) = self.fleet.as_mut() else {
             return;
         };
@@ -241,17 +250,45 @@ impl Core {
         map.pose(self.estimator.frame(), &estimate.position, estimate.yaw_rad)
     }
 
+    /// The pose with the radius that holds the vehicle with 95 % confidence
+    /// and the heading's bound, as a stop's "Reached" is confirmed.
+    fn fleet_fix(&self) -> Option<Fix> {
+        let pose = self.fleet_pose()?;
+        let sigma_m = self.estimator.estimate().horiz_sigma_m;
+        let yaw_sigma_rad = self
+            .estimator
+            .ekf_status()
+            .map_or(f64::INFINITY, |s| s.heading_sigma_rad);
+        Some(Fix {
+            pose,
+            position_bound_m: CONFIRM_POSITION_SIGMAS * sigma_m,
+            yaw_bound_rad: CONFIRM_YAW_SIGMAS * yaw_sigma_rad,
+        })
+    }
+
+    /// Standing still, for a node the vehicle stops on: the drive held
+    /// neutral and the GNSS agreeing (the estimator's rest, which its
+    /// speed's zero updates follow) and the receiver's own speed below
+    /// [`RESTING_MPS`]. A receiver noisier than that leaves the node to the
+    /// navigator's longer settling.
+    fn fleet_at_rest(&self) -> bool {
+        self.estimator.at_rest() && self.estimator.gnss().speed_mps.abs() < RESTING_MPS
+    }
+
     fn fleet_view(&self, with_pose: bool, remote_stop: bool) -> VehicleView {
         let fleet = self.fleet.as_ref();
         // Along a trajectory, only the last chord's end is the node.
         let leg = fleet.filter(|f| f.chord == f.last_chord).and_then(|f| f.leg);
         let arrived = self.mode == Mode::Auto && self.navigator.arrived() && !self.obstacles.detouring();
+        // Only orders and initPosition look at the pose.
+        let fix = if with_pose { self.fleet_fix() } else { None };
         VehicleView {
             boot_s: self.now.boot.as_secs_f64(),
             wall_s: self.now.wall.as_secs_f64(),
-            // Only orders and initPosition look at it.
-            pose: if with_pose { self.fleet_pose() } else { None },
+            pose: fix.map(|f| f.pose),
+            fix,
             arrived_at: leg.filter(|_| arrived),
+            at_rest: self.fleet_at_rest(),
             driving: self.fleet_driving(),
             operating_mode: self.operating_mode(),
             e_stop: self.fleet_e_stop(remote_stop),

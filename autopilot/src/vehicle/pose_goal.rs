@@ -34,11 +34,11 @@ const FAR_RADII: f64 = 4.0;
 /// uncertainty is within tolerance: the stop error plus the radius that holds
 /// 95 % of a circular Gaussian whose horizontal σ is `horiz_sigma_m`
 /// (per axis σ/√2, radius √(−2·ln 0.05)·σ/√2 = 1.731 σ)…
-const CONFIRM_POSITION_SIGMAS: f64 = 1.731;
+pub(super) const CONFIRM_POSITION_SIGMAS: f64 = 1.731;
 /// …and the yaw error plus 1.96 σ of the heading. At rest the estimate
 /// keeps averaging fixes, so an unconfirmed stop waits up to this long for
 /// its σ to shrink before it is reported unconfirmed.
-const CONFIRM_YAW_SIGMAS: f64 = 1.96;
+pub(super) const CONFIRM_YAW_SIGMAS: f64 = 1.96;
 const CONFIRM_WAIT_S: f64 = 8.0;
 
 /// Where GUIDED or RTL is driving to.

@@ -374,12 +374,14 @@ fn print_starts(starts: &[start::Start], driving_ms: &[f64], label: &str) {
 }
 
 /// Node reached -> its `state`, in-process, pass-through and stop nodes
-/// apart (a stop is reached once the vehicle rests on it).
+/// apart (a pass-through node is reached once the vehicle is within its
+/// allowed deviation, a stop once the vehicle rests within it).
 fn print_nodes(nodes: &[start::NodeReach]) {
     for stops in [false, true] {
         let of =
             |f: fn(&start::NodeReach) -> f64| nodes.iter().filter(|n| n.stops == stops).map(f).collect::<Vec<f64>>();
         let count = nodes.iter().filter(|n| n.stops == stops).count();
+        let false_claims = nodes.iter().filter(|n| n.stops == stops && n.false_claim).count();
         println!(
             "node reached -> state with it leaves the core, in-process, {count} {} nodes (simulated ms; median / max):",
             if stops { "stop" } else { "pass-through" }
@@ -393,13 +395,21 @@ fn print_nodes(nodes: &[start::NodeReach]) {
             if stops {
                 "at rest within the deviation"
             } else {
-                "abreast of the node         "
+                "within the deviation        "
             },
             median_max(&of(|n| n.from_truth_ms))
         );
         println!(
             "  truth's distance from the node then (cm)  {}",
             median_max(&of(|n| 100.0 * n.distance_at_state_m))
+        );
+        println!(
+            "  false claims (the truth not {} the node when its state left): {false_claims} of {count}",
+            if stops {
+                "at rest within the deviation of"
+            } else {
+                "within the deviation of"
+            }
         );
     }
 }

@@ -11,10 +11,11 @@
 //! fading tail of the last stop; the body moves once its true speed rises
 //! above the largest it showed during the rest before the order.
 //!
-//! A node is timed from the truth reaching it (abreast of a pass-through
-//! node; at rest within the allowed deviation of a stop) and from the
-//! navigator's decision that it has arrived, to the first `state` that
-//! names it `lastNodeId` as it leaves the core.
+//! A node is timed from the truth reaching it (the vehicle first within the
+//! allowed deviation of a pass-through node; at rest within it on a stop)
+//! and from the navigator's decision that it has arrived, to the first
+//! `state` that names it `lastNodeId` as it leaves the core. A state that
+//! names a node the truth has not reached is a false claim, counted apart.
 //!
 //! A real order also waits for the next tick (up to one period) and its
 //! MQTT transit: the end-to-end figures above these say what those add.
@@ -59,11 +60,14 @@ pub struct NodeReach {
     /// From the navigator's first tick of arrival.
     pub from_decision_ms: f64,
     /// From the truth reaching the node: a pass-through node once the
-    /// vehicle is abreast of it (along the edge), a stop once the vehicle
-    /// has slowed below [`RESTING_MPS`] within the allowed deviation.
+    /// vehicle is first within the allowed deviation of it, a stop once the
+    /// vehicle has slowed below [`RESTING_MPS`] within the allowed
+    /// deviation (NaN: the truth never did).
     pub from_truth_ms: f64,
     /// The truth's distance from the node when the state leaves (m).
     pub distance_at_state_m: f64,
+    /// The state left before the truth had reached the node.
+    pub false_claim: bool,
 }
 
 /// What the in-process orders measured.
@@ -157,6 +161,7 @@ struct Marks {
     decision_ms: f64,
     state_ms: f64,
     distance_at_state_m: f64,
+    false_claim: bool,
 }
 
 /// Steps until the order is done and the vehicle at rest, timing each of
@@ -164,12 +169,14 @@ struct Marks {
 /// frame here).
 fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) -> Option<Vec<NodeReach>> {
     let frame = sim.core().estimator().frame().copied()?;
+    let stop_at = nodes.len() - 1;
     let mut marks = vec![
         Marks {
             truth_ms: f64::NAN,
             decision_ms: f64::NAN,
             state_ms: f64::NAN,
             distance_at_state_m: f64::NAN,
+            false_claim: false,
         };
         nodes.len()
     ];
@@ -192,14 +199,10 @@ fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) 
         let at = crate::tracking::true_local(sim, &frame, truth.north_m, truth.east_m);
         let arrived = sim.core().navigator().arrived();
         for i in 1..nodes.len() {
-            let ((_, x0, y0), (_, x, y)) = (nodes[i - 1], nodes[i]);
+            let (_, x, y) = nodes[i];
             let (dx, dy) = (at.east_m - x, at.north_m - y);
-            let truly = if i + 1 == nodes.len() {
-                dx.hypot(dy) <= super::ALLOWED_DEVIATION_M && truth.speed_mps.abs() < RESTING_MPS
-            } else {
-                // Abreast of the node or past it, along the edge.
-                dx * (x - x0) + dy * (y - y0) >= 0.0
-            };
+            let within = dx.hypot(dy) <= super::ALLOWED_DEVIATION_M;
+            let truly = within && (i + 1 < nodes.len() || truth.speed_mps.abs() < RESTING_MPS);
             if truly && marks[i].truth_ms.is_nan() {
                 marks[i].truth_ms = now_ms;
             }
@@ -214,6 +217,8 @@ fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) 
             if named.iter().any(|named| named == id) {
                 m.state_ms = now_ms;
                 m.distance_at_state_m = (at.east_m - x).hypot(at.north_m - y);
+                let resting = i < stop_at || truth.speed_mps.abs() < RESTING_MPS;
+                m.false_claim = !(m.distance_at_state_m <= super::ALLOWED_DEVIATION_M && resting);
             }
         }
         was_arrived = arrived;
@@ -230,6 +235,7 @@ fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) 
                 from_decision_ms: m.state_ms - m.decision_ms,
                 from_truth_ms: m.state_ms - m.truth_ms,
                 distance_at_state_m: m.distance_at_state_m,
+                false_claim: m.false_claim,
             })
         })
         .collect()
