@@ -364,11 +364,14 @@ impl Agent {
         }
         while let Some(node) = self.order.nodes.first() {
             let stops = self.drive_through(0).is_none();
-            let driven_past = self.passed > 0;
-            match self
-                .watch
-                .judge(node, view.fix.as_ref(), stops, view.at_rest, driven_past)
-            {
+            let passage = traversal::Passage {
+                stops,
+                at_rest: view.at_rest,
+                driven_past: self.passed > 0,
+                left_behind: self.passed > 1,
+                way: self.way_through_next_node(),
+            };
+            match self.watch.judge(node, view.fix.as_ref(), &passage) {
                 traversal::Verdict::No => break,
                 traversal::Verdict::Traversed => {}
                 traversal::Verdict::Missed { closest_m, allowed_m } => {
@@ -399,6 +402,37 @@ impl Agent {
             self.passed = self.passed.saturating_sub(1);
             self.reach_next_node();
         }
+    }
+
+    /// The way through the next node to traverse (map frame): the unit
+    /// direction of the edge's last chord into it plus that of the next
+    /// edge's first chord out of it (none when it is the last).
+    fn way_through_next_node(&self) -> (f64, f64) {
+        let unit = |(x0, y0): (f64, f64), (x1, y1): (f64, f64)| {
+            let length = (x1 - x0).hypot(y1 - y0);
+            if length > 1e-9 {
+                ((x1 - x0) / length, (y1 - y0) / length)
+            } else {
+                (0.0, 0.0)
+            }
+        };
+        let order = &self.order;
+        let (Some(node), Some(edge)) = (order.nodes.first().and_then(map_xy), order.edges.first()) else {
+            return (0.0, 0.0);
+        };
+        let chord_in = self
+            .paths
+            .get(&edge.sequence_id)
+            .and_then(|p| p.len().checked_sub(2).map(|i| p[i]));
+        let into = chord_in.or_else(|| order.last_node.as_ref().and_then(map_xy));
+        let out_edge = order.edges.get(1);
+        let chord_out = out_edge
+            .and_then(|e| self.paths.get(&e.sequence_id))
+            .and_then(|p| p.get(1).copied());
+        let out_of = chord_out.or_else(|| order.nodes.get(1).and_then(map_xy));
+        let way_in = into.map_or((0.0, 0.0), |from| unit(from, node));
+        let way_out = out_of.map_or((0.0, 0.0), |to| unit(node, to));
+        (way_in.0 + way_out.0, way_in.1 + way_out.1)
     }
 
     fn reach_next_node(&mut self) {

@@ -580,3 +580,34 @@ fn a_node_reached_before_the_navigator_is_done_with_its_leg_keeps_the_leg() {
     assert_eq!(leg(&command).node_sequence_id, 4, "then the one to c");
     assert_eq!(a.order.last_node_id, "b");
 }
+
+#[test]
+fn a_swerve_before_a_node_is_no_miss_and_a_node_left_behind_a_whole_leg_is() {
+    let mut a = agent();
+    send(&mut a, Topic::Order, &three_nodes());
+    a.step(&view(0.0));
+    drive_at(&mut a, 5.0, 8.0, Some(2), false);
+    // Round something 2 m before b: farther from b, but not beyond it.
+    let mut swerve = at(5.5, 8.3, 1.2);
+    swerve.arrived_at = None;
+    a.step(&swerve);
+    assert_eq!(a.order.last_node_id, "a", "b is still ahead");
+    assert!(error_types(&a).is_empty(), "{:?}", error_types(&a));
+    let (_, last) = drive_at(&mut a, 6.5, 9.9, None, false);
+    assert_eq!(last, "b");
+
+    // Never near c's predecessor: the navigator finishing the leg after
+    // it leaves it behind, whatever the way.
+    let mut a = agent();
+    send(&mut a, Topic::Order, &three_nodes());
+    a.step(&view(0.0));
+    let mut off = at(5.0, 8.0, 3.0);
+    off.arrived_at = Some(2);
+    a.step(&off);
+    let mut at_c = at(12.0, 20.0, 0.0);
+    at_c.arrived_at = Some(4);
+    at_c.at_rest = true;
+    assert_eq!(a.step(&at_c), Command::Hold);
+    assert_eq!(a.order.last_node_id, "c");
+    assert_eq!(error_types(&a), vec!["nodeMissed"], "b, never within 0.25 m");
+}

@@ -20,9 +20,10 @@ use crate::geo::wrap_pi;
 
 use super::map::MapPose;
 
-/// Past its closest approach by this much (m), a node driven past is
-/// behind the vehicle: the estimate's distance grows on by more than its
-/// tick-to-tick wander.
+/// Past its closest approach by this much (m), and beyond the node along
+/// the way through it, a node driven past is behind the vehicle: the
+/// estimate's distance grows on by more than its tick-to-tick wander (and
+/// a detour swerving before the node does not count).
 pub const PASSED_BY_M: f64 = 0.05;
 
 /// Where the vehicle is, with what the estimate is sure of.
@@ -46,6 +47,23 @@ pub enum Verdict {
     /// Driven past, never within the allowed deviation: the closest the
     /// estimate came (m) and what was allowed (m).
     Missed { closest_m: f64, allowed_m: f64 },
+}
+
+/// How the vehicle comes to a node this tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Passage {
+    /// The vehicle is to stop on the node.
+    pub stops: bool,
+    /// It stands still.
+    pub at_rest: bool,
+    /// The navigator has finished the leg to the node (driven through it,
+    /// or settled on it).
+    pub driven_past: bool,
+    /// …and the leg after it too: the node is behind whatever the way.
+    pub left_behind: bool,
+    /// The way through the node (map frame, not necessarily unit): the
+    /// edge in plus the edge out.
+    pub way: (f64, f64),
 }
 
 /// The watch on the next node to traverse: how close the vehicle has come.
@@ -82,12 +100,22 @@ fn heading_fits(node: &Node, fix: &Fix) -> bool {
 }
 
 impl Watch {
-    /// One tick of the node: `stops` when the vehicle is to stop on it,
-    /// `at_rest` when it stands still, `driven_past` once the navigator
-    /// has finished the leg to it (driven through it, or settled on it).
-    pub fn judge(&mut self, node: &Node, fix: Option<&Fix>, stops: bool, at_rest: bool, driven_past: bool) -> Verdict {
+    /// One tick of the node.
+    pub fn judge(&mut self, node: &Node, fix: Option<&Fix>, passage: &Passage) -> Verdict {
+        let &Passage {
+            stops,
+            at_rest,
+            driven_past,
+            left_behind,
+            way,
+        } = passage;
         let Some((x, y)) = node.node_position.as_ref().map(|p| (p.x, p.y)) else {
             return if driven_past { Verdict::Traversed } else { Verdict::No };
+        };
+        // Closer than ever, or not yet beyond the node.
+        let receding = |closest_m: f64, distance: f64, fix: &Fix| {
+            let beyond = (fix.pose.x_m - x) * way.0 + (fix.pose.y_m - y) * way.1 > 0.0;
+            (distance > closest_m + PASSED_BY_M && beyond) || left_behind
         };
         let Some(allowed_m) = allowed_deviation_m(node) else {
             // No deviation of its own: the navigator's tolerance decides a
@@ -97,7 +125,7 @@ impl Watch {
                 Some(fix) => {
                     let distance = (fix.pose.x_m - x).hypot(fix.pose.y_m - y);
                     self.closest_m = self.closest_m.min(distance);
-                    self.verdict(driven_past && distance > self.closest_m + PASSED_BY_M)
+                    self.verdict(driven_past && receding(self.closest_m, distance, fix))
                 }
                 None => self.verdict(driven_past),
             };
@@ -123,7 +151,7 @@ impl Watch {
         let behind = if stops {
             driven_past
         } else {
-            driven_past && distance > self.closest_m + PASSED_BY_M
+            driven_past && receding(self.closest_m, distance, fix)
         };
         if behind {
             Verdict::Missed {

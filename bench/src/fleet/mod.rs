@@ -386,9 +386,15 @@ fn print_nodes(nodes: &[start::NodeReach]) {
             "node reached -> state with it leaves the core, in-process, {count} {} nodes (simulated ms; median / max):",
             if stops { "stop" } else { "pass-through" }
         );
+        // NaN: the state left before the navigator finished the leg.
+        let after_decision: Vec<f64> = of(|n| n.from_decision_ms)
+            .into_iter()
+            .filter(|v| v.is_finite())
+            .collect();
         println!(
-            "  from the navigator's arrival              {}",
-            median_max(&of(|n| n.from_decision_ms))
+            "  from the navigator's finished leg         {} ({} of {count} states left before it)",
+            median_max(&after_decision),
+            count - after_decision.len()
         );
         println!(
             "  from the truth {}   {}",
