@@ -112,7 +112,9 @@ impl Watch {
         let Some((x, y)) = node.node_position.as_ref().map(|p| (p.x, p.y)) else {
             return if driven_past { Verdict::Traversed } else { Verdict::No };
         };
-        // Closer than ever, or not yet beyond the node.
+        // Behind the vehicle: farther than at its closest by more than the
+        // estimate's wander and beyond the node along the way through it,
+        // or a whole leg ago.
         let receding = |closest_m: f64, distance: f64, fix: &Fix| {
             let beyond = (fix.pose.x_m - x) * way.0 + (fix.pose.y_m - y) * way.1 > 0.0;
             (distance > closest_m + PASSED_BY_M && beyond) || left_behind
@@ -121,17 +123,19 @@ impl Watch {
             // No deviation of its own: the navigator's tolerance decides a
             // stop; a node driven through counts once behind the vehicle.
             return match fix {
-                _ if stops => self.verdict(driven_past),
+                _ if stops => traversed_if(driven_past),
                 Some(fix) => {
                     let distance = (fix.pose.x_m - x).hypot(fix.pose.y_m - y);
                     self.closest_m = self.closest_m.min(distance);
-                    self.verdict(driven_past && receding(self.closest_m, distance, fix))
+                    traversed_if(driven_past && receding(self.closest_m, distance, fix))
                 }
-                None => self.verdict(driven_past),
+                None => traversed_if(driven_past),
             };
         };
         let Some(fix) = fix else {
-            return if driven_past {
+            // No position (the vehicle holds without one): only a node
+            // the navigator has left a whole leg behind is missed.
+            return if left_behind {
                 Verdict::Missed {
                     closest_m: self.closest_m,
                     allowed_m,
@@ -162,8 +166,87 @@ impl Watch {
             Verdict::No
         }
     }
+}
 
-    fn verdict(&self, traversed: bool) -> Verdict {
-        if traversed { Verdict::Traversed } else { Verdict::No }
+fn traversed_if(traversed: bool) -> Verdict {
+    if traversed { Verdict::Traversed } else { Verdict::No }
+}
+
+#[cfg(test)]
+mod tests {
+    use serde_json::json;
+
+    use super::*;
+
+    fn node(theta: Option<f64>) -> Node {
+        let mut position = json!({"x": 10.0, "y": 0.0, "mapId": "yard", "allowedDeviationXY": 0.3});
+        if let Some(theta) = theta {
+            position["theta"] = json!(theta);
+            position["allowedDeviationTheta"] = json!(0.1);
+        }
+        serde_json::from_value(json!({
+            "nodeId": "b", "sequenceId": 2, "released": true, "actions": [], "nodePosition": position,
+        }))
+        .unwrap()
+    }
+
+    fn fix(x_m: f64, theta_rad: f64) -> Fix {
+        Fix {
+            pose: MapPose {
+                x_m,
+                y_m: 0.0,
+                theta_rad,
+            },
+            position_bound_m: 0.02,
+            yaw_bound_rad: 0.01,
+        }
+    }
+
+    const THROUGH: Passage = Passage {
+        stops: false,
+        at_rest: false,
+        driven_past: true,
+        left_behind: false,
+        way: (2.0, 0.0),
+    };
+
+    #[test]
+    fn a_heading_outside_the_nodes_theta_keeps_it_from_counting_and_passing_it_is_a_miss() {
+        let mut watch = Watch::default();
+        let b = node(Some(0.5));
+        for x in [9.8, 10.0, 10.04] {
+            assert_eq!(watch.judge(&b, Some(&fix(x, 0.0)), &THROUGH), Verdict::No, "at {x}");
+        }
+        let verdict = watch.judge(&b, Some(&fix(10.1, 0.0)), &THROUGH);
+        assert_eq!(
+            verdict,
+            Verdict::Missed {
+                closest_m: 0.0,
+                allowed_m: 0.3
+            }
+        );
+        let mut watch = Watch::default();
+        assert_eq!(watch.judge(&b, Some(&fix(9.8, 0.45)), &THROUGH), Verdict::Traversed);
+    }
+
+    #[test]
+    fn without_a_fix_a_node_waits_until_it_is_a_whole_leg_behind() {
+        let mut watch = Watch::default();
+        let b = node(None);
+        assert_eq!(watch.judge(&b, None, &THROUGH), Verdict::No);
+        let behind = Passage {
+            left_behind: true,
+            ..THROUGH
+        };
+        assert!(matches!(watch.judge(&b, None, &behind), Verdict::Missed { .. }));
+        // A stop counts only at rest, or once the navigator has settled.
+        let stop = Passage {
+            stops: true,
+            driven_past: false,
+            ..THROUGH
+        };
+        assert_eq!(watch.judge(&b, Some(&fix(10.1, 0.0)), &stop), Verdict::No);
+        let resting = Passage { at_rest: true, ..stop };
+        assert_eq!(watch.judge(&b, Some(&fix(10.1, 0.0)), &resting), Verdict::Traversed);
     }
 }
