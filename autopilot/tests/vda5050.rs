@@ -15,7 +15,7 @@ use common::Harness;
 use mavlink::dialects::ardupilotmega::MavCmd;
 use serde_json::{Value, json};
 use sim::{ObstacleWorld, Shape};
-use test_support::vda5050::{N, instant, order};
+use test_support::vda5050::{ALLOWED_DEVIATION_XY_M, N, instant, order};
 use vda5050::state::{ActionStatus, EStop, MapStatus, OperatingMode, State};
 use vda5050::{Topic, TopicPrefix};
 
@@ -71,6 +71,9 @@ impl Schemas {
 struct Fleet {
     h: Harness,
     states: Vec<State>,
+    /// Each change of `lastNodeId` as a state named it, with the true
+    /// position (map x, y) and speed (m/s) then.
+    claims: Vec<(String, (f64, f64), f64)>,
     schemas: Schemas,
     /// Where the vehicle estimated itself at the start (map x, y): node
     /// positions in the tests are relative to it.
@@ -101,6 +104,7 @@ impl Fleet {
             truth_origin: (truth.east_m, truth.north_m),
             h,
             states: Vec::new(),
+            claims: Vec::new(),
             schemas: Schemas::new(),
         }
     }
@@ -129,6 +133,10 @@ impl Fleet {
         let unix_ms = 1_795_000_000_000 + wall.as_millis() as u64;
         for message in messages {
             if let FleetMessage::State(state) = &message {
+                if self.states.last().is_none_or(|s| s.last_node_id != state.last_node_id) {
+                    self.claims
+                        .push((state.last_node_id.clone(), self.truth_xy(), self.speed()));
+                }
                 self.states.push((**state).clone());
             }
             self.schemas.check(message, unix_ms);
@@ -228,6 +236,19 @@ fn a_six_node_order_with_a_reverse_edge_and_pick_and_drop_is_driven_node_by_node
         }
     }
     assert!(reversed, "the edge n2 → n3 was not driven in reverse");
+    // Each node named only once the true vehicle was within its allowed
+    // deviation, and at rest there on a node it stops on (the pick, the
+    // change of direction, the end).
+    let claims: Vec<_> = f.claims.iter().filter(|c| !c.0.is_empty()).collect();
+    for (id, (x, y), speed) in &claims {
+        let N(_, nx, ny, ..) = nodes.iter().find(|n| n.0 == id).expect("a node of the order");
+        let off = (x - nx).hypot(y - ny);
+        assert!(off <= ALLOWED_DEVIATION_XY_M, "{id} named {off:.3} m from it");
+        if ["n2", "n3", "n5"].contains(&id.as_str()) {
+            assert!(*speed < 0.01, "{id} named while truly moving at {speed:.4} m/s");
+        }
+    }
+    assert_eq!(claims.len(), 6, "{claims:?}");
 }
 
 #[test]
