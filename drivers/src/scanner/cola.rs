@@ -402,19 +402,33 @@ impl<'a> Tokens<'a> {
         max: u32,
         mut out: Option<&mut Vec<u16>>,
     ) -> Result<(), ColaError> {
-        for _ in 0..count {
-            let ((value, invalid), at) = next_hex(self.rest);
-            if invalid || at.1 - at.0 > 8 || at.0 == at.1 || value > max {
-                let value = self.take_hex(field, (value, invalid), at)?;
-                return Err(ColaError::OutOfRange { field, value, max });
-            }
-            self.rest = &self.rest[at.1..];
-            self.remaining -= 1;
+        let bytes = self.rest;
+        let mut at = 0;
+        for taken in 0..count {
+            // Nearly every token is " " and 1–4 digits: read a word at once;
+            // anything else (and the last few bytes) goes the general way.
+            let fast = bytes.get(at..at + 9).and_then(short_hex_token);
+            let (value, len) = match fast.filter(|&(value, _)| value <= max) {
+                Some(found) => found,
+                None => {
+                    let ((value, invalid), (start, end)) = next_hex(&bytes[at..]);
+                    if invalid || end - start > 8 || start == end || value > max {
+                        self.rest = &bytes[at..];
+                        self.remaining -= taken;
+                        let value = self.take_hex(field, (value, invalid), (start, end))?;
+                        return Err(ColaError::OutOfRange { field, value, max });
+                    }
+                    (value, end)
+                }
+            };
+            at += len;
             if let Some(out) = out.as_deref_mut() {
                 // Bounded by max ≤ u16::MAX above.
                 out.push(value as u16);
             }
         }
+        self.rest = &bytes[at..];
+        self.remaining -= count;
         Ok(())
     }
 
@@ -493,6 +507,32 @@ fn next_hex(rest: &[u8]) -> ((u32, bool), (usize, usize)) {
         at += 1;
     }
     ((value, invalid & 0x80 != 0), (start, at))
+}
+
+/// A token of one space and 1–4 hex digits followed by a space, read from
+/// the 9 bytes `chunk` at once: (its value, its length with the space), or
+/// `None` for any other shape (left to [`next_hex`]).
+#[inline(always)]
+fn short_hex_token(chunk: &[u8]) -> Option<(u32, usize)> {
+    let word: [u8; 8] = chunk.get(1..9)?.try_into().ok()?;
+    if chunk[0] != b' ' {
+        return None;
+    }
+    // The first space in the word: a zero byte of `word ^ spaces`, found
+    // without a loop (the lowest flagged byte is exact).
+    let x = u64::from_le_bytes(word) ^ 0x2020_2020_2020_2020;
+    let zero_bytes = x.wrapping_sub(0x0101_0101_0101_0101) & !x & 0x8080_8080_8080_8080;
+    let digits = (zero_bytes.trailing_zeros() / 8) as usize;
+    if digits == 0 || digits > 4 {
+        return None;
+    }
+    let (mut value, mut invalid) = (0u32, 0u8);
+    for &byte in &word[..digits] {
+        let digit = HEX_VALUES[usize::from(byte)];
+        invalid |= digit;
+        value = (value << 4) | u32::from(digit & 0xF);
+    }
+    (invalid & 0x80 == 0).then_some((value, digits + 1))
 }
 
 /// Each byte's value as a hex digit (either case), 0xFF for any other byte.
@@ -748,18 +788,15 @@ impl ScanTelegram {
 /// rounds to 0 mm becomes 1 mm so an echo at the window is never read as
 /// "nothing there".
 fn range_to_mm(range_m: f32) -> u16 {
-    if !range_m.is_finite() || range_m < 0.0 {
-        return 0;
-    }
     let mm = f64::from(range_m) * 1000.0;
+    // NaN, negative and too far all fail this one test. Branch-free below,
+    // so a scan's ranges convert several at a time.
+    let representable = mm >= 0.0 && mm < f64::from(u16::MAX) + 0.5;
     // What `mm.round()` gives (half away from zero), without the libm call
     // per beam: the fraction of a non-negative double below 2^16 is exact.
-    if mm >= f64::from(u16::MAX) + 0.5 {
-        return 0;
-    }
     let whole = mm as u16;
-    let rounded = whole + u16::from(mm - f64::from(whole) >= 0.5);
-    rounded.max(1)
+    let rounded = whole.saturating_add(u16::from(mm - f64::from(whole) >= 0.5)).max(1);
+    if representable { rounded } else { 0 }
 }
 
 /// The telegram an LMS1xx would send for `scan` (inverse of
@@ -899,23 +936,37 @@ fn push_hex(out: &mut Vec<u8>, value: u32) {
 }
 
 /// Appends ` {:X}` of each value: the buffer is grown once for the longest
-/// text and the digits written in place (a scan is hundreds of values).
+/// text, and each value's space and digits are written as one 8-byte word
+/// (a scan is hundreds of values).
 fn push_hex_u16s(out: &mut Vec<u8>, values: &[u16]) {
     let start = out.len();
-    out.resize(start + 5 * values.len(), 0);
+    // 5 bytes at most per value, and room for the last word's 3 spare bytes.
+    out.resize(start + 5 * values.len() + 3, 0);
     let mut end = start;
     for &value in values {
-        let value = u32::from(value);
-        let digits = (35 - (value | 1).leading_zeros() as usize) / 4;
-        let text = &mut out[end..end + 1 + digits];
-        text[0] = b' ';
-        for (i, slot) in text[1..].iter_mut().enumerate() {
-            *slot = HEX_DIGITS[((value >> (4 * (digits - 1 - i))) & 0xF) as usize];
-        }
+        let digits = (19 - (value | 1).leading_zeros() as usize) / 4;
+        let [high, low] = value.to_be_bytes();
+        let [a, b] = HEX_PAIRS[usize::from(high)];
+        let [c, d] = HEX_PAIRS[usize::from(low)];
+        // The four digits, the leading zeros shifted out, a space in front.
+        let four = u64::from_le_bytes([a, b, c, d, 0, 0, 0, 0]) >> (8 * (4 - digits));
+        let word = (four << 8) | u64::from(b' ');
+        out[end..end + 8].copy_from_slice(&word.to_le_bytes());
         end += 1 + digits;
     }
     out.truncate(end);
 }
+
+/// Each byte as two upper-case hex digits.
+const HEX_PAIRS: [[u8; 2]; 256] = {
+    let mut table = [[0; 2]; 256];
+    let mut i = 0;
+    while i < 256 {
+        table[i] = [HEX_DIGITS[i >> 4], HEX_DIGITS[i & 0xF]];
+        i += 1;
+    }
+    table
+};
 
 /// Appends a space and all eight hex digits of `value` (`{:08X}`).
 fn push_hex_8_digits(out: &mut Vec<u8>, value: u32) {
@@ -1690,6 +1741,43 @@ mod tests {
                 _ => true,
             };
             prop_assert_eq!(echoes_in_range(&channel, &data), plain);
+        }
+
+        /// The word-at-a-time run reader gives what reading the tokens one
+        /// by one does: the same values, or the same error at the same token,
+        /// whatever the spacing and the digits.
+        #[test]
+        fn hex_run_matches_reading_token_by_token(
+            tokens in proptest::collection::vec(
+                prop_oneof![8 => "[0-9A-F]{1,4}", 1 => "[0-9a-fA-F]{5,9}", 1 => "[0-9A-Fa-fGz+ -]{0,6}"], 0..40),
+            gaps in proptest::collection::vec(1usize..3, 40),
+            count in 0usize..44,
+            max in prop_oneof![Just(0xFFu32), Just(0xFFFFu32)],
+        ) {
+            let body: String = tokens.iter().zip(&gaps).map(|(t, &gap)| " ".repeat(gap) + t).collect();
+            let mut run = Tokens::new(body.as_bytes());
+            let mut got = Vec::new();
+            let got = run.hex_run("data", count, max, Some(&mut got)).map(|()| got);
+            let field = "data";
+            let mut plain = body.split(' ').filter(|t| !t.is_empty());
+            let expected = (0..count)
+                .map(|_| {
+                    let token = plain.next().ok_or(ColaError::MissingField { field })?;
+                    let hex = token.len() <= 8 && token.bytes().all(|b| b.is_ascii_hexdigit());
+                    let bad = || ColaError::BadHex { field, token: quote(token.as_bytes()) };
+                    let value = if hex { u32::from_str_radix(token, 16).map_err(|_| bad())? } else { Err(bad())? };
+                    if value > max {
+                        return Err(ColaError::OutOfRange { field, value, max });
+                    }
+                    Ok(value as u16)
+                })
+                .collect::<Result<Vec<u16>, ColaError>>();
+            prop_assert_eq!(&got, &expected);
+            if got.is_ok() {
+                let rest: Vec<&str> = plain.collect();
+                prop_assert_eq!(run.remaining(), rest.len());
+                prop_assert_eq!(run.next_token().map(|t| t.to_vec()), rest.first().map(|t| t.as_bytes().to_vec()));
+            }
         }
 
         /// The table-driven hex writer writes what `{:X}` and `{:08X}` do.
