@@ -345,11 +345,8 @@ impl<'a> Tokens<'a> {
         let body = telegram.strip_prefix(&[STX]).unwrap_or(telegram);
         let body = body.strip_suffix(&[ETX]).unwrap_or(body);
         // A token starts at each non-space byte after a space (or at the
-        // start). Pairwise, so the count vectorises.
-        let starts_inside = body
-            .windows(2)
-            .filter(|pair| pair[0] == b' ' && pair[1] != b' ')
-            .count();
+        // start).
+        let starts_inside = token_starts_after_spaces(body);
         let remaining = starts_inside + usize::from(body.first().is_some_and(|&b| b != b' '));
         Self { rest: body, remaining }
     }
@@ -402,32 +399,23 @@ impl<'a> Tokens<'a> {
         max: u32,
         mut out: Option<&mut Vec<u16>>,
     ) -> Result<(), ColaError> {
-        let bytes = self.rest;
-        let mut at = 0;
+        // The position is kept in a local, stored back once at the end.
+        let mut rest = self.rest;
         for taken in 0..count {
-            // Nearly every token is " " and 1–4 digits: read a word at once;
-            // anything else (and the last few bytes) goes the general way.
-            let fast = bytes.get(at..at + 9).and_then(short_hex_token);
-            let (value, len) = match fast.filter(|&(value, _)| value <= max) {
-                Some(found) => found,
-                None => {
-                    let ((value, invalid), (start, end)) = next_hex(&bytes[at..]);
-                    if invalid || end - start > 8 || start == end || value > max {
-                        self.rest = &bytes[at..];
-                        self.remaining -= taken;
-                        let value = self.take_hex(field, (value, invalid), (start, end))?;
-                        return Err(ColaError::OutOfRange { field, value, max });
-                    }
-                    (value, end)
-                }
-            };
-            at += len;
+            let ((value, invalid), at) = next_hex(rest);
+            if invalid || at.1 - at.0 > 8 || at.0 == at.1 || value > max {
+                self.rest = rest;
+                self.remaining -= taken;
+                let value = self.take_hex(field, (value, invalid), at)?;
+                return Err(ColaError::OutOfRange { field, value, max });
+            }
+            rest = &rest[at.1..];
             if let Some(out) = out.as_deref_mut() {
                 // Bounded by max ≤ u16::MAX above.
                 out.push(value as u16);
             }
         }
-        self.rest = &bytes[at..];
+        self.rest = rest;
         self.remaining -= count;
         Ok(())
     }
@@ -488,6 +476,31 @@ impl<'a> Tokens<'a> {
     }
 }
 
+/// How many bytes of `body` are a space followed by a non-space: eight
+/// pairs at a time (a scan telegram is kilobytes), the tail one by one.
+fn token_starts_after_spaces(body: &[u8]) -> usize {
+    const HIGH_BITS: u64 = 0x8080_8080_8080_8080;
+    // The high bit of each byte that is a space (exact, no carries between bytes).
+    let spaces = |word: u64| {
+        let x = word ^ 0x2020_2020_2020_2020;
+        !(((x & !HIGH_BITS) + !HIGH_BITS) | x) & HIGH_BITS
+    };
+    let word_at = |i: usize| u64::from_le_bytes(body[i..i + 8].try_into().unwrap_or_default());
+    let mut count = 0;
+    let mut i = 0;
+    while i + 9 <= body.len() {
+        let pairs = spaces(word_at(i)) & !spaces(word_at(i + 1)) & HIGH_BITS;
+        count += pairs.count_ones() as usize;
+        i += 8;
+    }
+    let tail = &body[i..];
+    count
+        + tail
+            .windows(2)
+            .filter(|pair| pair[0] == b' ' && pair[1] != b' ')
+            .count()
+}
+
 /// The first token of `rest` read as hex: (value, whether a byte was not a
 /// hex digit) and where it lies, (start, end) (equal when there is none).
 /// The value is meaningful only for 1–8 valid digits.
@@ -507,32 +520,6 @@ fn next_hex(rest: &[u8]) -> ((u32, bool), (usize, usize)) {
         at += 1;
     }
     ((value, invalid & 0x80 != 0), (start, at))
-}
-
-/// A token of one space and 1–4 hex digits followed by a space, read from
-/// the 9 bytes `chunk` at once: (its value, its length with the space), or
-/// `None` for any other shape (left to [`next_hex`]).
-#[inline(always)]
-fn short_hex_token(chunk: &[u8]) -> Option<(u32, usize)> {
-    let word: [u8; 8] = chunk.get(1..9)?.try_into().ok()?;
-    if chunk[0] != b' ' {
-        return None;
-    }
-    // The first space in the word: a zero byte of `word ^ spaces`, found
-    // without a loop (the lowest flagged byte is exact).
-    let x = u64::from_le_bytes(word) ^ 0x2020_2020_2020_2020;
-    let zero_bytes = x.wrapping_sub(0x0101_0101_0101_0101) & !x & 0x8080_8080_8080_8080;
-    let digits = (zero_bytes.trailing_zeros() / 8) as usize;
-    if digits == 0 || digits > 4 {
-        return None;
-    }
-    let (mut value, mut invalid) = (0u32, 0u8);
-    for &byte in &word[..digits] {
-        let digit = HEX_VALUES[usize::from(byte)];
-        invalid |= digit;
-        value = (value << 4) | u32::from(digit & 0xF);
-    }
-    (invalid & 0x80 == 0).then_some((value, digits + 1))
 }
 
 /// Each byte's value as a hex digit (either case), 0xFF for any other byte.
@@ -1778,6 +1765,16 @@ mod tests {
                 prop_assert_eq!(run.remaining(), rest.len());
                 prop_assert_eq!(run.next_token().map(|t| t.to_vec()), rest.first().map(|t| t.as_bytes().to_vec()));
             }
+        }
+
+        /// The word-at-a-time count of token starts is the plain pairwise one.
+        #[test]
+        fn token_start_count_matches_the_pairwise_count(
+            body in proptest::collection::vec(
+                prop_oneof![4 => Just(b' '), 1 => Just(0xA0u8), 1 => Just(0x21u8), 1 => Just(0x1Fu8), 3 => any::<u8>()], 0..80),
+        ) {
+            let plain = body.windows(2).filter(|pair| pair[0] == b' ' && pair[1] != b' ').count();
+            prop_assert_eq!(token_starts_after_spaces(&body), plain);
         }
 
         /// The table-driven hex writer writes what `{:X}` and `{:08X}` do.
