@@ -24,6 +24,7 @@
 //! is the unit's own filter (magnetic, pitch and roll from gravity) and is
 //! not used: the core estimates heading itself.
 
+use crate::fixed_decimal::FixedDecimal;
 use std::io::Write;
 use std::time::Duration;
 
@@ -108,9 +109,27 @@ pub fn write_vnimu(out: &mut Vec<u8>, sample: &ImuSample, temperature_c: f64, pr
     out.push(b'$');
     let body_start = out.len();
     // Writing to a Vec cannot fail; once it has grown, nothing allocates.
+    // `{:+0w$.d$}` each, through the fixed-decimal fast path.
+    let field = |value, decimals, width| FixedDecimal {
+        value,
+        decimals,
+        width,
+        plus: true,
+    };
     let _ = write!(
         out,
-        "VNIMU,{mx:+08.4},{my:+08.4},{mz:+08.4},{ax:+07.3},{ay:+07.3},{az:+07.3},{gx:+010.6},{gy:+010.6},{gz:+010.6},{temperature_c:+05.1},{pressure_kpa:+08.3}"
+        "VNIMU,{},{},{},{},{},{},{},{},{},{},{}",
+        field(mx, 4, 8),
+        field(my, 4, 8),
+        field(mz, 4, 8),
+        field(ax, 3, 7),
+        field(ay, 3, 7),
+        field(az, 3, 7),
+        field(gx, 6, 10),
+        field(gy, 6, 10),
+        field(gz, 6, 10),
+        field(temperature_c, 1, 5),
+        field(pressure_kpa, 3, 8),
     );
     let checksum = crate::gnss::nmea_checksum(&out[body_start..]);
     let _ = write!(out, "*{checksum:02X}\r\n");

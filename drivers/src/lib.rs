@@ -13,6 +13,7 @@
 //! - [`backoff`]: the reconnect wait every device and link uses.
 //! - [`clock`]: the time a device thread reads (the wall, or a test's manual clock).
 //! - [`device`]: the health counters each device thread shares with the core's edge.
+//! - [`fixed_decimal`]: numbers with a fixed count of decimals, as the simulated devices write them.
 //!
 //! The simulated world whose devices emit the same bytes lives in the `sim`
 //! crate, which depends on this one for the parsers' types.
@@ -25,6 +26,7 @@
 pub mod backoff;
 pub mod clock;
 pub mod device;
+pub mod fixed_decimal;
 pub mod gnss;
 pub mod imu;
 pub mod magnetic;

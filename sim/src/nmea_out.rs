@@ -8,6 +8,7 @@ use std::io::{self, Write as _};
 use chrono::{DateTime, Datelike};
 
 use super::GeoPoint;
+use drivers::fixed_decimal::FixedDecimal;
 use drivers::gnss::{FixQuality, nmea_checksum};
 
 const KNOTS_PER_MPS: f64 = 3600.0 / 1852.0;
@@ -49,8 +50,13 @@ pub(crate) fn write_epoch(talker: &str, report: &EpochReport, out: &mut Vec<u8>)
     );
     // Without a fix each coordinate is two empty fields.
     let no_fix = if has_fix { "" } else { "," };
-    let hdop = Shown(report.hdop.is_finite().then_some(Fixed(f64::from(report.hdop), 1)));
-    let alt = Shown(has_fix.then_some(Fixed(report.position.alt_m, 3)));
+    let hdop = Shown(
+        report
+            .hdop
+            .is_finite()
+            .then_some(FixedDecimal::new(f64::from(report.hdop), 1)),
+    );
+    let alt = Shown(has_fix.then_some(FixedDecimal::new(report.position.alt_m, 3)));
     sentence(talker, "GGA", out, |w| {
         write!(
             w,
@@ -65,8 +71,8 @@ pub(crate) fn write_epoch(talker: &str, report: &EpochReport, out: &mut Vec<u8>)
         sentence(talker, "RMC", out, |w| {
             write!(
                 w,
-                "{time},A,{lat},{lon},{:.3},{course},{date},,,{}",
-                report.speed_mps * KNOTS_PER_MPS,
+                "{time},A,{lat},{lon},{},{course},{date},,,{}",
+                FixedDecimal::new(report.speed_mps * KNOTS_PER_MPS, 3),
                 report.quality.faa_mode(),
             )
         });
@@ -75,12 +81,12 @@ pub(crate) fn write_epoch(talker: &str, report: &EpochReport, out: &mut Vec<u8>)
         return;
     }
 
-    let sigma = report.sigma_horizontal_m;
+    let sigma = FixedDecimal::new(report.sigma_horizontal_m, 4);
     sentence(talker, "GST", out, |w| {
         write!(
             w,
-            "{time},{sigma:.4},{sigma:.4},{sigma:.4},0.0,{sigma:.4},{sigma:.4},{:.4}",
-            report.sigma_alt_m
+            "{time},{sigma},{sigma},{sigma},0.0,{sigma},{sigma},{}",
+            FixedDecimal::new(report.sigma_alt_m, 4)
         )
     });
 
@@ -111,15 +117,6 @@ impl<T: fmt::Display> fmt::Display for Shown<T> {
             Some(value) => value.fmt(f),
             None => Ok(()),
         }
-    }
-}
-
-/// A number with a fixed count of decimals.
-struct Fixed(f64, usize);
-
-impl fmt::Display for Fixed {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{:.*}", self.1, self.0)
     }
 }
 

@@ -210,7 +210,7 @@ pub struct ScanStamp {
 /// rendering allocates nothing once they have grown.
 #[derive(Clone, Debug, Default)]
 pub struct RenderScratch {
-    directions: Vec<[f64; 2]>,
+    directions: BeamDirections,
     true_range_m: Vec<f64>,
 }
 
@@ -274,13 +274,14 @@ fn cast_beams(
     obstacles: &ObstacleWorld,
     truth: &VehicleTruth,
     t: Duration,
-    directions: &mut Vec<[f64; 2]>,
+    directions: &mut BeamDirections,
     true_range_m: &mut [f64],
 ) {
     let beams = true_range_m.len();
     let (origin, forward_rad) = config.scanner_pose(truth);
     let first_bearing_rad = forward_rad - config.fov_rad / 2.0;
     let step_rad = config.step_rad;
+    directions.reset(beams, first_bearing_rad, step_rad);
     let max_range_m = config.max_range_m;
     let relative_rad = |p: [f64; 2]| wrap_two_pi((p[1] - origin[1]).atan2(p[0] - origin[0]) - first_bearing_rad);
     obstacles.for_each_shape_at(t.as_secs_f64(), |shape| {
@@ -305,15 +306,12 @@ fn cast_beams(
             true_range_m.fill(0.0);
             return;
         }
-        if directions.len() != beams {
-            fill_directions(directions, beams, first_bearing_rad, step_rad);
-        }
         // Only the beams between a part's extreme bearings can hit it: a
         // person 5 m away spans a handful of the 541 beams, a wall's face
         // only the beams that reach it.
         let mut cast = |lo_rad: f64, hi_rad: f64, hit: &dyn Fn([f64; 2]) -> Option<f64>| {
             for (from, to) in beam_windows(lo_rad - 1e-9, hi_rad + 1e-9, step_rad, beams) {
-                for (range_m, dir) in true_range_m[from..to].iter_mut().zip(&directions[from..to]) {
+                for (range_m, dir) in true_range_m[from..to].iter_mut().zip(directions.get(from, to)) {
                     if let Some(hit_m) = hit(*dir) {
                         *range_m = range_m.min(hit_m);
                     }
@@ -343,23 +341,56 @@ fn cast_beams(
             }
         }
     });
-    directions.clear();
 }
 
-/// Unit vectors of the beams: sin_cos every 32nd, rotations between (the
+/// Beams per block of [`BeamDirections`]: one sin_cos, then rotations (the
 /// drift over 31 rotations is ~1e-14 rad).
-fn fill_directions(directions: &mut Vec<[f64; 2]>, beams: usize, first_bearing_rad: f64, step_rad: f64) {
-    let (step_sin, step_cos) = step_rad.sin_cos();
-    directions.clear();
-    for beam in 0..beams {
-        let dir = match directions.last() {
-            Some(&[n, e]) if beam % 32 != 0 => [n * step_cos - e * step_sin, n * step_sin + e * step_cos],
-            _ => {
-                let (sin, cos) = (first_bearing_rad + beam as f64 * step_rad).sin_cos();
-                [cos, sin]
+const DIRECTION_BLOCK: usize = 32;
+
+/// Unit vectors of one scan's beams, computed a block at a time when a
+/// cast first needs them: most scans reach a few obstacles, which span a
+/// small part of the field.
+#[derive(Clone, Debug, Default)]
+struct BeamDirections {
+    unit: Vec<[f64; 2]>,
+    block_filled: Vec<bool>,
+    first_bearing_rad: f64,
+    step_rad: f64,
+}
+
+impl BeamDirections {
+    /// Forgets the last scan's directions.
+    fn reset(&mut self, beams: usize, first_bearing_rad: f64, step_rad: f64) {
+        self.unit.resize(beams, [f64::NAN; 2]);
+        self.block_filled.clear();
+        self.block_filled.resize(beams.div_ceil(DIRECTION_BLOCK), false);
+        self.first_bearing_rad = first_bearing_rad;
+        self.step_rad = step_rad;
+    }
+
+    /// The directions of beams `from..to`.
+    fn get(&mut self, from: usize, to: usize) -> &[[f64; 2]] {
+        if from < to {
+            for block in from / DIRECTION_BLOCK..=(to - 1) / DIRECTION_BLOCK {
+                if !self.block_filled[block] {
+                    self.fill(block);
+                }
             }
-        };
-        directions.push(dir);
+        }
+        &self.unit[from..to]
+    }
+
+    fn fill(&mut self, block: usize) {
+        let (step_sin, step_cos) = self.step_rad.sin_cos();
+        let first = block * DIRECTION_BLOCK;
+        let last = (first + DIRECTION_BLOCK).min(self.unit.len());
+        let (sin, cos) = (self.first_bearing_rad + first as f64 * self.step_rad).sin_cos();
+        self.unit[first] = [cos, sin];
+        for beam in first + 1..last {
+            let [n, e] = self.unit[beam - 1];
+            self.unit[beam] = [n * step_cos - e * step_sin, n * step_sin + e * step_cos];
+        }
+        self.block_filled[block] = true;
     }
 }
 

@@ -345,11 +345,8 @@ impl<'a> Tokens<'a> {
         let body = telegram.strip_prefix(&[STX]).unwrap_or(telegram);
         let body = body.strip_suffix(&[ETX]).unwrap_or(body);
         // A token starts at each non-space byte after a space (or at the
-        // start). Pairwise, so the count vectorises.
-        let starts_inside = body
-            .windows(2)
-            .filter(|pair| pair[0] == b' ' && pair[1] != b' ')
-            .count();
+        // start).
+        let starts_inside = token_starts_after_spaces(body);
         let remaining = starts_inside + usize::from(body.first().is_some_and(|&b| b != b' '));
         Self { rest: body, remaining }
     }
@@ -402,19 +399,24 @@ impl<'a> Tokens<'a> {
         max: u32,
         mut out: Option<&mut Vec<u16>>,
     ) -> Result<(), ColaError> {
-        for _ in 0..count {
-            let ((value, invalid), at) = next_hex(self.rest);
+        // The position is kept in a local, stored back once at the end.
+        let mut rest = self.rest;
+        for taken in 0..count {
+            let ((value, invalid), at) = next_hex(rest);
             if invalid || at.1 - at.0 > 8 || at.0 == at.1 || value > max {
+                self.rest = rest;
+                self.remaining -= taken;
                 let value = self.take_hex(field, (value, invalid), at)?;
                 return Err(ColaError::OutOfRange { field, value, max });
             }
-            self.rest = &self.rest[at.1..];
-            self.remaining -= 1;
+            rest = &rest[at.1..];
             if let Some(out) = out.as_deref_mut() {
                 // Bounded by max ≤ u16::MAX above.
                 out.push(value as u16);
             }
         }
+        self.rest = rest;
+        self.remaining -= count;
         Ok(())
     }
 
@@ -472,6 +474,31 @@ impl<'a> Tokens<'a> {
         }
         Ok(count)
     }
+}
+
+/// How many bytes of `body` are a space followed by a non-space: eight
+/// pairs at a time (a scan telegram is kilobytes), the tail one by one.
+fn token_starts_after_spaces(body: &[u8]) -> usize {
+    const HIGH_BITS: u64 = 0x8080_8080_8080_8080;
+    // The high bit of each byte that is a space (exact, no carries between bytes).
+    let spaces = |word: u64| {
+        let x = word ^ 0x2020_2020_2020_2020;
+        !(((x & !HIGH_BITS) + !HIGH_BITS) | x) & HIGH_BITS
+    };
+    let word_at = |i: usize| u64::from_le_bytes(body[i..i + 8].try_into().unwrap_or_default());
+    let mut count = 0;
+    let mut i = 0;
+    while i + 9 <= body.len() {
+        let pairs = spaces(word_at(i)) & !spaces(word_at(i + 1)) & HIGH_BITS;
+        count += pairs.count_ones() as usize;
+        i += 8;
+    }
+    let tail = &body[i..];
+    count
+        + tail
+            .windows(2)
+            .filter(|pair| pair[0] == b' ' && pair[1] != b' ')
+            .count()
 }
 
 /// The first token of `rest` read as hex: (value, whether a byte was not a
@@ -748,18 +775,15 @@ impl ScanTelegram {
 /// rounds to 0 mm becomes 1 mm so an echo at the window is never read as
 /// "nothing there".
 fn range_to_mm(range_m: f32) -> u16 {
-    if !range_m.is_finite() || range_m < 0.0 {
-        return 0;
-    }
     let mm = f64::from(range_m) * 1000.0;
+    // NaN, negative and too far all fail this one test. Branch-free below,
+    // so a scan's ranges convert several at a time.
+    let representable = mm >= 0.0 && mm < f64::from(u16::MAX) + 0.5;
     // What `mm.round()` gives (half away from zero), without the libm call
     // per beam: the fraction of a non-negative double below 2^16 is exact.
-    if mm >= f64::from(u16::MAX) + 0.5 {
-        return 0;
-    }
     let whole = mm as u16;
-    let rounded = whole + u16::from(mm - f64::from(whole) >= 0.5);
-    rounded.max(1)
+    let rounded = whole.saturating_add(u16::from(mm - f64::from(whole) >= 0.5)).max(1);
+    if representable { rounded } else { 0 }
 }
 
 /// The telegram an LMS1xx would send for `scan` (inverse of
@@ -899,23 +923,37 @@ fn push_hex(out: &mut Vec<u8>, value: u32) {
 }
 
 /// Appends ` {:X}` of each value: the buffer is grown once for the longest
-/// text and the digits written in place (a scan is hundreds of values).
+/// text, and each value's space and digits are written as one 8-byte word
+/// (a scan is hundreds of values).
 fn push_hex_u16s(out: &mut Vec<u8>, values: &[u16]) {
     let start = out.len();
-    out.resize(start + 5 * values.len(), 0);
+    // 5 bytes at most per value, and room for the last word's 3 spare bytes.
+    out.resize(start + 5 * values.len() + 3, 0);
     let mut end = start;
     for &value in values {
-        let value = u32::from(value);
-        let digits = (35 - (value | 1).leading_zeros() as usize) / 4;
-        let text = &mut out[end..end + 1 + digits];
-        text[0] = b' ';
-        for (i, slot) in text[1..].iter_mut().enumerate() {
-            *slot = HEX_DIGITS[((value >> (4 * (digits - 1 - i))) & 0xF) as usize];
-        }
+        let digits = (19 - (value | 1).leading_zeros() as usize) / 4;
+        let [high, low] = value.to_be_bytes();
+        let [a, b] = HEX_PAIRS[usize::from(high)];
+        let [c, d] = HEX_PAIRS[usize::from(low)];
+        // The four digits, the leading zeros shifted out, a space in front.
+        let four = u64::from_le_bytes([a, b, c, d, 0, 0, 0, 0]) >> (8 * (4 - digits));
+        let word = (four << 8) | u64::from(b' ');
+        out[end..end + 8].copy_from_slice(&word.to_le_bytes());
         end += 1 + digits;
     }
     out.truncate(end);
 }
+
+/// Each byte as two upper-case hex digits.
+const HEX_PAIRS: [[u8; 2]; 256] = {
+    let mut table = [[0; 2]; 256];
+    let mut i = 0;
+    while i < 256 {
+        table[i] = [HEX_DIGITS[i >> 4], HEX_DIGITS[i & 0xF]];
+        i += 1;
+    }
+    table
+};
 
 /// Appends a space and all eight hex digits of `value` (`{:08X}`).
 fn push_hex_8_digits(out: &mut Vec<u8>, value: u32) {
@@ -1690,6 +1728,53 @@ mod tests {
                 _ => true,
             };
             prop_assert_eq!(echoes_in_range(&channel, &data), plain);
+        }
+
+        /// The word-at-a-time run reader gives what reading the tokens one
+        /// by one does: the same values, or the same error at the same token,
+        /// whatever the spacing and the digits.
+        #[test]
+        fn hex_run_matches_reading_token_by_token(
+            tokens in proptest::collection::vec(
+                prop_oneof![8 => "[0-9A-F]{1,4}", 1 => "[0-9a-fA-F]{5,9}", 1 => "[0-9A-Fa-fGz+ -]{0,6}"], 0..40),
+            gaps in proptest::collection::vec(1usize..3, 40),
+            count in 0usize..44,
+            max in prop_oneof![Just(0xFFu32), Just(0xFFFFu32)],
+        ) {
+            let body: String = tokens.iter().zip(&gaps).map(|(t, &gap)| " ".repeat(gap) + t).collect();
+            let mut run = Tokens::new(body.as_bytes());
+            let mut got = Vec::new();
+            let got = run.hex_run("data", count, max, Some(&mut got)).map(|()| got);
+            let field = "data";
+            let mut plain = body.split(' ').filter(|t| !t.is_empty());
+            let expected = (0..count)
+                .map(|_| {
+                    let token = plain.next().ok_or(ColaError::MissingField { field })?;
+                    let hex = token.len() <= 8 && token.bytes().all(|b| b.is_ascii_hexdigit());
+                    let bad = || ColaError::BadHex { field, token: quote(token.as_bytes()) };
+                    let value = if hex { u32::from_str_radix(token, 16).map_err(|_| bad())? } else { Err(bad())? };
+                    if value > max {
+                        return Err(ColaError::OutOfRange { field, value, max });
+                    }
+                    Ok(value as u16)
+                })
+                .collect::<Result<Vec<u16>, ColaError>>();
+            prop_assert_eq!(&got, &expected);
+            if got.is_ok() {
+                let rest: Vec<&str> = plain.collect();
+                prop_assert_eq!(run.remaining(), rest.len());
+                prop_assert_eq!(run.next_token().map(|t| t.to_vec()), rest.first().map(|t| t.as_bytes().to_vec()));
+            }
+        }
+
+        /// The word-at-a-time count of token starts is the plain pairwise one.
+        #[test]
+        fn token_start_count_matches_the_pairwise_count(
+            body in proptest::collection::vec(
+                prop_oneof![4 => Just(b' '), 1 => Just(0xA0u8), 1 => Just(0x21u8), 1 => Just(0x1Fu8), 3 => any::<u8>()], 0..80),
+        ) {
+            let plain = body.windows(2).filter(|pair| pair[0] == b' ' && pair[1] != b' ').count();
+            prop_assert_eq!(token_starts_after_spaces(&body), plain);
         }
 
         /// The table-driven hex writer writes what `{:X}` and `{:08X}` do.
