@@ -176,23 +176,32 @@ pub struct StopRecord {
     pub seed: u64,
 }
 
+/// One cross-track sample: the true pose's, and the autopilot's own (its
+/// estimate's), whose difference is the estimate's error across the path.
+/// A tracker steers the estimate onto the path; it cannot see the rest.
+#[derive(Clone, Copy, Debug)]
+pub struct LateralSample {
+    pub true_m: f64,
+    pub estimate_m: f64,
+}
+
 /// One run of one course with one seed.
 #[derive(Default)]
 pub struct RunRecord {
     pub completion_s: Option<f64>,
     /// time, true/estimated crosstrack, steering, speeds… (the plotted seed, with --trace).
     pub trace: Vec<String>,
-    pub straight_m: Vec<f64>,
-    pub arc_m: Vec<f64>,
+    pub straight_m: Vec<LateralSample>,
+    pub arc_m: Vec<LateralSample>,
     /// The same samples as `straight_m`/`arc_m`, split by the direction the
     /// leg is driven in.
-    pub forward_straight_m: Vec<f64>,
-    pub reverse_straight_m: Vec<f64>,
-    pub forward_arc_m: Vec<f64>,
-    pub reverse_arc_m: Vec<f64>,
+    pub forward_straight_m: Vec<LateralSample>,
+    pub reverse_straight_m: Vec<LateralSample>,
+    pub forward_arc_m: Vec<LateralSample>,
+    pub reverse_arc_m: Vec<LateralSample>,
     /// Straights within `AFTER_TURN_M` after a turn ends (where a turn's
     /// exit leaves the vehicle off the line), both directions.
-    pub turn_exit_m: Vec<f64>,
+    pub turn_exit_m: Vec<LateralSample>,
     pub stops: Vec<StopRecord>,
     pub plot: PlotData,
     pub core_tick_overruns: u64,
@@ -469,7 +478,11 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
         let moving = truth.speed_mps.abs() > 0.01;
         let reverse = target.direction == Direction::Reverse;
         let after_turn = progress.odometer_m - progress.turn_end_odometer_m >= AFTER_TURN_M;
-        let class = classify_error(&mut record, moving, on_arc, after_turn, reverse, error);
+        let lateral = LateralSample {
+            true_m: error,
+            estimate_m: core.navigator().status().crosstrack_m,
+        };
+        let class = classify_error(&mut record, moving, on_arc, after_turn, reverse, lateral);
         let sample = LegSample {
             target,
             path,
@@ -621,7 +634,7 @@ fn classify_error(
     on_arc: bool,
     after_turn: bool,
     reverse: bool,
-    error: f64,
+    error: LateralSample,
 ) -> plot::Class {
     if !moving {
         plot::Class::Other
@@ -709,25 +722,41 @@ fn report(course: &Course, runs: &[RunRecord], wall: Duration) {
     println!("core tick overruns: {overruns}");
 }
 
+/// The columns of a lateral error table: the truth's figures, then where
+/// they come from. "Steering" is the error the autopilot sees and steers
+/// out (its estimate's offset from the path); "estimate" is the estimate's
+/// own error across the path (estimate − truth), which no steering can
+/// remove.
+const LATERAL_COLUMNS: &str = "| samples | RMS mm | p95 mm | p99 mm | max mm | steering p99 mm | estimate error p99 mm |\n|---|---:|---:|---:|---:|---:|---:|---:|";
+
+/// One row of a lateral error table ([`LATERAL_COLUMNS`]).
+fn print_lateral_row(label: &str, samples: &[LateralSample]) {
+    let figures = error_figures(samples.iter().map(|s| s.true_m));
+    let p99 = |pick: fn(&LateralSample) -> f64| error_figures(samples.iter().map(pick)).map_or(f64::NAN, |f| f.2);
+    match figures {
+        Some((rms, p95, p99_true, max)) => println!(
+            "| {label} | {} | {rms:.1} | {p95:.1} | {p99_true:.1} | {max:.1} | {:.1} | {:.1} |",
+            samples.len(),
+            p99(|s| s.estimate_m),
+            p99(|s| s.estimate_m - s.true_m),
+        ),
+        None => println!("| {label} | 0 | – | – | – | – | – | – |"),
+    }
+}
+
+type PickLateral = fn(&RunRecord) -> &Vec<LateralSample>;
+
 /// The lateral error table: straights (after a turn) and arcs.
 fn report_lateral(runs: &[RunRecord]) {
-    println!("| lateral error (true pose) | samples | RMS mm | p95 mm | p99 mm | max mm |");
-    println!("|---|---:|---:|---:|---:|---:|");
-    for (label, pick) in [
-        (
-            "straights (≥ 3 m after a turn)",
-            (|r: &RunRecord| &r.straight_m) as fn(&RunRecord) -> &Vec<f64>,
-        ),
-        ("arcs", |r: &RunRecord| &r.arc_m),
-        ("straights, first 3 m after a turn", |r: &RunRecord| &r.turn_exit_m),
-    ] {
-        let n: usize = runs.iter().map(|r| pick(r).len()).sum();
-        match error_figures(runs.iter().flat_map(|r| pick(r).iter().copied())) {
-            Some((rms, p95, p99, max)) => {
-                println!("| {label} | {n} | {rms:.1} | {p95:.1} | {p99:.1} | {max:.1} |")
-            }
-            None => println!("| {label} | 0 | – | – | – | – |"),
-        }
+    println!("| lateral error (true pose) {LATERAL_COLUMNS}");
+    let rows: [(&str, PickLateral); 3] = [
+        ("straights (≥ 3 m after a turn)", |r| &r.straight_m),
+        ("arcs", |r| &r.arc_m),
+        ("straights, first 3 m after a turn", |r| &r.turn_exit_m),
+    ];
+    for (label, pick) in rows {
+        let samples: Vec<LateralSample> = runs.iter().flat_map(|r| pick(r).iter().copied()).collect();
+        print_lateral_row(label, &samples);
     }
 }
 
@@ -823,24 +852,16 @@ fn report_completion(runs: &[RunRecord], seeds: usize) {
 /// mixes both).
 fn report_directions(runs: &[RunRecord]) {
     println!();
-    println!("| lateral error by direction (true pose) | samples | RMS mm | p95 mm | p99 mm | max mm |");
-    println!("|---|---:|---:|---:|---:|---:|");
-    type Pick = fn(&RunRecord) -> &Vec<f64>;
-    let rows: [(&str, Pick); 4] = [
+    println!("| lateral error by direction (true pose) {LATERAL_COLUMNS}");
+    let rows: [(&str, PickLateral); 4] = [
         ("straights forward", |r| &r.forward_straight_m),
         ("straights reverse", |r| &r.reverse_straight_m),
         ("arcs forward", |r| &r.forward_arc_m),
         ("arcs reverse", |r| &r.reverse_arc_m),
     ];
     for (label, pick) in rows {
-        let errors: Vec<f64> = runs.iter().flat_map(|r| pick(r).iter().copied()).collect();
-        match error_figures(errors.iter().copied()) {
-            Some((rms, p95, p99, max)) => println!(
-                "| {label} | {} | {rms:.1} | {p95:.1} | {p99:.1} | {max:.1} |",
-                errors.len()
-            ),
-            None => println!("| {label} | 0 | – | – | – | – |"),
-        }
+        let samples: Vec<LateralSample> = runs.iter().flat_map(|r| pick(r).iter().copied()).collect();
+        print_lateral_row(label, &samples);
     }
 }
 
@@ -881,6 +902,32 @@ fn report_settling(runs: &[RunRecord]) {
         );
     }
     report_slow_stops(runs);
+    report_stray_stops(runs);
+}
+
+/// Stops reported on a leg without a mission item (item 0 in the stop
+/// table: a stop the course does not ask for, such as a hold), one line
+/// each, so the run can be replayed.
+fn report_stray_stops(runs: &[RunRecord]) {
+    let stray: Vec<&StopRecord> = runs
+        .iter()
+        .flat_map(|r| r.stops.iter())
+        .filter(|s| s.seq == 0)
+        .collect();
+    if stray.is_empty() {
+        return;
+    }
+    println!();
+    println!("stops on a leg that is no mission item:");
+    for s in stray {
+        println!(
+            "- seed {} ({:?}): true stop {:.1} mm from the leg's end, the autopilot's own {:.1} mm",
+            s.seed,
+            s.direction,
+            s.position_m * 1000.0,
+            s.reported_mm
+        );
+    }
 }
 
 /// The stops that took longer than [`SETTLE_TARGET_S`] to settle, one line
