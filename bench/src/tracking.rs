@@ -380,6 +380,9 @@ struct CourseProgress {
     turn_end_odometer_m: f64,
     last_heading: Option<f64>,
     settle: SettleWatch,
+    /// The last mission stop's leg and its settling, for a stop report that
+    /// comes on the tick the navigator has already moved on (to a retry).
+    stop_leg: Option<(NavTarget, LegPath, SettleWatch)>,
 }
 
 impl CourseProgress {
@@ -394,6 +397,11 @@ impl CourseProgress {
     fn enter_leg(&mut self, key: LegKey, path: &LegPath) -> bool {
         if self.leg == Some(key) {
             return false;
+        }
+        if let Some((target, _, settle)) = self.stop_leg.as_mut()
+            && self.leg.is_some_and(|leg| leg.seq == target.seq)
+        {
+            *settle = self.settle;
         }
         self.leg = Some(key);
         self.piece = 0;
@@ -469,8 +477,12 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
             from: nav.leg_start(),
             point: target.point,
         };
-        if progress.enter_leg(key, path) && keep_plot {
+        let new_leg = progress.enter_leg(key, path);
+        if new_leg && keep_plot {
             record.plot.add_leg(path);
+        }
+        if new_leg && target.stop && target.seq.is_some() {
+            progress.stop_leg = Some((target, path.clone(), SettleWatch::default()));
         }
         let (projection, on_arc) = progress.project(path, position);
         let error = projection.crosstrack_m;
@@ -506,9 +518,28 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
                 .update(sim.time().as_secs_f64(), to_go_m, truth.speed_mps);
         }
         for text in texts.iter().filter(|t| t.starts_with("Stop")) {
-            record
-                .stops
-                .push(stop_record(&sim, &sample, text, &progress.settle, options.seed));
+            let stop = match &progress.stop_leg {
+                // Reported for a stop the navigator has just left.
+                Some((stop_target, stop_path, settle))
+                    if reported_seq(text)
+                        .is_some_and(|seq| Some(seq) != target.seq && Some(seq) == stop_target.seq) =>
+                {
+                    let last_piece = stop_path.pieces().len() - 1;
+                    let projection = stop_path.project(&position, last_piece);
+                    let left = LegSample {
+                        target: *stop_target,
+                        path: stop_path,
+                        piece: projection.piece,
+                        position,
+                        yaw_rad: yaw,
+                        along_m: projection.along_m,
+                        crosstrack_m: projection.crosstrack_m,
+                    };
+                    stop_record(&sim, &left, text, settle, options.seed)
+                }
+                _ => stop_record(&sim, &sample, text, &progress.settle, options.seed),
+            };
+            record.stops.push(stop);
         }
         if core.mission_state() == ExecState::Complete && core.navigator().target().is_none() {
             record.completion_s = Some(sim.time().as_secs_f64() - start_s);
@@ -674,6 +705,11 @@ fn frame_rotation(sim: &Simulation, frame: &LocalFrame) -> f64 {
     let a = true_local(sim, frame, truth.north_m, truth.east_m);
     let b = true_local(sim, frame, truth.north_m + 10.0, truth.east_m);
     a.bearing_to(&b)
+}
+
+/// "Stop #8: 3.2 mm, …" → 8 (None for a stop with no mission item).
+fn reported_seq(text: &str) -> Option<u16> {
+    text.strip_prefix("Stop #")?.split(':').next()?.trim().parse().ok()
 }
 
 /// "Stop #8: 3.2 mm, yaw 0.010 deg, …" → (3.2, 0.010).
@@ -971,6 +1007,8 @@ mod tests {
             parse_reported("Stop: 12.0 mm, yaw -0.1 deg, OUT of tolerance"),
             Some((12.0, -0.1))
         );
+        assert_eq!(reported_seq("Stop #19: 4.0 mm, yaw 0.010 deg, in tolerance"), Some(19));
+        assert_eq!(reported_seq("Stop: 12.0 mm, yaw -0.1 deg, OUT of tolerance"), None);
     }
 
     #[test]
