@@ -176,23 +176,32 @@ pub struct StopRecord {
     pub seed: u64,
 }
 
+/// One cross-track sample: the true pose's, and the autopilot's own (its
+/// estimate's), whose difference is the estimate's error across the path.
+/// A tracker steers the estimate onto the path; it cannot see the rest.
+#[derive(Clone, Copy, Debug)]
+pub struct LateralSample {
+    pub true_m: f64,
+    pub estimate_m: f64,
+}
+
 /// One run of one course with one seed.
 #[derive(Default)]
 pub struct RunRecord {
     pub completion_s: Option<f64>,
     /// time, true/estimated crosstrack, steering, speeds… (the plotted seed, with --trace).
     pub trace: Vec<String>,
-    pub straight_m: Vec<f64>,
-    pub arc_m: Vec<f64>,
+    pub straight_m: Vec<LateralSample>,
+    pub arc_m: Vec<LateralSample>,
     /// The same samples as `straight_m`/`arc_m`, split by the direction the
     /// leg is driven in.
-    pub forward_straight_m: Vec<f64>,
-    pub reverse_straight_m: Vec<f64>,
-    pub forward_arc_m: Vec<f64>,
-    pub reverse_arc_m: Vec<f64>,
+    pub forward_straight_m: Vec<LateralSample>,
+    pub reverse_straight_m: Vec<LateralSample>,
+    pub forward_arc_m: Vec<LateralSample>,
+    pub reverse_arc_m: Vec<LateralSample>,
     /// Straights within `AFTER_TURN_M` after a turn ends (where a turn's
     /// exit leaves the vehicle off the line), both directions.
-    pub turn_exit_m: Vec<f64>,
+    pub turn_exit_m: Vec<LateralSample>,
     pub stops: Vec<StopRecord>,
     pub plot: PlotData,
     pub core_tick_overruns: u64,
@@ -371,6 +380,9 @@ struct CourseProgress {
     turn_end_odometer_m: f64,
     last_heading: Option<f64>,
     settle: SettleWatch,
+    /// The last mission stop's leg and its settling, for a stop report that
+    /// comes on the tick the navigator has already moved on (to a retry).
+    stop_leg: Option<(NavTarget, LegPath, SettleWatch)>,
 }
 
 impl CourseProgress {
@@ -385,6 +397,11 @@ impl CourseProgress {
     fn enter_leg(&mut self, key: LegKey, path: &LegPath) -> bool {
         if self.leg == Some(key) {
             return false;
+        }
+        if let Some((target, _, settle)) = self.stop_leg.as_mut()
+            && self.leg.is_some_and(|leg| leg.seq == target.seq)
+        {
+            *settle = self.settle;
         }
         self.leg = Some(key);
         self.piece = 0;
@@ -460,8 +477,12 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
             from: nav.leg_start(),
             point: target.point,
         };
-        if progress.enter_leg(key, path) && keep_plot {
+        let new_leg = progress.enter_leg(key, path);
+        if new_leg && keep_plot {
             record.plot.add_leg(path);
+        }
+        if new_leg && target.stop && target.seq.is_some() {
+            progress.stop_leg = Some((target, path.clone(), SettleWatch::default()));
         }
         let (projection, on_arc) = progress.project(path, position);
         let error = projection.crosstrack_m;
@@ -469,7 +490,11 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
         let moving = truth.speed_mps.abs() > 0.01;
         let reverse = target.direction == Direction::Reverse;
         let after_turn = progress.odometer_m - progress.turn_end_odometer_m >= AFTER_TURN_M;
-        let class = classify_error(&mut record, moving, on_arc, after_turn, reverse, error);
+        let lateral = LateralSample {
+            true_m: error,
+            estimate_m: core.navigator().status().crosstrack_m,
+        };
+        let class = classify_error(&mut record, moving, on_arc, after_turn, reverse, lateral);
         let sample = LegSample {
             target,
             path,
@@ -493,9 +518,28 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
                 .update(sim.time().as_secs_f64(), to_go_m, truth.speed_mps);
         }
         for text in texts.iter().filter(|t| t.starts_with("Stop")) {
-            record
-                .stops
-                .push(stop_record(&sim, &sample, text, &progress.settle, options.seed));
+            let stop = match &progress.stop_leg {
+                // Reported for a stop the navigator has just left.
+                Some((stop_target, stop_path, settle))
+                    if reported_seq(text)
+                        .is_some_and(|seq| Some(seq) != target.seq && Some(seq) == stop_target.seq) =>
+                {
+                    let last_piece = stop_path.pieces().len() - 1;
+                    let projection = stop_path.project(&position, last_piece);
+                    let left = LegSample {
+                        target: *stop_target,
+                        path: stop_path,
+                        piece: projection.piece,
+                        position,
+                        yaw_rad: yaw,
+                        along_m: projection.along_m,
+                        crosstrack_m: projection.crosstrack_m,
+                    };
+                    stop_record(&sim, &left, text, settle, options.seed)
+                }
+                _ => stop_record(&sim, &sample, text, &progress.settle, options.seed),
+            };
+            record.stops.push(stop);
         }
         if core.mission_state() == ExecState::Complete && core.navigator().target().is_none() {
             record.completion_s = Some(sim.time().as_secs_f64() - start_s);
@@ -621,7 +665,7 @@ fn classify_error(
     on_arc: bool,
     after_turn: bool,
     reverse: bool,
-    error: f64,
+    error: LateralSample,
 ) -> plot::Class {
     if !moving {
         plot::Class::Other
@@ -661,6 +705,11 @@ fn frame_rotation(sim: &Simulation, frame: &LocalFrame) -> f64 {
     let a = true_local(sim, frame, truth.north_m, truth.east_m);
     let b = true_local(sim, frame, truth.north_m + 10.0, truth.east_m);
     a.bearing_to(&b)
+}
+
+/// "Stop #8: 3.2 mm, …" → 8 (None for a stop with no mission item).
+fn reported_seq(text: &str) -> Option<u16> {
+    text.strip_prefix("Stop #")?.split(':').next()?.trim().parse().ok()
 }
 
 /// "Stop #8: 3.2 mm, yaw 0.010 deg, …" → (3.2, 0.010).
@@ -709,25 +758,41 @@ fn report(course: &Course, runs: &[RunRecord], wall: Duration) {
     println!("core tick overruns: {overruns}");
 }
 
+/// The columns of a lateral error table: the truth's figures, then where
+/// they come from. "Steering" is the error the autopilot sees and steers
+/// out (its estimate's offset from the path); "estimate" is the estimate's
+/// own error across the path (estimate − truth), which no steering can
+/// remove.
+const LATERAL_COLUMNS: &str = "| samples | RMS mm | p95 mm | p99 mm | max mm | steering p99 mm | estimate error p99 mm |\n|---|---:|---:|---:|---:|---:|---:|---:|";
+
+/// One row of a lateral error table ([`LATERAL_COLUMNS`]).
+fn print_lateral_row(label: &str, samples: &[LateralSample]) {
+    let figures = error_figures(samples.iter().map(|s| s.true_m));
+    let p99 = |pick: fn(&LateralSample) -> f64| error_figures(samples.iter().map(pick)).map_or(f64::NAN, |f| f.2);
+    match figures {
+        Some((rms, p95, p99_true, max)) => println!(
+            "| {label} | {} | {rms:.1} | {p95:.1} | {p99_true:.1} | {max:.1} | {:.1} | {:.1} |",
+            samples.len(),
+            p99(|s| s.estimate_m),
+            p99(|s| s.estimate_m - s.true_m),
+        ),
+        None => println!("| {label} | 0 | – | – | – | – | – | – |"),
+    }
+}
+
+type PickLateral = fn(&RunRecord) -> &Vec<LateralSample>;
+
 /// The lateral error table: straights (after a turn) and arcs.
 fn report_lateral(runs: &[RunRecord]) {
-    println!("| lateral error (true pose) | samples | RMS mm | p95 mm | p99 mm | max mm |");
-    println!("|---|---:|---:|---:|---:|---:|");
-    for (label, pick) in [
-        (
-            "straights (≥ 3 m after a turn)",
-            (|r: &RunRecord| &r.straight_m) as fn(&RunRecord) -> &Vec<f64>,
-        ),
-        ("arcs", |r: &RunRecord| &r.arc_m),
-        ("straights, first 3 m after a turn", |r: &RunRecord| &r.turn_exit_m),
-    ] {
-        let n: usize = runs.iter().map(|r| pick(r).len()).sum();
-        match error_figures(runs.iter().flat_map(|r| pick(r).iter().copied())) {
-            Some((rms, p95, p99, max)) => {
-                println!("| {label} | {n} | {rms:.1} | {p95:.1} | {p99:.1} | {max:.1} |")
-            }
-            None => println!("| {label} | 0 | – | – | – | – |"),
-        }
+    println!("| lateral error (true pose) {LATERAL_COLUMNS}");
+    let rows: [(&str, PickLateral); 3] = [
+        ("straights (≥ 3 m after a turn)", |r| &r.straight_m),
+        ("arcs", |r| &r.arc_m),
+        ("straights, first 3 m after a turn", |r| &r.turn_exit_m),
+    ];
+    for (label, pick) in rows {
+        let samples: Vec<LateralSample> = runs.iter().flat_map(|r| pick(r).iter().copied()).collect();
+        print_lateral_row(label, &samples);
     }
 }
 
@@ -823,24 +888,16 @@ fn report_completion(runs: &[RunRecord], seeds: usize) {
 /// mixes both).
 fn report_directions(runs: &[RunRecord]) {
     println!();
-    println!("| lateral error by direction (true pose) | samples | RMS mm | p95 mm | p99 mm | max mm |");
-    println!("|---|---:|---:|---:|---:|---:|");
-    type Pick = fn(&RunRecord) -> &Vec<f64>;
-    let rows: [(&str, Pick); 4] = [
+    println!("| lateral error by direction (true pose) {LATERAL_COLUMNS}");
+    let rows: [(&str, PickLateral); 4] = [
         ("straights forward", |r| &r.forward_straight_m),
         ("straights reverse", |r| &r.reverse_straight_m),
         ("arcs forward", |r| &r.forward_arc_m),
         ("arcs reverse", |r| &r.reverse_arc_m),
     ];
     for (label, pick) in rows {
-        let errors: Vec<f64> = runs.iter().flat_map(|r| pick(r).iter().copied()).collect();
-        match error_figures(errors.iter().copied()) {
-            Some((rms, p95, p99, max)) => println!(
-                "| {label} | {} | {rms:.1} | {p95:.1} | {p99:.1} | {max:.1} |",
-                errors.len()
-            ),
-            None => println!("| {label} | 0 | – | – | – | – |"),
-        }
+        let samples: Vec<LateralSample> = runs.iter().flat_map(|r| pick(r).iter().copied()).collect();
+        print_lateral_row(label, &samples);
     }
 }
 
@@ -881,6 +938,32 @@ fn report_settling(runs: &[RunRecord]) {
         );
     }
     report_slow_stops(runs);
+    report_stray_stops(runs);
+}
+
+/// Stops reported on a leg without a mission item (item 0 in the stop
+/// table: a stop the course does not ask for, such as a hold), one line
+/// each, so the run can be replayed.
+fn report_stray_stops(runs: &[RunRecord]) {
+    let stray: Vec<&StopRecord> = runs
+        .iter()
+        .flat_map(|r| r.stops.iter())
+        .filter(|s| s.seq == 0)
+        .collect();
+    if stray.is_empty() {
+        return;
+    }
+    println!();
+    println!("stops on a leg that is no mission item:");
+    for s in stray {
+        println!(
+            "- seed {} ({:?}): true stop {:.1} mm from the leg's end, the autopilot's own {:.1} mm",
+            s.seed,
+            s.direction,
+            s.position_m * 1000.0,
+            s.reported_mm
+        );
+    }
 }
 
 /// The stops that took longer than [`SETTLE_TARGET_S`] to settle, one line
@@ -924,6 +1007,8 @@ mod tests {
             parse_reported("Stop: 12.0 mm, yaw -0.1 deg, OUT of tolerance"),
             Some((12.0, -0.1))
         );
+        assert_eq!(reported_seq("Stop #19: 4.0 mm, yaw 0.010 deg, in tolerance"), Some(19));
+        assert_eq!(reported_seq("Stop: 12.0 mm, yaw -0.1 deg, OUT of tolerance"), None);
     }
 
     #[test]
