@@ -340,9 +340,6 @@ fn print_lowest_rests(outcomes: &[RandomOutcome]) {
         .collect();
     if !lowest.is_empty() {
         println!();
-        println!(
-            "Lowest clearances at rest with room for 0.3 m: {}.",
-            lowest.join(", ")
-        );
+        println!("Lowest clearances at rest with room for 0.3 m: {}.", lowest.join(", "));
     }
 }
