@@ -1079,3 +1079,26 @@ fn a_stop_while_settling_holds_until_the_way_has_been_clear_for_resume_s() {
     let resumed_at = resumed_at.expect("resumes once clear");
     assert!(resumed_at >= 1.0 + config.resume_s - 1e-9, "{resumed_at}");
 }
+
+/// Driving, a coasting track that stood still when last seen (a standing
+/// thing that dropped out of view beside the body) is stopped for like a
+/// confirmed one; a coasting walker, whose velocity has gone stale, is not.
+#[test]
+fn a_standing_thing_out_of_view_is_stopped_for_while_driving() {
+    let config = PolicyConfig::default();
+    let side = FOOTPRINT.half_width_m + 0.25 + 0.2;
+    for (still_s, stops) in [(10.0, true), (0.0, false)] {
+        let mut thing = track(9, 0.5, side, 0.0, 0.0, 0.25);
+        thing.status = TrackStatus::Coasting;
+        thing.still_s = still_s;
+        let mut driving = Scene::clear(0.0, 1.0);
+        driving.tracks = vec![thing];
+        driving.predictions = vec![prediction(9, 0.5)];
+        let verdict = ObstaclePolicy::new().update(&driving.inputs(), &config).verdict;
+        assert_eq!(
+            matches!(verdict, Verdict::Stop(StopCause::Collision { track_id: 9, .. })),
+            stops,
+            "still {still_s} s: {verdict:?}"
+        );
+    }
+}

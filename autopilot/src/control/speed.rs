@@ -31,6 +31,54 @@ const BRAKE_GAIN: f64 = 2.0;
 const BRAKE_FLOOR_MPS: f64 = 0.1;
 const BRAKE_REST_MPS: f64 = 0.02;
 
+/// How long the accelerometer's forward bias is averaged over (s): long
+/// against the speed estimate's lag (a tenth of a second behind the GNSS
+/// velocity) and its centimetres per second of noise, so neither moves the
+/// learnt bias by more than a few mm/s² (see [`AccelBias`]).
+const ACCEL_BIAS_TAU_S: f64 = 5.0;
+
+/// The forward accelerometer's bias, learnt all the time from what it
+/// measures against how the speed estimate changes: the IMU's acceleration
+/// integrated over seconds must add up to the speed's change, and what it
+/// adds beyond is its bias (the simulator draws 0.03 m/s² per unit; a slope
+/// counts as bias too, which is what dead reckoning on it needs). The
+/// filter is `b' = (a − b − v̇)/τ`: with `a` = true acceleration + bias and
+/// the estimate `v` lagging the truth by `e`, the error obeys
+/// `(b − bias)' = (ė − (b − bias))/τ`, so the lag only moves it by `e/τ`
+/// while the speed changes (0.04 m/s² at the height of a 2 m/s² stop), and
+/// not at all once the estimate has caught up. The brake therefore uses the
+/// bias learnt before it began.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AccelBias {
+    bias_mps2: f64,
+    last_speed_mps: Option<f64>,
+}
+
+impl AccelBias {
+    /// One tick's IMU forward acceleration and speed estimate; `None`
+    /// (no IMU, no estimate) starts the speed's differences afresh.
+    pub fn observe(&mut self, accel_mps2: Option<f64>, speed_mps: Option<f64>, dt_s: f64) {
+        let (Some(accel), Some(speed)) = (accel_mps2, speed_mps) else {
+            self.last_speed_mps = None;
+            return;
+        };
+        if !(accel.is_finite() && speed.is_finite() && dt_s > 0.0) {
+            self.last_speed_mps = None;
+            return;
+        }
+        if let Some(last) = self.last_speed_mps {
+            let k = (dt_s / ACCEL_BIAS_TAU_S).min(1.0);
+            self.bias_mps2 += k * (accel - self.bias_mps2) - (speed - last) / ACCEL_BIAS_TAU_S;
+        }
+        self.last_speed_mps = Some(speed);
+    }
+
+    /// The bias learnt so far, m/s².
+    pub fn mps2(&self) -> f64 {
+        self.bias_mps2
+    }
+}
+
 /// When braking to rest ends.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BrakeLimits {
@@ -54,17 +102,26 @@ pub struct SpeedController {
     /// How long the present braking has lasted (s).
     braking_s: f64,
     /// While braking with an accelerometer: the speed measured when the
-    /// braking began, carried on with the measured acceleration (m/s).
-    braked_on_mps: Option<f64>,
+    /// braking began, carried on with the measured acceleration less the
+    /// bias learnt before (m/s, m/s²).
+    braked_on: Option<(f64, f64)>,
+    /// The accelerometer's forward bias, learnt whatever the demand.
+    accel_bias: AccelBias,
 }
 
 impl SpeedController {
     pub fn reset(&mut self, current_speed_mps: f64) {
         self.braked = false;
         self.braking_s = 0.0;
-        self.braked_on_mps = None;
+        self.braked_on = None;
         self.pid.reset();
         self.limited_mps = current_speed_mps;
+    }
+
+    /// One tick's IMU forward acceleration and speed estimate, to learn
+    /// the accelerometer's bias from (see [`AccelBias`]).
+    pub fn observe_accel(&mut self, accel_mps2: Option<f64>, speed_mps: Option<f64>, dt_s: f64) {
+        self.accel_bias.observe(accel_mps2, speed_mps, dt_s);
     }
 
     /// The acceleration-limited speed demand of the last update.
@@ -88,7 +145,7 @@ impl SpeedController {
     ) -> f64 {
         self.braked = false;
         self.braking_s = 0.0;
-        self.braked_on_mps = None;
+        self.braked_on = None;
         let step = desired_mps - self.limited_mps;
         let slowing = desired_mps.abs() < self.limited_mps.abs() || desired_mps * self.limited_mps < 0.0;
         let limit = if slowing {
@@ -175,12 +232,13 @@ impl SpeedController {
 
     /// [`Self::brake`] on the speed carried on with the acceleration.
     fn brake_dead_reckoned(&mut self, config: &SpeedControlConfig, measured: f64, accel: f64, dt_s: f64) -> f64 {
-        let speed = match self.braked_on_mps {
-            None => measured,
-            Some(v) => v + accel * dt_s.max(0.0),
+        let (speed, bias) = match self.braked_on {
+            None => (measured, self.accel_bias.mps2()),
+            Some((v, bias)) => (v + (accel - bias) * dt_s.max(0.0), bias),
         };
-        let started = *self.braked_on_mps.get_or_insert(measured);
-        self.braked_on_mps = Some(speed);
+        // The direction braked against: the last tick's.
+        let started = self.braked_on.map_or(measured, |(v, _)| v);
+        self.braked_on = Some((speed, bias));
         // Down to the last centimetres per second, or crossed zero (or
         // nothing to brake from, or NaN): at rest. Stopping the brake a
         // little short of zero leaves the drive's lag a short tail, where
@@ -342,6 +400,75 @@ mod tests {
             .collect();
         assert!(throttles[..45].iter().all(|&t| t < 0.0), "{throttles:?}");
         assert!(throttles[55..].iter().all(|&t| t == 0.0), "{throttles:?}");
+    }
+
+    /// A drive cycle at 50 Hz (rest, 1 m/s² up to 1.5 m/s, cruise, a
+    /// 2 m/s² stop, rest) seen by an accelerometer biased by `bias_mps2`
+    /// and a speed estimate 0.1 s behind the truth, updated at 10 Hz.
+    fn learn_bias(bias_mps2: f64, seconds: f64) -> AccelBias {
+        let dt = 0.02;
+        let mut learnt = AccelBias::default();
+        let speed_at = |t: f64| -> f64 {
+            let t = t % 12.0;
+            match t {
+                t if t < 2.0 => 0.0,
+                t if t < 3.5 => t - 2.0,
+                t if t < 9.0 => 1.5,
+                t if t < 9.75 => 1.5 - 2.0 * (t - 9.0),
+                _ => 0.0,
+            }
+        };
+        for k in 0..(seconds / dt) as u64 {
+            let t = k as f64 * dt;
+            let accel = (speed_at(t + dt) - speed_at(t)) / dt + bias_mps2;
+            let estimate = speed_at(((t - 0.1) * 10.0).floor() / 10.0);
+            learnt.observe(Some(accel), Some(estimate), dt);
+        }
+        learnt
+    }
+
+    #[test]
+    fn the_accelerometer_bias_is_learnt_while_driving() {
+        for bias in [-0.05, 0.0, 0.03] {
+            // Three cycles: 36 s, seven time constants.
+            let learnt = learn_bias(bias, 36.0).mps2();
+            assert!((learnt - bias).abs() < 0.005, "bias {bias}: learnt {learnt}");
+        }
+    }
+
+    #[test]
+    fn braking_carries_the_speed_on_without_the_learnt_bias() {
+        let mut c = SpeedController::default();
+        let bias = 0.05;
+        let dt = 0.02;
+        // At rest for 30 s: the accelerometer reads its bias alone.
+        for _ in 0..1500 {
+            c.observe_accel(Some(bias), Some(0.0), dt);
+        }
+        let limits = BrakeLimits {
+            rest_mps: 0.02,
+            max_s: 3.0,
+        };
+        // Braking from 1 m/s while truly decelerating at 1 m/s²: the brake
+        // lets go when the truth is down to its rest speed, not the 5 cm/s
+        // more that the bias would have added over a second.
+        let mut true_mps = 1.0;
+        let mut released_at_mps = None;
+        for _ in 0..100 {
+            let throttle = c.brake(&config(), Some(1.0), Some(-1.0 + bias), &limits, dt);
+            if throttle == 0.0 {
+                released_at_mps = Some(true_mps);
+                break;
+            }
+            true_mps -= 1.0 * dt;
+        }
+        // Within a tick (2 cm/s of this braking) of the truth reaching it:
+        // the bias left in would have let go at -3 cm/s, in reverse.
+        let released = released_at_mps.expect("the brake lets go");
+        assert!(
+            (-1e-9..=BRAKE_REST_MPS + 1e-9).contains(&released),
+            "released at {released} m/s"
+        );
     }
 
     #[test]

@@ -61,6 +61,7 @@ use std::fmt;
 
 use super::field::FieldStatus;
 use super::prediction::{CollisionPrediction, to_body};
+use super::tracking::STILL_S;
 use super::{Footprint, Pose, Track, TrackStatus};
 
 /// Slower than this the vehicle is at rest.
@@ -629,7 +630,7 @@ fn weigh_predictions<'p>(
     // Pass-first (seed 004) decides on the first prediction.
     let defer = !at_rest && !config.pass_first;
     for prediction in predictions {
-        let response = match respond(prediction, inputs, config, allow_pass) {
+        let response = match respond_moving(prediction, inputs, config, allow_pass, at_rest) {
             Response::Stop
                 if defer && prediction.time_s > stopping_time_s(inputs.speed_mps, config) + DECIDE_LEAD_S =>
             {
@@ -743,6 +744,30 @@ fn patient_blocker(inputs: &PolicyInputs, config: &PolicyConfig, object: Option<
         .map(collision_cause)
 }
 
+/// [`respond`] for a vehicle that moves: a coasting track that stood
+/// still when last seen counts as a confirmed one. A standing thing drops
+/// out of view beside the body (the blind zone between the scanners'
+/// fields) and is still there; ignored, the inner side of an arc or the
+/// swing of the body sweeps into it while the track coasts.
+fn respond_moving(
+    prediction: &CollisionPrediction,
+    inputs: &PolicyInputs,
+    config: &PolicyConfig,
+    allow_pass: bool,
+    at_rest: bool,
+) -> Response {
+    let standing_out_of_view = !at_rest
+        && inputs
+            .tracks
+            .iter()
+            .find(|t| t.id == prediction.track_id)
+            .is_some_and(|t| t.status == TrackStatus::Coasting && t.still_s >= STILL_S);
+    if standing_out_of_view {
+        return respond_confirmed(prediction, None, inputs, config, false);
+    }
+    respond(prediction, inputs, config, allow_pass)
+}
+
 fn respond(
     prediction: &CollisionPrediction,
     inputs: &PolicyInputs,
@@ -754,6 +779,18 @@ fn respond(
     if track.is_some_and(|t| t.status != TrackStatus::Confirmed) {
         return Response::Ignore;
     }
+    respond_confirmed(prediction, track, inputs, config, allow_pass)
+}
+
+/// The response to a prediction for `track` (none: a track not in the
+/// list, which is stopped for).
+fn respond_confirmed(
+    prediction: &CollisionPrediction,
+    track: Option<&Track>,
+    inputs: &PolicyInputs,
+    config: &PolicyConfig,
+    allow_pass: bool,
+) -> Response {
     let beyond_horizon = prediction
         .time_s
         .partial_cmp(&config.stop_horizon_s)

@@ -191,6 +191,10 @@ impl Core {
         let estimate = self.estimator.estimate();
         // A speed measurement only while the estimate is good.
         let measured = (estimate.position_valid && estimate.heading_valid).then_some(estimate.speed_mps);
+        // The accelerometer's bias is learnt whatever is driven, for the
+        // obstacle brake's dead reckoning.
+        let accel = self.longitudinal_accel_mps2();
+        self.speed_control.observe_accel(accel, measured, dt_s);
         let (steering, throttle) = match demand {
             Demand::Stop => {
                 self.speed_control.reset(0.0);
@@ -198,7 +202,6 @@ impl Core {
             }
             Demand::Brake => {
                 let config = self.speed_control_config();
-                let accel = self.longitudinal_accel_mps2();
                 let throttle = self.speed_control.brake(&config, measured, accel, &BRAKE_LIMITS, dt_s);
                 (self.braking_steering(), throttle)
             }

@@ -426,8 +426,17 @@ fn judge_rests(run: &RunTruth, rests: &[Rest], result: &mut RunResult) {
             continue;
         };
         let gap_m = shape.distance_to_rectangle_m(&rectangle(&run.outline, &from));
-        if gap_m >= run.plant.stopping_m(from.speed_mps) + ROOM_CLEARANCE_M {
+        let stopping_m = run.plant.stopping_m(from.speed_mps);
+        if gap_m >= stopping_m + ROOM_CLEARANCE_M {
             result.rest_clearance_with_room_m.push(rest.clearance_m);
+            result.events.push(format!(
+                "t {:.2} at rest {:.3} m from {} (standing), known at t {:.2} at {:.2} m/s {gap_m:.2} m away (stopping {stopping_m:.2} m): room for {ROOM_CLEARANCE_M} m",
+                at.t_s,
+                rest.clearance_m,
+                rest.object.label(),
+                from.t_s,
+                from.speed_mps.abs()
+            ));
         }
     }
 }

@@ -47,7 +47,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 pub use classic::Classic;
-pub use drive::{Course, RunResult, Setup};
+pub use drive::{Course, ROOM_CLEARANCE_M, RunResult, Setup};
 pub use families::{Family, Lane, Variant};
 pub use truth::TruthLog;
 

@@ -297,6 +297,7 @@ pub fn random_table(outcomes: &[RandomOutcome], verbose: bool) {
             tally.lost_text()
         );
     }
+    print_lowest_rests(outcomes);
     println!();
     println!("Where the randomized collisions and false stops happened (both timings):");
     println!();
@@ -309,4 +310,36 @@ pub fn random_table(outcomes: &[RandomOutcome], verbose: bool) {
         "Timings: feasible when, on the course driven without people, braking the same way from the instant each person could be known avoids everyone the course would touch; infeasible otherwise. False stops: a stop when no true shape, moved on its true velocity for the horizon, comes within OA_MARGIN of the outline swept along the course for the plant's true stopping distance plus the horizon's travel (no OA_REACT_TIME or OA_DECEL in either rule)."
     );
     println!("Replay a run with `furrow-bench obstacles --replay SEED`.");
+}
+
+/// How many of the lowest clearances at rest with room for 0.3 m are
+/// listed with their seeds.
+const LOWEST_RESTS: usize = 8;
+
+/// The randomized runs' lowest clearances at rest where a stop 0.3 m
+/// clear was possible, with their seeds, to replay.
+fn print_lowest_rests(outcomes: &[RandomOutcome]) {
+    let mut rests: Vec<(f64, u64, bool)> = outcomes
+        .iter()
+        .flat_map(|o| {
+            (o.result.rest_clearance_with_room_m)
+                .iter()
+                .map(|&c| (c, o.seed, o.feasible))
+        })
+        .collect();
+    rests.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let lowest: Vec<String> = rests
+        .iter()
+        .take(LOWEST_RESTS)
+        .map(|(c, seed, feasible)| {
+            format!(
+                "seed {seed} {c:.2} m ({})",
+                if *feasible { "feasible" } else { "infeasible" }
+            )
+        })
+        .collect();
+    if !lowest.is_empty() {
+        println!();
+        println!("Lowest clearances at rest with room for 0.3 m: {}.", lowest.join(", "));
+    }
 }
