@@ -279,7 +279,7 @@ fn an_auto_pose_stop_waits_for_the_estimate_and_is_claimed() {
             lon_deg: origin.lon_deg,
             alt_m: 0.0,
         });
-        let (m, deg) = pose_error(&h, north0 + north, east0 + east, Some(yaw_deg));
+        let (m, deg) = pose_error(&h, north0 + north, east0 + east, Some(f64::from(yaw_deg)));
         assert!(
             texts.iter().any(|t| t == "Reached waypoint #1"),
             "seed {seed}: truth {:.1} mm, {deg:.3}°: {texts:?}",
