@@ -26,7 +26,8 @@ pub struct DirectionCount {
 impl DirectionCount {
     /// Notes a tick's signed speed command (negative: reverse).
     pub fn note(&mut self, speed_mps: f64) {
-        if !(speed_mps.abs() > DRIVEN_SPEED_MPS) {
+        // NaN is no command either.
+        if speed_mps.is_nan() || speed_mps.abs() <= DRIVEN_SPEED_MPS {
             return;
         }
         let way = if speed_mps > 0.0 {
