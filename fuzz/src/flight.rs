@@ -171,6 +171,7 @@ fn vehicle(u: &mut Unstructured) -> Result<Vehicle> {
         stop_preview_m: in_range(u, 0.0, 10.0)?,
         manoeuvre_speed_mps: in_range(u, 0.1, 2.0)?,
         pivot_rate_rad_s: in_range(u, 1.0, 180.0)?.to_radians(),
+        direction_changes_max: None,
     };
     Ok(Vehicle {
         config,

@@ -2,6 +2,7 @@
 //! it, the speed to drive at, and the navigator that ties them together for
 //! the modes.
 
+pub mod direction_count;
 pub mod magnetic;
 pub mod magnetic_estimate;
 pub mod magnetic_slope;

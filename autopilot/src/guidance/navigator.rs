@@ -8,6 +8,7 @@ use std::collections::VecDeque;
 
 use crate::estimation::Estimate;
 use crate::geo::{Ned, wrap_pi};
+use crate::guidance::direction_count::DirectionCount;
 use crate::guidance::manoeuvre::{Manoeuvre, stroke_start_yaw};
 use crate::guidance::path::{Arc, ArcSpan, LegPath, PathProjection, fit_corner};
 use crate::guidance::reeds_shepp::{Pose, Stroke};
@@ -120,6 +121,11 @@ pub struct NavConfig {
     pub manoeuvre_speed_mps: f64,
     /// Fastest turn on the spot (`MNV_PIVOT_RATE`).
     pub pivot_rate_rad_s: f64,
+    /// Most changes between forward and reverse on the way to the goal
+    /// (`MNV_DIR_MAX`, counted since [`Navigator::count_directions_afresh`]):
+    /// a stop past its point creeps back only while one is left. None: no
+    /// limit.
+    pub direction_changes_max: Option<usize>,
 }
 
 /// A leg to drive: from `from` to `point`.
@@ -318,6 +324,8 @@ pub struct Navigator {
     /// The path's arcs, refilled every update: kept so the
     /// update allocates nothing.
     arcs_ahead: Vec<ArcSpan>,
+    /// The changes of direction commanded since the goal was set.
+    driven: DirectionCount,
 }
 
 impl Navigator {
@@ -547,6 +555,67 @@ impl Navigator {
         self.manoeuvre.as_ref().map_or(0, |m| m.rest.len())
     }
 
+    /// The changes of direction driven (commanded) since the count was
+    /// started afresh, and the way the vehicle last drove.
+    pub fn driven(&self) -> DirectionCount {
+        self.driven
+    }
+
+    /// A new goal: its changes of direction are counted from here.
+    pub fn count_directions_afresh(&mut self) {
+        self.driven = DirectionCount::default();
+    }
+
+    /// Changes of direction the strokes still to drive make, from the
+    /// current one's way (`current`).
+    fn planned_changes_left(&self, current: Direction) -> usize {
+        let Some(run) = &self.manoeuvre else {
+            return 0;
+        };
+        let mut way = current;
+        let mut changes = 0;
+        for stroke in &run.rest {
+            changes += usize::from(stroke.direction != way);
+            way = stroke.direction;
+        }
+        changes
+    }
+
+    /// Whether creeping on (or back) onto the stop `remaining_m` away
+    /// (negative: past it), `crosstrack_m` across, may help and may be
+    /// made. A final stop out of tolerance across or in heading is missed
+    /// whatever a creep along does: the retry manoeuvre mends it from rest,
+    /// sooner and with the changes of direction a creep would spend. A creep
+    /// back is a change of direction: made only while one is left (those
+    /// the strokes still to drive need kept).
+    fn creep_allowed(
+        &self,
+        est: &Estimate,
+        target: &NavTarget,
+        (remaining_m, crosstrack_m): (f64, f64),
+        cusp: bool,
+        config: &NavConfig,
+    ) -> bool {
+        if !cusp && let Some(path) = self.path() {
+            let report = stop_report(path, target, est, remaining_m, crosstrack_m, config);
+            let across = report.crosstrack_m.abs() <= config.stop.position_m
+                && report.yaw_error_rad.abs() <= config.stop.yaw_rad;
+            if !across {
+                return false;
+            }
+        }
+        let direction = target.direction;
+        let forwards = (remaining_m >= 0.0) == (direction == Direction::Forward);
+        let way = if forwards {
+            Direction::Forward
+        } else {
+            Direction::Reverse
+        };
+        let turns_back = self.driven.last.is_some_and(|last| last != way);
+        let needed = self.driven.changes + 1 + self.planned_changes_left(direction);
+        !turns_back || config.direction_changes_max.is_none_or(|max| needed <= max)
+    }
+
     /// The heading the vehicle should have at the current leg's end, when
     /// it has one (a manoeuvre's stroke).
     pub fn target_yaw(&self) -> Option<f64> {
@@ -706,7 +775,9 @@ impl Navigator {
         self.publish_status(est, &target, config, projection, wp_dist, tracker, speed);
 
         let resolvable_m = REAPPROACH_SIGMAS * est.horiz_sigma_m / std::f64::consts::SQRT_2;
-        let retry_m = if self.reapproaches == 0 {
+        let retry_m = if !self.creep_allowed(est, &target, (remaining, projection.crosstrack_m), more, config) {
+            f64::INFINITY
+        } else if self.reapproaches == 0 {
             half_tol
         } else {
             half_tol.max(resolvable_m)
@@ -915,6 +986,7 @@ impl Navigator {
                 ..NavDemand::default()
             };
         }
+        self.driven.note(speed_mps);
         NavDemand {
             steer_rad,
             speed_mps,
@@ -1081,6 +1153,7 @@ fn stop_report(
 mod tests {
     use super::*;
     use crate::control::pid::PidGains;
+    use crate::guidance::direction_count::DRIVEN_SPEED_MPS as DIRECTION_SPEED_MPS;
 
     fn config() -> NavConfig {
         NavConfig {
@@ -1126,6 +1199,7 @@ mod tests {
             stop_preview_m: 4.0,
             manoeuvre_speed_mps: 0.5,
             pivot_rate_rad_s: 30f64.to_radians(),
+            direction_changes_max: None,
         }
     }
 
@@ -1351,6 +1425,70 @@ mod tests {
             check_stopped_on(&car, &report, goal, yaw);
             assert_eq!(changes, 0, "{goal:?}: a pivot plan never reverses mid-way");
         }
+    }
+
+    /// Drives a 5 m stop leg north until the stop starts settling, then
+    /// moves the estimate by `(north, east)` (a GNSS walk found at rest)
+    /// and settles it with `max_changes`: the stop report, and the slowest
+    /// and fastest speed commanded after the move.
+    fn settle_after_a_shift(shift: (f64, f64), max_changes: Option<usize>) -> (StopReport, Navigator, f64, f64) {
+        let cfg = NavConfig {
+            direction_changes_max: max_changes,
+            ..config()
+        };
+        let mut nav = Navigator::default();
+        let mut car = Bicycle::new(0.0, 0.0, 0.0);
+        nav.set_target(Ned::new(0.0, 0.0), NavTarget::stop_at(Ned::new(5.0, 0.0)));
+        let dt = 0.02;
+        let (mut slowest, mut fastest) = (0.0f64, 0.0f64);
+        let mut shifted = false;
+        for _ in 0..(120.0 / dt) as usize {
+            let d = nav.update(&car.est, &cfg, dt);
+            car.step(d, dt);
+            if shifted {
+                (slowest, fastest) = (slowest.min(d.speed_mps), fastest.max(d.speed_mps));
+            } else if nav.settling.is_some() {
+                car.est.position.north_m += shift.0;
+                car.est.position.east_m += shift.1;
+                car.est.speed_mps = 0.0;
+                shifted = true;
+            }
+            if let Some(report) = nav.take_stop_report() {
+                return (report, nav, slowest, fastest);
+            }
+        }
+        panic!("never stopped: {:?}", car.est);
+    }
+
+    #[test]
+    fn a_stop_past_its_point_creeps_back_only_with_a_change_of_direction_left() {
+        // 30 mm past: creeping back is the leg's first change of direction.
+        let (report, nav, slowest, _) = settle_after_a_shift((0.03, 0.0), None);
+        assert!(report.within_tolerance, "{report:?}");
+        assert!(slowest < -DIRECTION_SPEED_MPS, "{slowest}");
+        assert_eq!(nav.driven().changes, 1);
+        // None left: the stop is reported as it is (the retry's to mend).
+        let (report, nav, slowest, _) = settle_after_a_shift((0.03, 0.0), Some(0));
+        assert!(!report.within_tolerance && report.along_m < -0.025, "{report:?}");
+        assert!(slowest >= 0.0, "{slowest}");
+        assert_eq!(
+            nav.driven(),
+            DirectionCount {
+                changes: 0,
+                last: Some(Direction::Forward)
+            }
+        );
+    }
+
+    #[test]
+    fn a_stop_out_across_does_not_creep_along() {
+        // 10 mm short on the line: it creeps on.
+        let (report, _, _, fastest) = settle_after_a_shift((-0.01, 0.0), None);
+        assert!(report.within_tolerance && fastest > 1e-3, "{report:?}, {fastest}");
+        // 10 mm short and 20 mm across: missed whatever a creep along does.
+        let (report, _, _, fastest) = settle_after_a_shift((-0.01, 0.02), None);
+        assert!(!report.within_tolerance && report.along_m > 0.005, "{report:?}");
+        assert!(fastest <= 0.0, "{fastest}");
     }
 
     #[test]

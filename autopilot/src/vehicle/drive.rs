@@ -125,6 +125,11 @@ impl Core {
             stop_preview_m: f64::from(pv.stop_dist_m.get(t)),
             manoeuvre_speed_mps: f64::from(self.p.manoeuvre.speed_mps.get(t)),
             pivot_rate_rad_s: f64::from(self.p.manoeuvre.pivot_rate_deg_s.get(t)).to_radians(),
+            // On the way to a pose goal: its changes of direction are limited.
+            direction_changes_max: self
+                .goals
+                .goal
+                .map(|_| self.p.manoeuvre.direction_changes_max.get(t).max(0) as usize),
             stop: self.fleet_stop_tolerance().unwrap_or(StopTolerance {
                 position_m: f64::from(nav.stop_tol_mm.get(t)) / 1000.0,
                 yaw_rad: f64::from(nav.stop_tol_deg.get(t)).to_radians(),

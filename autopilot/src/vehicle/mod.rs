@@ -55,6 +55,7 @@ pub use io::{
 pub use obstacles::ObstacleStatus;
 pub use params::CoreParams;
 pub use persistence::{SaveDone, SaveRequest, SaveWhat, Storage};
+pub use pose_goal::CONFIRM_WAIT_S;
 
 /// After this long without a drive demand the vehicle counts as held still.
 const HELD_STILL_AFTER: Duration = Duration::from_millis(500);

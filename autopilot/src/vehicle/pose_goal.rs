@@ -39,7 +39,7 @@ pub(super) const CONFIRM_POSITION_SIGMAS: f64 = 1.731;
 /// keeps averaging fixes, so an unconfirmed stop waits up to this long for
 /// its σ to shrink before it is reported unconfirmed.
 pub(super) const CONFIRM_YAW_SIGMAS: f64 = 1.96;
-const CONFIRM_WAIT_S: f64 = 8.0;
+pub const CONFIRM_WAIT_S: f64 = 8.0;
 
 /// Where GUIDED or RTL is driving to.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -55,11 +55,6 @@ pub(super) struct PoseGoal {
     /// The mission item this is the stop of (AUTO), reported reached or
     /// not by the final stop.
     pub seq: Option<u16>,
-    /// Changes between forward and reverse planned on the way to this goal
-    /// so far, and the way the last leg or stroke drives: a retry or the
-    /// turn onto the heading after a leg has what is left of `MNV_DIR_MAX`.
-    pub direction_changes: usize,
-    pub last_direction: Option<Direction>,
 }
 
 impl PoseGoal {
@@ -71,17 +66,7 @@ impl PoseGoal {
             retried: false,
             turn_after_leg: false,
             seq,
-            direction_changes: 0,
-            last_direction: None,
         }
-    }
-
-    /// Notes a leg or manoeuvre driven towards the goal: `changes` within
-    /// it, and the way it starts and ends.
-    fn drive(&mut self, changes: usize, first: Option<Direction>, last: Option<Direction>) {
-        let turns_back = self.last_direction.is_some() && first.is_some() && first != self.last_direction;
-        self.direction_changes += changes + usize::from(turns_back);
-        self.last_direction = last.or(self.last_direction);
     }
 }
 
@@ -98,19 +83,22 @@ pub(super) struct PoseGoalState {
     /// estimate, which is not sure of it: not claimed reached either (a
     /// pose stop is a precision claim, as GUIDED's "Reached destination").
     pub unconfirmed_seq: Option<u16>,
-    /// A GUIDED/RTL stop in tolerance by the estimate, waiting for the
-    /// estimate to be sure of it.
+    /// A stop in tolerance by the estimate, waiting for the estimate to be
+    /// sure of it: GUIDED's or RTL's, or an AUTO pose stop's (the mission
+    /// waits for the verdict).
     pub confirming: Option<Confirming>,
 }
 
 /// A stop waiting for its verdict: where it should be, facing which way,
-/// in which mode, and for how long it has waited.
+/// in which mode, for how long it has waited, and the mission item it is
+/// the stop of (AUTO).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Confirming {
     point: Ned,
     yaw_rad: f64,
     mode: Mode,
     waited_s: f64,
+    seq: Option<u16>,
 }
 
 impl Core {
@@ -127,14 +115,16 @@ impl Core {
         }
     }
 
-    /// The limits for driving on towards `goal`: the changes of direction
-    /// already planned on the way to it come off `MNV_DIR_MAX`, and a first
-    /// stroke against the way it last drove is one more.
-    pub(super) fn manoeuvre_config_towards(&self, goal: &PoseGoal) -> ManoeuvreConfig {
+    /// The limits for driving on towards the goal: the changes of direction
+    /// already driven on the way to it (a stop's creep back included) come
+    /// off `MNV_DIR_MAX`, and a first stroke against the way it last drove
+    /// is one more.
+    pub(super) fn manoeuvre_config_on_the_way(&self) -> ManoeuvreConfig {
         let config = self.manoeuvre_config();
+        let driven = self.navigator.driven();
         ManoeuvreConfig {
-            max_direction_changes: config.max_direction_changes.saturating_sub(goal.direction_changes),
-            arriving: goal.last_direction,
+            max_direction_changes: config.max_direction_changes.saturating_sub(driven.changes),
+            arriving: driven.last,
             ..config
         }
     }
@@ -148,6 +138,7 @@ impl Core {
         let goal = PoseGoal::new(frame.to_local(&target), yaw_rad, speed_mps, None);
         self.goals.goal = Some(goal);
         self.goals.confirming = None;
+        self.navigator.count_directions_afresh();
         self.drive_to_goal(goal, false)
     }
 
@@ -166,6 +157,7 @@ impl Core {
         };
         self.goals.goal = Some(goal);
         self.goals.confirming = None;
+        self.navigator.count_directions_afresh();
         self.drive_to_goal(goal, false)
     }
 
@@ -197,7 +189,6 @@ impl Core {
         };
         if let Some((direction, turn_after_leg)) = leg {
             goal.turn_after_leg = turn_after_leg;
-            goal.drive(0, Some(direction), Some(direction));
             self.goals.goal = Some(goal);
             self.navigator.set_target(
                 start.position,
@@ -211,11 +202,8 @@ impl Core {
             );
             return true;
         }
-        match plan(&start, goal.point, goal.yaw_rad, &self.manoeuvre_config_towards(&goal)) {
+        match plan(&start, goal.point, goal.yaw_rad, &self.manoeuvre_config_on_the_way()) {
             Ok(manoeuvre) => {
-                let first = manoeuvre.strokes.first().map(|s| s.direction);
-                goal.drive(manoeuvre.direction_changes(), first, manoeuvre.last_direction());
-                self.goals.goal = Some(goal);
                 let pivots = manoeuvre.pivot_headings(start.yaw_rad).len();
                 if manoeuvre.direction_changes() > 0 || manoeuvre_only || pivots > 0 {
                     self.send_text(
@@ -291,6 +279,7 @@ impl Core {
                 yaw_rad: wrap_pi(estimate.yaw_rad - report.yaw_error_rad),
                 mode: self.mode,
                 waited_s: 0.0,
+                seq: None,
             });
             self.confirm_arrival(0.0);
             return;
@@ -324,12 +313,35 @@ impl Core {
         }
     }
 
+    /// AUTO: a mission pose stop (item `seq`) in tolerance by the estimate,
+    /// which is not yet sure of it, waits for the verdict as GUIDED's does:
+    /// the mission sees no arrival until then.
+    pub(super) fn confirm_mission_stop(&mut self, report: &StopReport, seq: u16) {
+        self.goals.confirming = Some(Confirming {
+            point: report.goal.position,
+            yaw_rad: report.goal.yaw_rad,
+            mode: self.mode,
+            waited_s: 0.0,
+            seq: Some(seq),
+        });
+        self.confirm_arrival(0.0);
+    }
+
+    /// A mission pose stop is waiting for its verdict.
+    pub(super) fn confirming_mission_stop(&self) -> bool {
+        self.goals
+            .confirming
+            .is_some_and(|c| c.seq.is_some() && c.mode == self.mode)
+    }
+
     /// A stop in tolerance by the estimate, resting: "Reached destination"
     /// once the vehicle is at rest (held still, the GNSS agreeing) and the
     /// estimate is sure of it (its error plus its uncertainty within
     /// tolerance); after `CONFIRM_WAIT_S` without, "Stopped at destination
     /// … unconfirmed" with what kept it from a claim (the σ, or no rest;
-    /// another approach would end as uncertain, so there is no retry).
+    /// another approach would end as uncertain, so there is no retry). A
+    /// mission stop's verdict is the mission's to report: reached, or not
+    /// claimed.
     pub(super) fn confirm_arrival(&mut self, dt_s: f64) {
         let Some(mut confirming) = self.goals.confirming.filter(|c| c.mode == self.mode) else {
             self.goals.confirming = None;
@@ -346,17 +358,21 @@ impl Core {
         } else {
             Some(String::from("not at rest"))
         };
+        if why.is_some() && confirming.waited_s < CONFIRM_WAIT_S {
+            self.goals.confirming = Some(confirming);
+            return;
+        }
+        self.goals.confirming = None;
+        if let Some(seq) = confirming.seq {
+            self.goals.unconfirmed_seq = why.is_some().then_some(seq);
+            return;
+        }
         let text = match (why, self.mode) {
             (None, Mode::Rtl) => "Reached destination: home".to_string(),
             (None, _) => format!("Reached destination: {error_mm:.1} mm"),
-            (Some(_), _) if confirming.waited_s < CONFIRM_WAIT_S => {
-                self.goals.confirming = Some(confirming);
-                return;
-            }
             (Some(why), Mode::Rtl) => format!("Stopped at home: {error_mm:.1} mm, unconfirmed ({why})"),
             (Some(why), _) => format!("Stopped at destination: {error_mm:.1} mm, unconfirmed ({why})"),
         };
-        self.goals.confirming = None;
         self.send_text(MavSeverity::MAV_SEVERITY_INFO, &text);
     }
 

@@ -71,8 +71,9 @@ impl Core {
         self.turn_after_mission_leg();
         let status = self.navigator.status();
         let report = VehicleReport {
-            // On a detour the leg's waypoint is not reached yet.
-            arrived: self.navigator.arrived() && !self.obstacles.detouring(),
+            // On a detour the leg's waypoint is not reached yet, nor a pose
+            // stop still waiting for its verdict.
+            arrived: self.navigator.arrived() && !self.obstacles.detouring() && !self.confirming_mission_stop(),
             distance_to_destination_m: status.wp_dist_m,
             utc_time_of_day_s: self
                 .estimator
@@ -153,6 +154,10 @@ impl Core {
         // A new leg (a DO_JUMP may come back to the same item): its stop
         // has its one retry again, whichever way it is driven.
         self.missions.stop_retried = None;
+        // Its changes of direction (and a retry's limit) count from here,
+        // and a verdict still pending on the last stop is moot.
+        self.navigator.count_directions_afresh();
+        self.goals.confirming = None;
         let here = self.estimator.estimate().position;
         let (Some(to), from) = (self.resolve(&leg.to), leg.from.and_then(|p| self.resolve(&p))) else {
             return;

@@ -4,7 +4,7 @@
 
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
-use crate::guidance::manoeuvre::{ManoeuvreConfig, plan};
+use crate::guidance::manoeuvre::plan;
 use crate::guidance::navigator::StopReport;
 use crate::guidance::reeds_shepp::Pose;
 use crate::modes::Mode;
@@ -26,9 +26,12 @@ impl Core {
         let report = self.navigator.take_stop_report();
         if let Some(report) = &report {
             self.report_stop(report);
-            if report.seq.is_some() && !self.retry_mission_stop(report) {
+            if let Some(seq) = report.seq.filter(|_| !self.retry_mission_stop(report)) {
                 self.goals.missed_seq = report.seq.filter(|_| !report.within_tolerance);
-                self.goals.unconfirmed_seq = report.seq.filter(|_| self.unconfirmed_pose_stop(report));
+                self.goals.unconfirmed_seq = None;
+                if self.unconfirmed_pose_stop(report) {
+                    self.confirm_mission_stop(report, seq);
+                }
             }
         }
         self.advance_detour();
@@ -71,7 +74,7 @@ impl Core {
             &start,
             goal.position,
             Some(goal.yaw_rad),
-            &self.mission_retry_config(seq),
+            &self.manoeuvre_config_on_the_way(),
         ) {
             Ok(manoeuvre) => {
                 self.send_text(
@@ -98,9 +101,10 @@ impl Core {
     }
 
     /// A mission stop with a heading (a pose goal) in tolerance by the
-    /// estimate, which cannot confirm it (its σ reaches past the
-    /// tolerance). A stop without a heading is reported reached by the
-    /// estimate's verdict alone: the mission's progress, as ArduPilot's.
+    /// estimate, which cannot confirm it yet (its σ reaches past the
+    /// tolerance): it waits for the verdict as GUIDED's stop does. A stop
+    /// without a heading is reported reached by the estimate's verdict
+    /// alone: the mission's progress, as ArduPilot's.
     fn unconfirmed_pose_stop(&self, report: &StopReport) -> bool {
         let pose_stop = self.goals.goal.is_some_and(|g| g.seq.is_some() && g.seq == report.seq);
         pose_stop
@@ -108,20 +112,6 @@ impl Core {
             && self
                 .unconfirmed_because(report.position_error_m(), report.yaw_error_rad)
                 .is_some()
-    }
-
-    /// The limits for a mission stop's retry: what is left of
-    /// `MNV_DIR_MAX` after the pose goal's manoeuvre, or after the straight
-    /// leg into a stop without a heading (a first stroke against the way it
-    /// drove is a change of direction).
-    fn mission_retry_config(&self, seq: u16) -> ManoeuvreConfig {
-        match self.goals.goal.filter(|g| g.seq == Some(seq)) {
-            Some(goal) => self.manoeuvre_config_towards(&goal),
-            None => ManoeuvreConfig {
-                arriving: self.navigator.target().map(|t| t.direction),
-                ..self.manoeuvre_config()
-            },
-        }
     }
 
     /// The achieved stop error, as the estimate has it once the vehicle
