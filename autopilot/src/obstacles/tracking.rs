@@ -35,10 +35,13 @@ use crate::geo::Ned;
 pub const CLOCK_JUMP: Duration = Duration::from_secs(1);
 
 /// A cluster this many times the radius of the track it would update, that
-/// also lies in another track's gate, is two objects seen as one (people
-/// passing close): neither track is updated with it, they coast on their
-/// velocity until the objects separate. Updating one of them with the
-/// merged centroid would drag it towards the other and can swap identities.
+/// also lies in another track's gate or covers its centre, is two objects
+/// seen as one (people passing close): neither track is updated with it,
+/// they coast on their velocity until the objects separate. Updating one of
+/// them with the merged centroid would drag it towards the other and can
+/// swap identities. The gate alone misses it when the other object stands:
+/// its track is so sure of its place that the merged centroid, half a
+/// person away, falls outside its gate.
 const MERGED_RADIUS_RATIO: f64 = 1.5;
 
 /// A full view whose nearest return lies within this (m) of an anchored
@@ -349,7 +352,8 @@ impl ObstacleTracker {
         }
     }
 
-    /// Merged objects: a big cluster another, unserved track also claims.
+    /// Merged objects: a big cluster another, unserved track also claims
+    /// (in its gate, or its centre within the cluster).
     fn mark_merged(&self, scratch: &mut UpdateScratch, clusters: &[Cluster]) {
         let UpdateScratch {
             measurements,
@@ -362,10 +366,24 @@ impl ObstacleTracker {
         for (i, slot) in assigned.iter().enumerate() {
             let Some(m) = *slot else { continue };
             let cluster = &clusters[measurements[m].cluster];
-            let shared = pairs
+            if cluster.radius_m <= MERGED_RADIUS_RATIO * self.entries[i].track.radius_m {
+                continue;
+            }
+            let gated = pairs
                 .iter()
                 .any(|&(_, k, mm)| mm == m && k != i && assigned[k].is_none());
-            if shared && cluster.radius_m > MERGED_RADIUS_RATIO * self.entries[i].track.radius_m {
+            let covered = || {
+                self.entries
+                    .iter()
+                    .zip(assigned.iter())
+                    .enumerate()
+                    .any(|(k, (other, slot))| {
+                        k != i
+                            && slot.is_none()
+                            && other.kf.position().distance_to(&cluster.centroid) <= cluster.radius_m
+                    })
+            };
+            if gated || covered() {
                 merged[m] = true;
             }
         }
@@ -957,6 +975,36 @@ mod tests {
         tracker.update(at_ms(120), Ned::default(), &[merged], &config);
         let misses: Vec<u32> = tracker.tracks().iter().map(|t| t.misses).collect();
         assert_eq!(misses, vec![2, 0]);
+    }
+
+    #[test]
+    fn a_walker_merging_with_someone_standing_updates_neither() {
+        // Default gates: the standing track is sure of its place, so the
+        // merged centroid (0.55 m off it, near the walker, who hides part
+        // of them) is in the walker's gate only; the cluster covers both.
+        let config = TrackingConfig::default();
+        let mut tracker = ObstacleTracker::new();
+        let standing = Ned::new(5.0, -0.3);
+        for k in 0..50u64 {
+            let walker = Ned::new(5.0, 0.3 + 0.02 * (50 - k) as f64);
+            tracker.update(
+                at_ms(20 * k),
+                Ned::default(),
+                &[person(standing), person(walker)],
+                &config,
+            );
+        }
+        let before: Vec<Track> = tracker.tracks().to_vec();
+        let mut merged = person(Ned::new(5.0, 0.25));
+        merged.radius_m = 0.6;
+        tracker.update(at_ms(1000), Ned::default(), &[merged], &config);
+        for (track, before) in tracker.tracks().iter().zip(&before) {
+            assert_eq!(track.misses, 1, "{track:?}");
+            assert!((track.radius_m - before.radius_m).abs() < 1e-12, "{track:?}");
+            let velocity_change =
+                (track.vel_north_mps - before.vel_north_mps).hypot(track.vel_east_mps - before.vel_east_mps);
+            assert!(velocity_change < 1e-9, "{track:?} after {before:?}");
+        }
     }
 
     #[test]
