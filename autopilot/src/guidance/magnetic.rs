@@ -777,6 +777,12 @@ fn rate_settle_s(config: &MagneticGuideConfig) -> f64 {
     RATE_SETTLE_TIME_CONSTANTS / (std::f64::consts::TAU * config.sensor_rate_filter_hz)
 }
 
+/// How far from a sensor's centre a reading is taken as it is (see
+/// `TRUST_MARGIN_PITCHES`).
+fn trusted_reach_m(config: &MagneticGuideConfig) -> f64 {
+    config.sensor_reach_m() - TRUST_MARGIN_PITCHES * config.probe_pitch_m.abs()
+}
+
 /// An edge reading (beyond `trust_m`) only says "this far or further": it
 /// is pushed out to the prediction when that is further on the same side.
 fn pushed_out(read_m: Option<f64>, predicted_m: Option<f64>, trust_m: f64) -> Option<f64> {
@@ -823,7 +829,7 @@ impl MagneticGuide {
             self.search = None;
         }
         let cutoff_hz = config.sensor_rate_filter_hz;
-        let trust_m = config.sensor_reach_m() - TRUST_MARGIN_PITCHES * config.probe_pitch_m.abs();
+        let trust_m = trusted_reach_m(config);
         self.front.update(front_m, trust_m, cutoff_hz, dt_s);
         self.rear.update(rear_m, trust_m, cutoff_hz, dt_s);
         let spacing_m = config.sensor_spacing_m();
@@ -967,7 +973,7 @@ impl MagneticGuide {
             }
             None => (None, None),
         };
-        let trust_m = config.sensor_reach_m() - TRUST_MARGIN_PITCHES * config.probe_pitch_m.abs();
+        let trust_m = trusted_reach_m(config);
         let trusted = |e: f64| e.abs() <= trust_m;
         // A sensor the tape has just come into reads where the tape is.
         let front_used = if self.front.came_in {
@@ -987,11 +993,11 @@ impl MagneticGuide {
                 predicted.is_none() || (front_m.is_some_and(trusted) && rear_m.is_some_and(trusted)),
             ),
             (Some(f), None) => {
-                let (r, settled) = self.place_other(config, Sensor::Front, f, pr, trust_m, input, dt_s);
+                let (r, settled) = self.place_other(config, Sensor::Front, f, pr, input, dt_s);
                 (f, r, predicted.is_some() || settled)
             }
             (None, Some(r)) => {
-                let (f, settled) = self.place_other(config, Sensor::Rear, r, pf, trust_m, input, dt_s);
+                let (f, settled) = self.place_other(config, Sensor::Rear, r, pf, input, dt_s);
                 (f, r, predicted.is_some() || settled)
             }
             (None, None) => return self.dead_reckoned(config, predicted, dt_s),
@@ -1039,7 +1045,6 @@ impl MagneticGuide {
         seen: Sensor,
         seen_m: f64,
         predicted_other_m: Option<f64>,
-        trust_m: f64,
         input: &MagneticInput,
         dt_s: f64,
     ) -> (f64, bool) {
@@ -1047,7 +1052,7 @@ impl MagneticGuide {
             Sensor::Front => (self.front, config.front_x_m, -1.0),
             Sensor::Rear => (self.rear, config.rear_x_m, 1.0),
         };
-        let low_pass_settled = seen_track.on_tape_s >= rate_settle_s(config) && seen_m.abs() <= trust_m;
+        let low_pass_settled = seen_track.on_tape_s >= rate_settle_s(config) && seen_m.abs() <= trusted_reach_m(config);
         // With nothing carried forward, a line through the seen sensor's
         // first readings is the best there is (see `ReadingSlope`).
         let fitted = predicted_other_m.is_none() && seen_track.slope.rate_mps().is_some();
@@ -1156,7 +1161,7 @@ impl MagneticGuide {
         input: &MagneticInput,
         dt_s: f64,
     ) {
-        let trust_m = config.sensor_reach_m() - TRUST_MARGIN_PITCHES * config.probe_pitch_m.abs();
+        let trust_m = trusted_reach_m(config);
         let angle_rad = reading
             .filter(|(e1, e2, _)| e1.abs() <= trust_m && e2.abs() <= trust_m)
             .map(|(_, _, angle_rad)| angle_rad);
