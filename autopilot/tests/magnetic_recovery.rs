@@ -84,6 +84,26 @@ fn the_bench_agv_is_back_within_three_seconds_from_0_1_m_and_5_degrees() {
     }
 }
 
+/// The bench AGV 0.1 m off at 1.5 m/s heading 5° away from the tape,
+/// either side, straight and arcs: the rear sensor swings off the tape
+/// while the vehicle turns back and both are blind for about a second, so
+/// the estimate carried through that stretch must start from where the
+/// tape was (the best manoeuvre planned with the truth takes 2.61 s).
+#[test]
+fn the_bench_agv_is_back_within_three_seconds_from_0_1_m_and_5_degrees_away() {
+    let agv = MagneticProfile::bench_agv();
+    for radius_m in [f64::INFINITY, 25.0, 15.0, 10.0] {
+        for offset_m in [0.1, -0.1] {
+            for seed in 1..=2 {
+                let r = run(&start(&agv, radius_m, 1.5, offset_m, -5.0, seed));
+                let what = format!("radius {radius_m} m, offset {offset_m} m, seed {seed}");
+                let t = reacquired(&what, &r);
+                assert!(t <= 3.0, "{what}: {t} s");
+            }
+        }
+    }
+}
+
 /// On the tape, a straight running into arcs of 10 m and more: neither
 /// sensor ever leaves the tape, at any of the speeds. (Settling within 10 mm
 /// on the 10 m arc at 0.5 m/s takes longer than the run: the steering it

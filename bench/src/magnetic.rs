@@ -38,7 +38,7 @@ pub struct MagneticBenchArgs {
     /// Try a guide setting on the bench AGV instead of its default, e.g.
     /// `--agv-guide kp=9 --agv-guide approach_deg=6` (keys: kp, ki, kd,
     /// approach_deg, correction_deg, dead_reckon_s, lost_hold_s, speed_kp,
-    /// speed_ki, deadband_deg, curvature_pull_s).
+    /// speed_ki, deadband_deg, curvature_pull_s, placement_blend_s).
     #[arg(long, value_name = "KEY=VALUE")]
     pub agv_guide: Vec<String>,
     /// The same for the paper's robot.
@@ -65,6 +65,7 @@ fn with_overrides(mut profile: MagneticProfile, overrides: &[String]) -> Result<
             "speed_ki" => g.speed.ki = value,
             "deadband_deg" => g.angle_deadband_rad = value.to_radians(),
             "curvature_pull_s" => g.curvature_pull_s = value,
+            "placement_blend_s" => g.placement_blend_s = value,
             _ => return Err(bad()),
         }
     }

@@ -57,13 +57,15 @@
 //!   that is tan δ ≤ L·sin α_max/|x|max ([`MagneticGuideConfig::correction_limit_rad`]);
 //! - dead reckoning ([`TapeEstimate`], `dead_reckon_s`): the lateral and
 //!   angle deviation are carried forward between readings with the speed
-//!   and yaw rate. A reading at a sensor's edge (its outer 1.5 pitches) only
+//!   and yaw rate. A reading at a sensor's edge (its outer 1.75 pitches) only
 //!   says "this far or further" and is pushed out to the estimate's value
-//!   when that is further; a sensor off the tape is placed from the other
-//!   one's rate once that has settled away from its edge, else from the
-//!   estimate; with both off, the guide steers on the estimate at the speed
-//!   PID's speed, each sensor kept beyond its edge on the side it last saw
-//!   the tape. Found in SITL: from 5° away from the tape the rear sensor
+//!   when that is further (a sensor the tape has just come into excepted,
+//!   until it reads inside that range); a sensor off the tape is placed from
+//!   the other one's rate once that has settled away from its edge, blended
+//!   into the estimate (`placement_blend_s`), else from the estimate; with
+//!   both off, the guide steers on the estimate at the speed PID's speed,
+//!   each sensor kept beyond its edge on the side it last saw the tape.
+//!   Found in SITL: from 5° away from the tape the rear sensor
 //!   (behind the rear axle) swings off it whatever the vehicle does, the
 //!   edge readings on the way out collapsed the measured angle, and the
 //!   search at 0.5 m/s took 5–9 s. With dead reckoning on, the approach is
@@ -396,6 +398,10 @@ pub struct MagneticGuideConfig {
     /// (the sensors' reach, [`Self::approach_limit_rad`], when larger);
     /// the correction is then limited only by `steer_correction_max_rad`.
     pub approach_max_rad: f64,
+    /// One sensor on the tape, the estimate running: the other sensor's
+    /// placement from the seen one's rate is blended into the estimate's
+    /// with this time constant; 0 = taken as placed.
+    pub placement_blend_s: f64,
 }
 
 impl Default for MagneticGuideConfig {
@@ -406,8 +412,8 @@ impl Default for MagneticGuideConfig {
     /// offset; dead reckoning for 1.5 s, so no correction limit below full
     /// lock (the geometric one, 12.3° here, applies only without it) and
     /// approaches up to 8°. `furrow-bench magnetic` measures it: back
-    /// within 1.4 s from 0.1 m and 5° towards the tape (3.7 s away from it) at 1.5 m/s on a
-    /// straight and on 25, 15 and 10 m arcs, never off a tape running into
+    /// within 1.4 s from 0.1 m and 5° towards the tape (3.0 s away from
+    /// it) at 1.5 m/s on a straight and on 25, 15 and 10 m arcs, never off a tape running into
     /// arcs of 10 m and more.
     fn default() -> Self {
         Self {
@@ -447,6 +453,11 @@ impl Default for MagneticGuideConfig {
             dead_reckon_s: 1.5,
             steer_rate_rad_s: 30f64.to_radians(),
             approach_max_rad: 8f64.to_radians(),
+            // Measured on the bench AGV 0.1 m / 5° away from the tape at
+            // 1.5 m/s (tried 0.05–0.3 s): the rear sensor's last readings
+            // before it swings off, placed from its 3 Hz rate, put the front
+            // one 0.07 m short, and the blind stretch began from there.
+            placement_blend_s: 0.1,
         }
     }
 }
@@ -559,6 +570,7 @@ impl MagneticGuideConfig {
             },
             steer_correction_max_rad: 10f64.to_radians(),
             curvature_pull_s: 0.0,
+            placement_blend_s: 0.0,
             ..Self::default()
         }
     }
@@ -618,9 +630,11 @@ struct SensorTrack {
     /// A line through its readings since it found the tape: its rate before
     /// the low-pass one has settled.
     slope: ReadingSlope,
-    /// It found the tape after being off it, and has read it since: an edge
-    /// reading then is the tape coming in, where it reads, not "this far or
-    /// further" (see [`pushed_out`]).
+    /// It found the tape after being off it, and has read it since without
+    /// a reading inside the trusted range: an edge reading then is the tape
+    /// coming in, where it reads, not "this far or further" (see
+    /// [`pushed_out`]). Once a reading is trusted an edge reading is the
+    /// tape going out again, and is pushed out.
     came_in: bool,
     /// While it is off the tape: the side the tape is on (±1), once known.
     /// It cannot change without the sensor seeing the tape on the way
@@ -639,7 +653,7 @@ impl SensorTrack {
         }
     }
 
-    fn update(&mut self, reading_m: Option<f64>, cutoff_hz: f64, dt_s: f64) {
+    fn update(&mut self, reading_m: Option<f64>, trust_m: f64, cutoff_hz: f64, dt_s: f64) {
         self.rate_mps = match (self.current_m, reading_m) {
             (Some(last), Some(now)) if dt_s > 0.0 => low_pass(self.rate_mps, (now - last) / dt_s, cutoff_hz, dt_s),
             _ => 0.0,
@@ -651,7 +665,7 @@ impl SensorTrack {
         self.slope.update(reading_m, dt_s);
         self.came_in = match (self.current_m, reading_m) {
             (None, Some(_)) => true,
-            (Some(_), Some(_)) => self.came_in,
+            (Some(_), Some(now)) => self.came_in && now.abs() > trust_m,
             _ => false,
         };
         self.current_m = reading_m;
@@ -749,13 +763,24 @@ const APPROACH_FLOOR: f64 = 0.5;
 const RATE_SETTLE_TIME_CONSTANTS: f64 = 3.0;
 /// A reading this many pitches inside the outermost probe or closer to the
 /// centre is taken as it is; further out it sticks at the outer probes.
-const TRUST_MARGIN_PITCHES: f64 = 1.5;
+/// Sticking starts once the tape's far edge passes the outermost probe:
+/// half a 30 mm tape plus the probes' reach beyond it, 1.75 pitches of
+/// 10 mm (found in the bench: at 1.5 the last "trusted" readings of a
+/// sensor leaving the tape moved at half the rate, which placed the other
+/// sensor short).
+const TRUST_MARGIN_PITCHES: f64 = 1.75;
 /// Below this speed a sensor's rate says nothing about the tape's direction.
 const MIN_RATE_SPEED_MPS: f64 = 0.05;
 
 /// How long a sensor's rate filter takes to settle.
 fn rate_settle_s(config: &MagneticGuideConfig) -> f64 {
     RATE_SETTLE_TIME_CONSTANTS / (std::f64::consts::TAU * config.sensor_rate_filter_hz)
+}
+
+/// How far from a sensor's centre a reading is taken as it is (see
+/// `TRUST_MARGIN_PITCHES`).
+fn trusted_reach_m(config: &MagneticGuideConfig) -> f64 {
+    config.sensor_reach_m() - TRUST_MARGIN_PITCHES * config.probe_pitch_m.abs()
 }
 
 /// An edge reading (beyond `trust_m`) only says "this far or further": it
@@ -804,8 +829,9 @@ impl MagneticGuide {
             self.search = None;
         }
         let cutoff_hz = config.sensor_rate_filter_hz;
-        self.front.update(front_m, cutoff_hz, dt_s);
-        self.rear.update(rear_m, cutoff_hz, dt_s);
+        let trust_m = trusted_reach_m(config);
+        self.front.update(front_m, trust_m, cutoff_hz, dt_s);
+        self.rear.update(rear_m, trust_m, cutoff_hz, dt_s);
         let spacing_m = config.sensor_spacing_m();
         let speed_mps = input.speed_mps;
         let Some((e1, e2)) = self.used_deviations(config, front_m, rear_m, input, dt_s) else {
@@ -947,7 +973,7 @@ impl MagneticGuide {
             }
             None => (None, None),
         };
-        let trust_m = config.sensor_reach_m() - TRUST_MARGIN_PITCHES * config.probe_pitch_m.abs();
+        let trust_m = trusted_reach_m(config);
         let trusted = |e: f64| e.abs() <= trust_m;
         // A sensor the tape has just come into reads where the tape is.
         let front_used = if self.front.came_in {
@@ -967,11 +993,11 @@ impl MagneticGuide {
                 predicted.is_none() || (front_m.is_some_and(trusted) && rear_m.is_some_and(trusted)),
             ),
             (Some(f), None) => {
-                let (r, settled) = self.place_other(config, Sensor::Front, f, pr, trust_m, input);
+                let (r, settled) = self.place_other(config, Sensor::Front, f, pr, input, dt_s);
                 (f, r, predicted.is_some() || settled)
             }
             (None, Some(r)) => {
-                let (f, settled) = self.place_other(config, Sensor::Rear, r, pf, trust_m, input);
+                let (f, settled) = self.place_other(config, Sensor::Rear, r, pf, input, dt_s);
                 (f, r, predicted.is_some() || settled)
             }
             (None, None) => return self.dead_reckoned(config, predicted, dt_s),
@@ -1019,20 +1045,29 @@ impl MagneticGuide {
         seen: Sensor,
         seen_m: f64,
         predicted_other_m: Option<f64>,
-        trust_m: f64,
         input: &MagneticInput,
+        dt_s: f64,
     ) -> (f64, bool) {
         let (seen_track, x_m, towards) = match seen {
             Sensor::Front => (self.front, config.front_x_m, -1.0),
             Sensor::Rear => (self.rear, config.rear_x_m, 1.0),
         };
-        let low_pass_settled = seen_track.on_tape_s >= rate_settle_s(config) && seen_m.abs() <= trust_m;
+        let low_pass_settled = seen_track.on_tape_s >= rate_settle_s(config) && seen_m.abs() <= trusted_reach_m(config);
         // With nothing carried forward, a line through the seen sensor's
         // first readings is the best there is (see `ReadingSlope`).
         let fitted = predicted_other_m.is_none() && seen_track.slope.rate_mps().is_some();
         let settled = low_pass_settled || fitted;
         let from_rate_m = self.other_sensor_m(config, &seen_track, x_m, seen_m, towards, input);
-        let estimate_m = predicted_other_m.filter(|_| !settled).unwrap_or(from_rate_m);
+        let estimate_m = match predicted_other_m {
+            // The rate-placed sensor jitters by d·Δrate/v (the reading's
+            // steps): blended into the carried-forward estimate, not reset
+            // to it, so that the estimate a blind stretch starts from is not
+            // one unlucky step.
+            Some(p) if settled && config.placement_blend_s > 0.0 => {
+                p + (dt_s.max(0.0) / config.placement_blend_s).min(1.0) * (from_rate_m - p)
+            }
+            _ => predicted_other_m.filter(|_| !settled).unwrap_or(from_rate_m),
+        };
         // The side is decided once the rate has settled, or the line puts
         // the blind sensor clearly on one side; until then it is a guess,
         // kept open.
@@ -1126,7 +1161,7 @@ impl MagneticGuide {
         input: &MagneticInput,
         dt_s: f64,
     ) {
-        let trust_m = config.sensor_reach_m() - TRUST_MARGIN_PITCHES * config.probe_pitch_m.abs();
+        let trust_m = trusted_reach_m(config);
         let angle_rad = reading
             .filter(|(e1, e2, _)| e1.abs() <= trust_m && e2.abs() <= trust_m)
             .map(|(_, _, angle_rad)| angle_rad);
