@@ -164,14 +164,48 @@ fn an_rtk_grade_fix_confirms_the_stop_and_the_default_one_does_not() {
     check_reached(&h, &verdict, -3.0, 2.0, Some(0.0));
 }
 
+/// Runs an AUTO mission of home and one stop at (`north`, `east`) m about
+/// the estimator's origin facing `yaw_deg` to its end; gives the texts and
+/// where that origin is in the world (LOCAL_NED items are about the first
+/// fix, not the world's origin).
+fn drive_stop_with_heading(h: &mut Harness, north: f64, east: f64, yaw_deg: f32) -> (Vec<String>, (f64, f64)) {
+    use mission::command::{cmd, frame};
+    use mission::{ExecState, MissionType, Plan};
+    let items = vec![
+        common::item(0, cmd::NAV_WAYPOINT, frame::LOCAL_NED, [0.0; 4], 0.0, 0.0),
+        common::item(
+            1,
+            cmd::NAV_WAYPOINT,
+            frame::LOCAL_NED,
+            [0.0, 0.0, 0.0, yaw_deg],
+            north,
+            east,
+        ),
+    ];
+    h.sim
+        .core_mut()
+        .load_plan(MissionType::Mission, Plan::new(MissionType::Mission, items));
+    h.run_for(5.0);
+    h.arm();
+    h.set_mode(10);
+    let done = h.run_until(240.0, |s| s.core().mission_state() == ExecState::Complete);
+    let texts = h.texts();
+    assert!(done, "{texts:?}");
+    let origin = h.sim.core().estimator().frame().expect("a local frame").origin();
+    let origin_local = h.sim.world().geodetic_to_local(&vehicle_types::GeoPoint {
+        lat_deg: origin.lat_deg,
+        lon_deg: origin.lon_deg,
+        alt_m: 0.0,
+    });
+    (texts, origin_local)
+}
+
 /// AUTO: a mission stop with a heading (NAV_WAYPOINT param 4, 90° true)
 /// beside-ahead of the vehicle is reached as a pose goal when `MNV_WP_YAW`
 /// is set, and reported reached (MISSION_ITEM_REACHED) only by the stop on
 /// that heading; without it the heading is ignored, as ArduPilot Rover does.
 #[test]
 fn a_mission_stop_with_a_heading_is_reached_facing_it() {
-    use mission::command::{cmd, frame};
-    use mission::{ExecState, MissionType, Plan};
     for honour in [true, false] {
         let mut h = Harness::new(5, ModelKind::Ackermann);
         h.sim
@@ -179,26 +213,7 @@ fn a_mission_stop_with_a_heading_is_reached_facing_it() {
             .params_mut()
             .set_by_name("MNV_WP_YAW", f64::from(u8::from(honour)))
             .unwrap();
-        let items = vec![
-            common::item(0, cmd::NAV_WAYPOINT, frame::LOCAL_NED, [0.0; 4], 0.0, 0.0),
-            common::item(1, cmd::NAV_WAYPOINT, frame::LOCAL_NED, [0.0, 0.0, 0.0, 90.0], 10.0, 0.0),
-        ];
-        h.sim
-            .core_mut()
-            .load_plan(MissionType::Mission, Plan::new(MissionType::Mission, items));
-        h.run_for(5.0);
-        h.arm();
-        h.set_mode(10);
-        let done = h.run_until(240.0, |s| s.core().mission_state() == ExecState::Complete);
-        let texts = h.texts();
-        assert!(done, "{texts:?}");
-        // LOCAL_NED items are about the estimator's origin (the first fix).
-        let origin = h.sim.core().estimator().frame().expect("a local frame").origin();
-        let (north, east) = h.sim.world().geodetic_to_local(&vehicle_types::GeoPoint {
-            lat_deg: origin.lat_deg,
-            lon_deg: origin.lon_deg,
-            alt_m: 0.0,
-        });
+        let (texts, (north, east)) = drive_stop_with_heading(&mut h, 10.0, 0.0, 90.0);
         let (m, yaw_deg) = pose_error(&h, north + 10.0, east, Some(if honour { 90.0 } else { 0.0 }));
         assert!(
             m < 0.03 && yaw_deg.abs() < 0.1,
@@ -246,39 +261,12 @@ fn a_differential_vehicle_turns_on_the_spot() {
 /// truth agrees.
 #[test]
 fn an_auto_pose_stop_waits_for_the_estimate_and_is_claimed() {
-    use mission::command::{cmd, frame};
-    use mission::{ExecState, MissionType, Plan};
     for (seed, north, east, yaw_deg) in [(7, 6.0, 0.0, 90.0), (8, 0.0, 3.0, 0.0)] {
         let mut h = Harness::new(seed, ModelKind::Differential);
         for (name, value) in [("SIM_GPS_WALK", 0.001), ("EKF_GPS_WALK", 0.001), ("MNV_WP_YAW", 1.0)] {
             h.sim.core_mut().params_mut().set_by_name(name, value).unwrap();
         }
-        let items = vec![
-            common::item(0, cmd::NAV_WAYPOINT, frame::LOCAL_NED, [0.0; 4], 0.0, 0.0),
-            common::item(
-                1,
-                cmd::NAV_WAYPOINT,
-                frame::LOCAL_NED,
-                [0.0, 0.0, 0.0, yaw_deg],
-                north,
-                east,
-            ),
-        ];
-        h.sim
-            .core_mut()
-            .load_plan(MissionType::Mission, Plan::new(MissionType::Mission, items));
-        h.run_for(5.0);
-        h.arm();
-        h.set_mode(10);
-        let done = h.run_until(240.0, |s| s.core().mission_state() == ExecState::Complete);
-        let texts = h.texts();
-        assert!(done, "{texts:?}");
-        let origin = h.sim.core().estimator().frame().expect("a local frame").origin();
-        let (north0, east0) = h.sim.world().geodetic_to_local(&vehicle_types::GeoPoint {
-            lat_deg: origin.lat_deg,
-            lon_deg: origin.lon_deg,
-            alt_m: 0.0,
-        });
+        let (texts, (north0, east0)) = drive_stop_with_heading(&mut h, north, east, yaw_deg);
         let (m, deg) = pose_error(&h, north0 + north, east0 + east, Some(f64::from(yaw_deg)));
         assert!(
             texts.iter().any(|t| t == "Reached waypoint #1"),

@@ -517,30 +517,9 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
                 .settle
                 .update(sim.time().as_secs_f64(), to_go_m, truth.speed_mps);
         }
-        for text in texts.iter().filter(|t| t.starts_with("Stop")) {
-            let stop = match &progress.stop_leg {
-                // Reported for a stop the navigator has just left.
-                Some((stop_target, stop_path, settle))
-                    if reported_seq(text)
-                        .is_some_and(|seq| Some(seq) != target.seq && Some(seq) == stop_target.seq) =>
-                {
-                    let last_piece = stop_path.pieces().len() - 1;
-                    let projection = stop_path.project(&position, last_piece);
-                    let left = LegSample {
-                        target: *stop_target,
-                        path: stop_path,
-                        piece: projection.piece,
-                        position,
-                        yaw_rad: yaw,
-                        along_m: projection.along_m,
-                        crosstrack_m: projection.crosstrack_m,
-                    };
-                    stop_record(&sim, &left, text, settle, options.seed)
-                }
-                _ => stop_record(&sim, &sample, text, &progress.settle, options.seed),
-            };
-            record.stops.push(stop);
-        }
+        record
+            .stops
+            .extend(stop_reports(&sim, &progress, &sample, &texts, options.seed));
         if core.mission_state() == ExecState::Complete && core.navigator().target().is_none() {
             record.completion_s = Some(sim.time().as_secs_f64() - start_s);
             break;
@@ -548,6 +527,42 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
     }
     record.core_tick_overruns = sim.core().scheduler().tick_stats().overruns;
     record
+}
+
+/// The "Stop #n" reports among this tick's texts, each measured against the
+/// stop it names: one for a stop the navigator has just left (a retry has
+/// taken over) against that stop's leg, else against the leg driven now.
+fn stop_reports(
+    sim: &Simulation,
+    progress: &CourseProgress,
+    sample: &LegSample<'_>,
+    texts: &[String],
+    seed: u64,
+) -> Vec<StopRecord> {
+    let target = sample.target;
+    texts
+        .iter()
+        .filter(|t| t.starts_with("Stop"))
+        .map(|text| match &progress.stop_leg {
+            Some((stop_target, stop_path, settle))
+                if reported_seq(text).is_some_and(|seq| Some(seq) != target.seq && Some(seq) == stop_target.seq) =>
+            {
+                let last_piece = stop_path.pieces().len() - 1;
+                let projection = stop_path.project(&sample.position, last_piece);
+                let left = LegSample {
+                    target: *stop_target,
+                    path: stop_path,
+                    piece: projection.piece,
+                    position: sample.position,
+                    yaw_rad: sample.yaw_rad,
+                    along_m: projection.along_m,
+                    crosstrack_m: projection.crosstrack_m,
+                };
+                stop_record(sim, &left, text, settle, seed)
+            }
+            _ => stop_record(sim, sample, text, &progress.settle, seed),
+        })
+        .collect()
 }
 
 /// One row of the tick-by-tick trace ([`TRACE_HEADER`]).

@@ -53,6 +53,17 @@ fn send(agent: &mut Agent, topic: Topic, value: &Value) {
     agent.receive(topic, serde_json::to_vec(value).unwrap());
 }
 
+/// a → b, 10 m east, b the end of the order.
+fn two_nodes() -> Value {
+    order(
+        "o1",
+        0,
+        0,
+        &[N("a", 0.0, 0.0, true, None), N("b", 10.0, 0.0, true, None)],
+        &[],
+    )
+}
+
 fn three_nodes() -> Value {
     order(
         "o1",
@@ -221,17 +232,7 @@ fn an_update_is_stitched_at_the_decision_point_and_ids_are_checked() {
 #[test]
 fn an_update_after_completion_continues_from_the_last_node() {
     let mut a = agent();
-    send(
-        &mut a,
-        Topic::Order,
-        &order(
-            "o1",
-            0,
-            0,
-            &[N("a", 0.0, 0.0, true, None), N("b", 10.0, 0.0, true, None)],
-            &[],
-        ),
-    );
+    send(&mut a, Topic::Order, &two_nodes());
     a.step(&view(0.0));
     let mut at_b = at(1.0, 10.0, 0.0);
     at_b.arrived_at = Some(2);
@@ -524,17 +525,7 @@ fn a_node_driven_past_outside_its_deviation_is_reported_with_an_error() {
 #[test]
 fn a_stop_node_is_reported_once_the_vehicle_rests_within_its_deviation() {
     let mut a = agent();
-    send(
-        &mut a,
-        Topic::Order,
-        &order(
-            "o1",
-            0,
-            0,
-            &[N("a", 0.0, 0.0, true, None), N("b", 10.0, 0.0, true, None)],
-            &[],
-        ),
-    );
+    send(&mut a, Topic::Order, &two_nodes());
     a.step(&view(0.0));
     let (command, last) = drive_at(&mut a, 8.0, 9.9, None, false);
     assert_eq!(last, "a", "within the deviation, still moving");
@@ -548,17 +539,7 @@ fn a_stop_node_is_reported_once_the_vehicle_rests_within_its_deviation() {
 #[test]
 fn a_stop_the_navigator_settles_outside_the_deviation_is_reported_with_an_error() {
     let mut a = agent();
-    send(
-        &mut a,
-        Topic::Order,
-        &order(
-            "o1",
-            0,
-            0,
-            &[N("a", 0.0, 0.0, true, None), N("b", 10.0, 0.0, true, None)],
-            &[],
-        ),
-    );
+    send(&mut a, Topic::Order, &two_nodes());
     a.step(&view(0.0));
     let (_, last) = drive_at(&mut a, 8.0, 9.5, None, true);
     assert_eq!(last, "a", "at rest 0.5 m short");
