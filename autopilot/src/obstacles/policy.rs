@@ -21,7 +21,12 @@
 //! with a track velocity that has had longer to settle. The stop, if it is
 //! still needed, comes with at least that lead; the tracker's velocity
 //! error over the last second of a 3 s horizon (a few tenths of a metre)
-//! would otherwise stop it for people about to pass clear of it.
+//! would otherwise stop it for people about to pass clear of it. At rest the
+//! same holds for an object predicted walking: the vehicle does not start
+//! (its speed held at 0, no stop announced) while the contact its start
+//! would make is further off than `reaction_s` plus [`DECIDE_LEAD_S`], and
+//! decides again next tick; a standing object's prediction owes nothing to
+//! a velocity estimate and stops it at once.
 //!
 //! A stop is held until the way has been clear *as if already moving at the
 //! planned speed* (`field_at_resume`, `predictions_at_resume`) continuously
@@ -626,12 +631,15 @@ fn weigh_predictions<'p>(
     let mut passes: Vec<&CollisionPrediction> = Vec::new();
     let mut slow_mps = inputs.warning_limit_mps.map(|l| l.max(0.0));
     let allow_pass = config.pass_first && !at_rest;
-    // Pass-first (seed 004) decides on the first prediction.
-    let defer = !at_rest && !config.pass_first;
+    // Pass-first (seed 004) decides on the first prediction. At rest only a
+    // walking object's far prediction waits: its velocity is still settling.
+    let defer = |p: &CollisionPrediction| !config.pass_first && (!at_rest || p.obstacle_speed_mps > 0.0);
+    let held_mps = if at_rest { 0.0 } else { inputs.speed_mps.abs() };
     for prediction in predictions {
         let response = match respond(prediction, inputs, config, allow_pass) {
             Response::Stop
-                if defer && prediction.time_s > stopping_time_s(inputs.speed_mps, config) + DECIDE_LEAD_S =>
+                if defer(prediction)
+                    && prediction.time_s > stopping_time_s(inputs.speed_mps, config) + DECIDE_LEAD_S =>
             {
                 Response::Hold
             }
@@ -641,10 +649,7 @@ fn weigh_predictions<'p>(
             Response::Ignore => {}
             Response::Stop => stop = earliest(stop, prediction),
             Response::Follow { limit_mps } => slow_mps = Some(slow_mps.map_or(limit_mps, |s| s.min(limit_mps))),
-            Response::Hold => {
-                let limit_mps = inputs.speed_mps.abs();
-                slow_mps = Some(slow_mps.map_or(limit_mps, |s| s.min(limit_mps)));
-            }
+            Response::Hold => slow_mps = Some(slow_mps.map_or(held_mps, |s| s.min(held_mps))),
             Response::PassFirst => passes.push(prediction),
         }
     }
