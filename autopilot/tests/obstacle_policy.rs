@@ -754,12 +754,16 @@ fn at_rest_a_walkers_far_prediction_waits_and_a_near_one_stops() {
     let far = crossing_at_rest(0.0, 2.0);
     let time_s = far.predictions_at_resume.first().map_or(f64::NAN, |p| p.time_s);
     assert!(time_s > lead_s && time_s < config.stop_horizon_s, "{time_s}");
-    // Its velocity is still settling: the vehicle does not start, and
-    // announces no stop.
+    // Its velocity is still settling: the vehicle does not start (braked
+    // at a standstill), and no stop is held or announced.
     let mut policy = ObstaclePolicy::new();
     let status = policy.update(&far.inputs(), &config);
-    assert_eq!(status.verdict, Verdict::Slow { limit_mps: 0.0 });
-    assert!(!status.stopped && !status.events.iter().any(|e| matches!(e, PolicyEvent::Stopped(_))));
+    assert!(
+        matches!(status.verdict, Verdict::Wait(StopCause::Collision { track_id: 9, .. })),
+        "{status:?}"
+    );
+    assert!(!status.stopped && status.events.is_empty(), "{status:?}");
+    assert!(!policy.is_stopped());
     // Still coming a second and a half later: stop.
     let near = crossing_at_rest(1.5, 0.5);
     let time_s = near.predictions_at_resume.first().map_or(f64::NAN, |p| p.time_s);
