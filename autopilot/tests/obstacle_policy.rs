@@ -733,6 +733,55 @@ fn pass_config(pass_first: bool, accel_mps2: f64) -> PolicyConfig {
     }
 }
 
+/// At rest (wanting to move), a person crossing from the left into the
+/// side of the vehicle `reach_s` from now, were it to start at 0.8 m/s.
+fn crossing_at_rest(t_s: f64, reach_s: f64) -> Scene {
+    let person = track(
+        9,
+        0.5 + 0.8 * reach_s,
+        -(FOOTPRINT.half_width_m + 0.25 + MARGIN_M + reach_s),
+        0.0,
+        1.0,
+        0.25,
+    );
+    Scene::clear(t_s, 0.0).with_tracks(vec![person], 0.8)
+}
+
+#[test]
+fn at_rest_a_walkers_far_prediction_waits_and_a_near_one_stops() {
+    let config = PolicyConfig::default();
+    let lead_s = config.reaction_s + DECIDE_LEAD_S;
+    let far = crossing_at_rest(0.0, 2.0);
+    let time_s = far.predictions_at_resume.first().map_or(f64::NAN, |p| p.time_s);
+    assert!(time_s > lead_s && time_s < config.stop_horizon_s, "{time_s}");
+    // Its velocity is still settling: the vehicle does not start (braked
+    // at a standstill), and no stop is held or announced.
+    let mut policy = ObstaclePolicy::new();
+    let status = policy.update(&far.inputs(), &config);
+    assert!(
+        matches!(status.verdict, Verdict::Wait(StopCause::Collision { track_id: 9, .. })),
+        "{status:?}"
+    );
+    assert!(!status.stopped && status.events.is_empty(), "{status:?}");
+    assert!(!policy.is_stopped());
+    // Still coming a second and a half later: stop.
+    let near = crossing_at_rest(1.5, 0.5);
+    let time_s = near.predictions_at_resume.first().map_or(f64::NAN, |p| p.time_s);
+    assert!(time_s <= lead_s, "{time_s}");
+    let status = policy.update(&near.inputs(), &config);
+    assert!(matches!(
+        status.verdict,
+        Verdict::Stop(StopCause::Collision { track_id: 9, .. })
+    ));
+    // Something standing that the start would meet as far off: stop at once.
+    let post = track(3, FOOTPRINT.front_m + 0.25 + MARGIN_M + 1.2, 0.0, 0.0, 0.0, 0.25);
+    let standing = Scene::clear(0.0, 0.0).with_tracks(vec![post], 0.8);
+    let time_s = standing.predictions_at_resume.first().map_or(f64::NAN, |p| p.time_s);
+    assert!(time_s > lead_s && time_s < config.stop_horizon_s, "{time_s}");
+    let status = ObstaclePolicy::new().update(&standing.inputs(), &config);
+    assert!(status.stopped, "{status:?}");
+}
+
 #[test]
 fn pass_first_off_stops_for_a_crossing_person() {
     let scene = crossing_scene(0.0);
@@ -819,6 +868,7 @@ fn prediction(track_id: u32, time_s: f64) -> CollisionPrediction {
         place: Ned::default(),
         distance_m: time_s,
         relative_speed_mps: 1.0,
+        obstacle_speed_mps: 0.0,
         closing: true,
     }
 }
@@ -919,6 +969,7 @@ fn against_the_side(track_id: u32) -> CollisionPrediction {
         place: Ned::default(),
         distance_m: 0.05,
         relative_speed_mps: 0.0,
+        obstacle_speed_mps: 0.0,
         closing: false,
     }
 }
@@ -1023,8 +1074,11 @@ fn a_settling_vehicle_stops_for_a_person_stepping_to_its_side() {
 #[test]
 fn a_settling_vehicle_stops_for_a_person_predicted_to_walk_into_it() {
     let config = PolicyConfig::default();
-    // Walking at it from the side at 1 m/s, 1.5 m out: contact in ~1 s.
-    let side = FOOTPRINT.half_width_m + 0.25 + 1.5;
+    // Walking at it from the side at 1 m/s, 1.2 m out: contact in ~1 s,
+    // within the time to react plus the decision lead (further off, the
+    // vehicle is held at rest without a stop:
+    // `at_rest_a_walkers_far_prediction_waits_and_a_near_one_stops`).
+    let side = FOOTPRINT.half_width_m + 0.25 + 1.2;
     let scene = settling_scene(0.0, 0.0).with_tracks(vec![track(4, 0.3, side, 0.0, -1.0, 0.25)], 0.5);
     assert!(!scene.predictions_at_resume.is_empty(), "the scene predicts a contact");
     let verdict = ObstaclePolicy::new().update(&scene.inputs(), &config).verdict;

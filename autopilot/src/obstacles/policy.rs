@@ -21,7 +21,12 @@
 //! with a track velocity that has had longer to settle. The stop, if it is
 //! still needed, comes with at least that lead; the tracker's velocity
 //! error over the last second of a 3 s horizon (a few tenths of a metre)
-//! would otherwise stop it for people about to pass clear of it.
+//! would otherwise stop it for people about to pass clear of it. At rest the
+//! same holds for an object predicted walking: the vehicle does not start
+//! ([`Verdict::Wait`]: braked at a standstill, no stop held or announced)
+//! while the contact its start would make is further off than `reaction_s`
+//! plus [`DECIDE_LEAD_S`], and decides again next tick; a standing object's
+//! prediction owes nothing to a velocity estimate and stops it at once.
 //!
 //! A stop is held until the way has been clear *as if already moving at the
 //! planned speed* (`field_at_resume`, `predictions_at_resume`) continuously
@@ -194,6 +199,10 @@ pub enum Verdict {
         target_mps: f64,
     },
     Stop(StopCause),
+    /// At rest: do not start yet. Braked at a standstill like a stop, but
+    /// not held, announced or counted as a stop/go cycle: a walking
+    /// object's far prediction, decided again next tick.
+    Wait(StopCause),
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -313,7 +322,7 @@ enum Response {
     Follow {
         limit_mps: f64,
     },
-    /// Too far off to stop for yet: hold the current speed.
+    /// Too far off to stop for yet: hold the current speed (at rest: wait).
     Hold,
     PassFirst,
     Stop,
@@ -375,7 +384,7 @@ impl ObstaclePolicy {
                 }
                 self.slowing = true;
             }
-            Verdict::SpeedUp { .. } | Verdict::Go => self.slowing = false,
+            Verdict::SpeedUp { .. } | Verdict::Go | Verdict::Wait(_) => self.slowing = false,
         }
         PolicyStatus {
             verdict,
@@ -523,10 +532,19 @@ impl ObstaclePolicy {
             return Verdict::Stop(collision_cause(prediction));
         }
 
-        let (stop, passes, slow_mps) = weigh_predictions(predictions, inputs, config, at_rest);
+        let Weighed {
+            stop,
+            wait,
+            passes,
+            slow_mps,
+        } = weigh_predictions(predictions, inputs, config, at_rest);
         if let Some(prediction) = stop {
             self.passing_track = None;
             return Verdict::Stop(collision_cause(prediction));
+        }
+        if let Some(prediction) = wait {
+            self.passing_track = None;
+            return Verdict::Wait(collision_cause(prediction));
         }
         if let Some(limit_mps) = slow_mps {
             self.passing_track = None;
@@ -610,29 +628,40 @@ fn field_stop(fields: &[&FieldStatus]) -> Option<StopCause> {
     Some(StopCause::ProtectiveField { distance_m: nearest })
 }
 
-/// Each prediction's response: the earliest stop, the pass-first
-/// candidates and the tightest speed limit (the warning field's, a follow's
-/// or a hold's).
+/// What the predictions ask for together.
+struct Weighed<'p> {
+    /// The earliest stop.
+    stop: Option<&'p CollisionPrediction>,
+    /// At rest, the earliest prediction put off: do not start yet.
+    wait: Option<&'p CollisionPrediction>,
+    /// The pass-first candidates.
+    passes: Vec<&'p CollisionPrediction>,
+    /// The tightest speed limit (the warning field's, a follow's or a
+    /// hold's).
+    slow_mps: Option<f64>,
+}
+
+/// Each prediction's response.
 fn weigh_predictions<'p>(
     predictions: &'p [CollisionPrediction],
     inputs: &PolicyInputs,
     config: &PolicyConfig,
     at_rest: bool,
-) -> (
-    Option<&'p CollisionPrediction>,
-    Vec<&'p CollisionPrediction>,
-    Option<f64>,
-) {
+) -> Weighed<'p> {
     let mut stop: Option<&CollisionPrediction> = None;
+    let mut wait: Option<&CollisionPrediction> = None;
     let mut passes: Vec<&CollisionPrediction> = Vec::new();
     let mut slow_mps = inputs.warning_limit_mps.map(|l| l.max(0.0));
     let allow_pass = config.pass_first && !at_rest;
-    // Pass-first (seed 004) decides on the first prediction.
-    let defer = !at_rest && !config.pass_first;
+    // Pass-first (seed 004) decides on the first prediction. At rest only a
+    // walking object's far prediction waits: its velocity is still settling.
+    let defer = |p: &CollisionPrediction| !config.pass_first && (!at_rest || p.obstacle_speed_mps > 0.0);
+    let held_mps = inputs.speed_mps.abs();
     for prediction in predictions {
         let response = match respond_moving(prediction, inputs, config, allow_pass, at_rest) {
             Response::Stop
-                if defer && prediction.time_s > stopping_time_s(inputs.speed_mps, config) + DECIDE_LEAD_S =>
+                if defer(prediction)
+                    && prediction.time_s > stopping_time_s(inputs.speed_mps, config) + DECIDE_LEAD_S =>
             {
                 Response::Hold
             }
@@ -642,10 +671,8 @@ fn weigh_predictions<'p>(
             Response::Ignore => {}
             Response::Stop => stop = earliest(stop, prediction),
             Response::Follow { limit_mps } => slow_mps = Some(slow_mps.map_or(limit_mps, |s| s.min(limit_mps))),
-            Response::Hold => {
-                let limit_mps = inputs.speed_mps.abs();
-                slow_mps = Some(slow_mps.map_or(limit_mps, |s| s.min(limit_mps)));
-            }
+            Response::Hold if at_rest => wait = earliest(wait, prediction),
+            Response::Hold => slow_mps = Some(slow_mps.map_or(held_mps, |s| s.min(held_mps))),
             Response::PassFirst => passes.push(prediction),
         }
     }
@@ -665,7 +692,12 @@ fn weigh_predictions<'p>(
             stop = earliest(stop, prediction);
         }
     }
-    (stop, passes, slow_mps)
+    Weighed {
+        stop,
+        wait,
+        passes,
+        slow_mps,
+    }
 }
 
 fn earliest<'p>(a: Option<&'p CollisionPrediction>, b: &'p CollisionPrediction) -> Option<&'p CollisionPrediction> {

@@ -71,6 +71,9 @@ pub struct CollisionPrediction {
     pub distance_m: f64,
     /// |V_OA|.
     pub relative_speed_mps: f64,
+    /// The speed the obstacle itself was predicted at: 0 for one predicted
+    /// standing, whose prediction owes nothing to a velocity estimate.
+    pub obstacle_speed_mps: f64,
     /// The relative motion is bringing the obstacle nearer the outline.
     pub closing: bool,
 }
@@ -148,6 +151,7 @@ pub fn predict_collision(
         ),
         distance_m: (gap_m - radius_m).max(0.0),
         relative_speed_mps,
+        obstacle_speed_mps: track.vel_north_mps.hypot(track.vel_east_mps),
         closing,
     })
 }

@@ -189,7 +189,9 @@ impl Core {
         // Settling onto a precision stop: not driving, not parked either.
         let settling = active && self.mode != Mode::Magnetic && self.navigator.stopping();
         let verdict = self.obstacle_verdict(active, wants_to_move, settling, direction, planned_mps);
-        matches!(verdict, Verdict::Stop(_))
+        // A wait at rest brakes like a stop: the drive is held at 0, not
+        // left to creep on a speed demand of 0.
+        matches!(verdict, Verdict::Stop(_) | Verdict::Wait(_))
     }
 
     pub(super) fn apply_demand(&mut self, demand: Demand, dt_s: f64) {

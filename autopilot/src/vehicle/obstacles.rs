@@ -639,6 +639,7 @@ impl Core {
                     place: c.place,
                     distance_m: c.gap_now_m,
                     relative_speed_mps,
+                    obstacle_speed_mps: velocity.0.hypot(velocity.1),
                     closing: c.closing,
                 };
                 if let Some(c) = swept.first_contact(&shape, velocity, speed, margin, horizon) {
@@ -681,6 +682,7 @@ impl Core {
                 place: pose.position,
                 distance_m: distance_m.max(0.0),
                 relative_speed_mps: hidden.velocity.0.hypot(hidden.velocity.1),
+                obstacle_speed_mps: hidden.velocity.0.hypot(hidden.velocity.1),
                 closing: true,
             });
         }
