@@ -104,6 +104,28 @@ fn the_bench_agv_is_back_within_three_seconds_from_0_1_m_and_5_degrees_away() {
     }
 }
 
+/// The bench AGV 0.05 m off at 1.5 m/s heading 8° away, either side,
+/// straight and arcs: only the rear sensor reads the tape at the start, at
+/// its edge, where the reading sticks; the side of the blind front sensor
+/// must come from the rear's rate once it reads inside its trusted range,
+/// not from the stuck readings (which said "parallel" and sent the vehicle
+/// off the tape for good from the right). The best manoeuvre planned with
+/// the truth takes 2.86 s; measured 3.2–4.54 s.
+#[test]
+fn the_bench_agv_gets_back_from_0_05_m_and_8_degrees_away() {
+    let agv = MagneticProfile::bench_agv();
+    for radius_m in [f64::INFINITY, 25.0, 15.0, 10.0] {
+        for offset_m in [0.05, -0.05] {
+            for seed in 1..=2 {
+                let r = run(&start(&agv, radius_m, 1.5, offset_m, -8.0, seed));
+                let what = format!("radius {radius_m} m, offset {offset_m} m, seed {seed}");
+                let t = reacquired(&what, &r);
+                assert!(t <= 5.0, "{what}: {t} s");
+            }
+        }
+    }
+}
+
 /// On the tape, a straight running into arcs of 10 m and more: neither
 /// sensor ever leaves the tape, at any of the speeds. (Settling within 10 mm
 /// on the 10 m arc at 0.5 m/s takes longer than the run: the steering it
