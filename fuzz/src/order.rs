@@ -25,6 +25,7 @@ use std::sync::OnceLock;
 use autopilot::fleet::map::MapPose;
 use autopilot::fleet::publish::Publisher;
 use autopilot::fleet::state::{build_state, build_visualization};
+use autopilot::fleet::traversal::Fix;
 use autopilot::fleet::{Agent, AgentConfig, Command, Leg, VehicleReport, VehicleView};
 use autopilot::vehicle::FleetMessage;
 use libfuzzer_sys::arbitrary::{Result, Unstructured};
@@ -97,7 +98,15 @@ impl PointVehicle {
             boot_s: self.boot_s,
             wall_s: self.boot_s,
             pose: Some(self.pose),
+            // The point vehicle is exactly where it says, so every node it
+            // reaches counts as traversed.
+            fix: Some(Fix {
+                pose: self.pose,
+                position_bound_m: 0.0,
+                yaw_bound_rad: 0.0,
+            }),
             arrived_at: self.arrived_at,
+            at_rest: !self.driving,
             driving: self.driving,
             operating_mode: self.operating_mode,
             e_stop: EStop::None,
