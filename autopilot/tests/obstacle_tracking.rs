@@ -6,7 +6,7 @@ use std::f64::consts::PI;
 use std::time::Duration;
 
 use autopilot::geo::Ned;
-use autopilot::obstacles::cluster::{Cluster, ClusterConfig, ScanPoint, cluster_points, scan_points};
+use autopilot::obstacles::cluster::{BeamAngles, Cluster, ClusterConfig, ScanPoint, cluster_points, scan_points};
 use autopilot::obstacles::outline::FitScratch;
 use autopilot::obstacles::tracking::{ObstacleTracker, TrackingConfig, TrackingStatus};
 use autopilot::obstacles::{Pose, ScannerMount, Track, TrackStatus};
@@ -119,7 +119,14 @@ struct Pipeline {
 
 impl Pipeline {
     fn scan(&mut self, scan: &Scan, pose: &Pose, mount: &ScannerMount) -> TrackingStatus {
-        let sensor = scan_points(scan, pose, mount, MAX_RANGE_M, &mut self.points);
+        let sensor = scan_points(
+            scan,
+            pose,
+            mount,
+            MAX_RANGE_M,
+            &mut BeamAngles::default(),
+            &mut self.points,
+        );
         cluster_points(
             &self.points,
             &ClusterConfig::default(),

@@ -137,13 +137,14 @@ impl FacingEdges<'_> {
 }
 
 /// The outline as the geometry routines see it.
-enum Outline<'a> {
+#[derive(Clone, Copy)]
+pub(crate) enum Outline<'a> {
     Circle { center: [f64; 2], radius_m: f64 },
     Quad([[f64; 2]; 4]),
     Polygon(&'a [[f64; 2]]),
 }
 
-impl Outline<'_> {
+impl<'a> Outline<'a> {
     /// The corners of a polygonal outline (none for a circle).
     fn points(&self) -> &[[f64; 2]] {
         match self {
@@ -152,10 +153,41 @@ impl Outline<'_> {
             Outline::Polygon(points) => points,
         }
     }
+
+    /// See [`Shape::bounding_circle`].
+    pub(crate) fn bounding_circle(&self) -> ([f64; 2], f64) {
+        match self {
+            Outline::Circle { center, radius_m } => (*center, *radius_m),
+            Outline::Quad(corners) => enclosing_circle(corners),
+            Outline::Polygon(points) => enclosing_circle(points),
+        }
+    }
+
+    /// See [`Shape::contains`].
+    pub(crate) fn contains(&self, point: [f64; 2]) -> bool {
+        match self {
+            Outline::Circle { center, radius_m } => distance(point, *center) <= *radius_m,
+            Outline::Quad(corners) => polygon_contains(corners, point),
+            Outline::Polygon(points) => polygon_contains(points, point),
+        }
+    }
+
+    /// What a ray from `origin`, outside the shape, can hit first: a ray
+    /// entering an outline crosses an edge whose outer side holds the origin,
+    /// so the edges facing away never give the nearest hit.
+    pub(crate) fn facing(self, origin: [f64; 2]) -> FacingOutline<'a> {
+        match self {
+            Outline::Circle { center, radius_m } => FacingOutline::Circle { center, radius_m },
+            polygonal => FacingOutline::Edges(FacingEdges::new(polygonal, origin)),
+        }
+    }
 }
 
 impl Shape {
-    fn outline(&self) -> Outline<'_> {
+    /// The outline placed in the local frame (a box's or a wall's corners
+    /// cost a sin_cos, a wall's an atan2 and a hypot too: a caller asking
+    /// several questions of a shape places it once).
+    pub(crate) fn outline(&self) -> Outline<'_> {
         match self {
             Shape::Circle { center, radius_m } => Outline::Circle {
                 center: *center,
@@ -178,16 +210,6 @@ impl Shape {
                     thickness_m.max(0.0) / 2.0,
                 ))
             }
-        }
-    }
-
-    /// What a ray from `origin`, outside the shape, can hit first: a ray
-    /// entering an outline crosses an edge whose outer side holds the origin,
-    /// so the edges facing away never give the nearest hit.
-    pub(crate) fn facing_outline(&self, origin: [f64; 2]) -> FacingOutline<'_> {
-        match self.outline() {
-            Outline::Circle { center, radius_m } => FacingOutline::Circle { center, radius_m },
-            polygonal => FacingOutline::Edges(FacingEdges::new(polygonal, origin)),
         }
     }
 
@@ -224,20 +246,12 @@ impl Shape {
     /// A circle (centre, radius) that contains the whole shape: a cheap
     /// first test before the exact geometry. Radius 0 for an empty polygon.
     pub fn bounding_circle(&self) -> ([f64; 2], f64) {
-        match self.outline() {
-            Outline::Circle { center, radius_m } => (center, radius_m),
-            Outline::Quad(corners) => enclosing_circle(&corners),
-            Outline::Polygon(points) => enclosing_circle(points),
-        }
+        self.outline().bounding_circle()
     }
 
     /// Whether `point` is inside or on the outline.
     pub fn contains(&self, point: [f64; 2]) -> bool {
-        match self.outline() {
-            Outline::Circle { center, radius_m } => distance(point, center) <= radius_m,
-            Outline::Quad(corners) => polygon_contains(&corners, point),
-            Outline::Polygon(points) => polygon_contains(points, point),
-        }
+        self.outline().contains(point)
     }
 
     /// Range to the first point of the outline along the ray from `origin`
@@ -601,6 +615,11 @@ fn polygon_distance(p: &[[f64; 2]], q: &[[f64; 2]]) -> f64 {
 
 /// Angle wrapped into [0, 2π).
 pub(crate) fn wrap_two_pi(angle_rad: f64) -> f64 {
+    // In range already (the same value `rem_euclid` gives), without its
+    // libm `fmod` call: the scanners wrap a few angles per obstacle per scan.
+    if (0.0..TAU).contains(&angle_rad) {
+        return angle_rad;
+    }
     angle_rad.rem_euclid(TAU)
 }
 

@@ -285,7 +285,8 @@ fn cast_beams(
     let max_range_m = config.max_range_m;
     let relative_rad = |p: [f64; 2]| wrap_two_pi((p[1] - origin[1]).atan2(p[0] - origin[0]) - first_bearing_rad);
     obstacles.for_each_shape_at(t.as_secs_f64(), |shape| {
-        let (center, radius_m) = shape.bounding_circle();
+        let outline = shape.outline();
+        let (center, radius_m) = outline.bounding_circle();
         let center_m = distance(center, origin);
         if center_m - radius_m > max_range_m {
             return;
@@ -301,7 +302,7 @@ fn cast_beams(
                 return;
             }
         }
-        if shape.contains(origin) {
+        if outline.contains(origin) {
             // Inside an obstacle every beam is blocked at once.
             true_range_m.fill(0.0);
             return;
@@ -318,7 +319,7 @@ fn cast_beams(
                 }
             }
         };
-        match shape.facing_outline(origin) {
+        match outline.facing(origin) {
             FacingOutline::Circle { center, radius_m } => {
                 let half_rad = (radius_m / distance(center, origin)).asin();
                 let mid_rad = relative_rad(center);
@@ -410,7 +411,7 @@ fn distance(a: [f64; 2], b: [f64; 2]) -> f64 {
 }
 
 fn wrap_pi(angle_rad: f64) -> f64 {
-    (angle_rad + PI).rem_euclid(TAU) - PI
+    crate::obstacles::wrap_two_pi(angle_rad + PI) - PI
 }
 
 /// Scan `k` of a scanner at `rate_hz`, rounded to the nanosecond.

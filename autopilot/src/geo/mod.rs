@@ -114,13 +114,16 @@ impl Ned {
 
 /// Wraps an angle to [-π, π).
 pub fn wrap_pi(angle_rad: f64) -> f64 {
-    let two_pi = std::f64::consts::TAU;
-    let a = (angle_rad + std::f64::consts::PI).rem_euclid(two_pi);
-    a - std::f64::consts::PI
+    wrap_2pi(angle_rad + std::f64::consts::PI) - std::f64::consts::PI
 }
 
 /// Wraps an angle to [0, 2π).
 pub fn wrap_2pi(angle_rad: f64) -> f64 {
+    // `rem_euclid` returns an angle already in range unchanged, but costs a
+    // libm `fmod` call; the core wraps several angles per scan return.
+    if (0.0..std::f64::consts::TAU).contains(&angle_rad) {
+        return angle_rad;
+    }
     angle_rad.rem_euclid(std::f64::consts::TAU)
 }
 

@@ -64,8 +64,16 @@ pub struct ScanPoint {
 /// and returns the scanner's position in the local frame. Beams with no echo
 /// (NaN), nearer than [`MIN_RANGE_M`], beyond `max_range_m`, or that would
 /// give a non-finite point (bad pose or angles) are skipped.
-pub fn scan_points(scan: &Scan, pose: &Pose, mount: &ScannerMount, max_range_m: f64, out: &mut Vec<ScanPoint>) -> Ned {
+pub fn scan_points(
+    scan: &Scan,
+    pose: &Pose,
+    mount: &ScannerMount,
+    max_range_m: f64,
+    angles: &mut BeamAngles,
+    out: &mut Vec<ScanPoint>,
+) -> Ned {
     out.clear();
+    let beam_sin_cos = angles.of(scan, mount.yaw_rad);
     // Room for every beam at once: a reused buffer then never grows when
     // more of the scan starts to echo.
     out.reserve(scan.ranges_m.len());
@@ -84,7 +92,7 @@ pub fn scan_points(scan: &Scan, pose: &Pose, mount: &ScannerMount, max_range_m: 
             continue;
         }
         let body_angle_rad = mount.yaw_rad + scan.angle_rad(beam);
-        let (sin_a, cos_a) = body_angle_rad.sin_cos();
+        let (sin_a, cos_a) = beam_sin_cos[beam];
         let body_x_m = mount.x_m + range_m * cos_a;
         let body_y_m = mount.y_m + range_m * sin_a;
         let position = to_local(body_x_m, body_y_m);
@@ -102,6 +110,38 @@ pub fn scan_points(scan: &Scan, pose: &Pose, mount: &ScannerMount, max_range_m: 
         });
     }
     sensor
+}
+
+/// The sine and cosine of every beam's body angle (the mount's yaw plus
+/// the beam's angle in the scan), kept from scan to scan: a scanner's beam
+/// angles stay the same, and a sin_cos per return each scan was a large
+/// part of the core's time. Recomputed when the angles change.
+#[derive(Clone, Debug, Default)]
+pub struct BeamAngles {
+    /// Mount yaw, start angle and step (their bits) and beam count.
+    angles_of: Option<(u64, u64, u64, usize)>,
+    sin_cos: Vec<(f64, f64)>,
+}
+
+impl BeamAngles {
+    /// The (sin, cos) of each of the scan's beams seen from a mount at
+    /// `mount_yaw_rad`: the values `(mount_yaw_rad + scan.angle_rad(beam)).sin_cos()`.
+    fn of(&mut self, scan: &Scan, mount_yaw_rad: f64) -> &[(f64, f64)] {
+        let beams = scan.ranges_m.len();
+        let key = (
+            mount_yaw_rad.to_bits(),
+            scan.start_angle_rad.to_bits(),
+            scan.step_rad.to_bits(),
+            beams,
+        );
+        if self.angles_of != Some(key) {
+            self.sin_cos.clear();
+            self.sin_cos
+                .extend((0..beams).map(|beam| (mount_yaw_rad + scan.angle_rad(beam)).sin_cos()));
+            self.angles_of = Some(key);
+        }
+        &self.sin_cos
+    }
 }
 
 /// How returns are grouped into objects.
@@ -484,7 +524,14 @@ mod tests {
 
     fn points_and_clusters(scan: &Scan) -> (Vec<ScanPoint>, Vec<Cluster>) {
         let mut points = Vec::new();
-        scan_points(scan, &Pose::default(), &ScannerMount::default(), 20.0, &mut points);
+        scan_points(
+            scan,
+            &Pose::default(),
+            &ScannerMount::default(),
+            20.0,
+            &mut BeamAngles::default(),
+            &mut points,
+        );
         let mut clusters = Vec::new();
         cluster_points(
             &points,
@@ -517,7 +564,7 @@ mod tests {
             ranges_m: vec![2.0, 3.0],
         };
         let mut out = Vec::new();
-        let sensor = scan_points(&scan, &pose, &mount, 20.0, &mut out);
+        let sensor = scan_points(&scan, &pose, &mount, 20.0, &mut BeamAngles::default(), &mut out);
         assert!(sensor.distance_to(&Ned::new(9.5, -4.0)) < 1e-12, "{sensor:?}");
         assert_eq!(out.len(), 2);
         let p = out[0];
@@ -554,7 +601,7 @@ mod tests {
             ranges_m: vec![1.0, 2.5, 4.0, 7.5, 12.0],
         };
         let mut out = Vec::new();
-        let sensor = scan_points(&scan, &pose, &mount, 20.0, &mut out);
+        let sensor = scan_points(&scan, &pose, &mount, 20.0, &mut BeamAngles::default(), &mut out);
         for p in &out {
             assert!((sensor.distance_to(&p.position) - p.range_m).abs() < 1e-9);
             assert!(wrap_pi(sensor.bearing_to(&p.position) - p.bearing_rad).abs() < 1e-9);
@@ -568,6 +615,42 @@ mod tests {
     }
 
     #[test]
+    fn kept_beam_angles_give_the_points_fresh_ones_give_when_the_mount_or_scan_changes() {
+        let pose = Pose {
+            position: Ned::new(1.0, -2.0),
+            yaw_rad: 0.7,
+        };
+        let scan = |start_angle_rad: f64, step_rad: f64, beams: usize| Scan {
+            t: Duration::ZERO,
+            scan_counter: 0,
+            start_angle_rad,
+            step_rad,
+            ranges_m: (0..beams).map(|i| 1.0 + 0.5 * i as f32).collect(),
+        };
+        let mount = |yaw_rad: f64| ScannerMount {
+            x_m: 0.3,
+            y_m: 0.1,
+            yaw_rad,
+        };
+        let mut kept = BeamAngles::default();
+        let (mut with_kept, mut with_fresh) = (Vec::new(), Vec::new());
+        for (scan, mount) in [
+            (scan(-1.0, 0.25, 9), mount(0.0)),
+            (scan(-1.0, 0.25, 9), mount(0.0)),
+            (scan(-1.0, 0.25, 9), mount(PI)),
+            (scan(-0.5, 0.25, 9), mount(PI)),
+            (scan(-0.5, 0.125, 9), mount(PI)),
+            (scan(-0.5, 0.125, 12), mount(PI)),
+        ] {
+            let a = scan_points(&scan, &pose, &mount, 20.0, &mut kept, &mut with_kept);
+            let b = scan_points(&scan, &pose, &mount, 20.0, &mut BeamAngles::default(), &mut with_fresh);
+            assert_eq!(a, b);
+            assert_eq!(with_kept, with_fresh);
+            assert_eq!(with_kept.len(), scan.ranges_m.len());
+        }
+    }
+
+    #[test]
     fn skips_missing_near_and_far_returns() {
         let scan = Scan {
             t: Duration::ZERO,
@@ -577,7 +660,14 @@ mod tests {
             ranges_m: vec![f32::NAN, 0.04, 0.06, 19.0, 21.0, f32::INFINITY, 5.0],
         };
         let mut out = vec![];
-        scan_points(&scan, &Pose::default(), &ScannerMount::default(), 20.0, &mut out);
+        scan_points(
+            &scan,
+            &Pose::default(),
+            &ScannerMount::default(),
+            20.0,
+            &mut BeamAngles::default(),
+            &mut out,
+        );
         let beams: Vec<usize> = out.iter().map(|p| p.beam).collect();
         assert_eq!(beams, vec![2, 3, 6]);
     }
@@ -658,7 +748,14 @@ mod tests {
             *r += 0.02 * (i as f32 * 1.7).sin();
         }
         let mut points = Vec::new();
-        scan_points(&scan, &Pose::default(), &ScannerMount::default(), 20.0, &mut points);
+        scan_points(
+            &scan,
+            &Pose::default(),
+            &ScannerMount::default(),
+            20.0,
+            &mut BeamAngles::default(),
+            &mut points,
+        );
         let config = ClusterConfig::default();
         let breaks = points.windows(2).filter(|w| splits(&w[0], &w[1], &config)).count();
         assert!(breaks > 3, "the wall does break up ({breaks} breaks)");

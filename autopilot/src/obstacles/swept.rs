@@ -335,7 +335,8 @@ impl SweptPath {
             if gap <= threshold {
                 return Some(i as f64 * self.ds_m);
             }
-            i += (((gap - threshold) / per_sample).floor() as usize).max(1);
+            // Positive here, so truncating is the floor (without a libm call).
+            i += (((gap - threshold) / per_sample) as usize).max(1);
         }
         None
     }

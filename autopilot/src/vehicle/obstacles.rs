@@ -15,7 +15,9 @@ use crate::estimation::Estimate;
 use crate::geo::{Ned, wrap_pi};
 use crate::guidance::tracker::Direction;
 use crate::modes::Mode;
-use crate::obstacles::cluster::{Cluster, ClusterConfig, ScanPoint, cluster_points, mark_field_edges, scan_points};
+use crate::obstacles::cluster::{
+    BeamAngles, Cluster, ClusterConfig, ScanPoint, cluster_points, mark_field_edges, scan_points,
+};
 use crate::obstacles::detour::{DetourConfig, DetourRefusal, plan_detour};
 use crate::obstacles::field::{FieldConfig, FieldStatus, Fields, check_swept_fields, fields, warning_speed_limit};
 use crate::obstacles::outline::FitScratch;
@@ -90,6 +92,7 @@ struct ScannerView {
     structure: Vec<bool>,
     /// Which OBSTACLE_DISTANCE sectors the scan's beams cover.
     covered: [bool; SECTORS],
+    beam_angles: BeamAngles,
 }
 
 impl Default for ScannerView {
@@ -100,6 +103,7 @@ impl Default for ScannerView {
             local_points: Vec::new(),
             structure: Vec::new(),
             covered: [false; SECTORS],
+            beam_angles: BeamAngles::default(),
         }
     }
 }
@@ -322,8 +326,15 @@ impl Core {
                 yaw_rad: estimate.yaw_rad,
             };
             let obs = &mut self.obstacles;
-            let sensor = scan_points(&input.scan, &pose, &mount, max_range, &mut obs.points);
             let view = &mut obs.views[input.scanner];
+            let sensor = scan_points(
+                &input.scan,
+                &pose,
+                &mount,
+                max_range,
+                &mut view.beam_angles,
+                &mut obs.points,
+            );
             view.t = Some(input.scan.t);
             view.body_points.clear();
             view.local_points.clear();
