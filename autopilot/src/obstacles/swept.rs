@@ -329,16 +329,19 @@ impl SweptPath {
         }
         let last = self.last_index(max_m);
         let per_sample = self.spread * self.ds_m;
-        let mut i = 0;
-        while i <= last {
-            let gap = self.point_gap(i, p);
+        // Sample 0's gap is `gap_now`, already known.
+        let (mut i, mut gap) = (0, gap_now);
+        loop {
             if gap <= threshold {
                 return Some(i as f64 * self.ds_m);
             }
             // Positive here, so truncating is the floor (without a libm call).
             i += (((gap - threshold) / per_sample) as usize).max(1);
+            if i > last {
+                return None;
+            }
+            gap = self.point_gap(i, p);
         }
-        None
     }
 
     /// The last sample within `max_m` of path.
