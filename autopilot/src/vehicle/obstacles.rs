@@ -75,6 +75,11 @@ const HIDDEN_SEEN_M: f64 = 0.7;
 /// sliver of its side), and its last place says nothing about where it is
 /// a second later: it may be walking on into the body.
 const HIDDEN_SPREAD_MPS: f64 = 1.0;
+/// A track that leaves view is kept at least this wide (a person's radius,
+/// m): its last returns beside the body are often a sliver of its side
+/// (a radius of a few centimetres), and a sliver is passed closer than the
+/// person it belongs to.
+const OUT_OF_VIEW_MIN_RADIUS_M: f64 = 0.25;
 
 /// One scanner's latest scan, reduced to what the tick needs.
 #[derive(Clone, Debug)]
@@ -466,6 +471,7 @@ impl Core {
         );
         self.remember_hidden_tracks(now_s, pose, footprint, margin, velocity_gate_mps);
         self.push_hidden_predictions(now_s, pose, footprint, &mut predictions_at_resume);
+        self.push_hidden_contacts(now_s, speed, (margin, horizon), &mut predictions);
         (predictions, predictions_at_resume)
     }
 
@@ -688,6 +694,46 @@ impl Core {
         }
     }
 
+    /// The remembered hidden tracks that were standing or walking at a
+    /// velocity to trust, as predictions for the vehicle driving on at
+    /// `speed` along the swept path: a person lost from view beside the
+    /// body is still there, and the side of a turn sweeps into them. (One
+    /// that may have gone anywhere, growing by the second, only holds a
+    /// start: driving, it would soon stop the vehicle for everything.)
+    fn push_hidden_contacts(
+        &self,
+        now_s: f64,
+        speed: f64,
+        (margin, horizon): (f64, f64),
+        predictions: &mut Vec<CollisionPrediction>,
+    ) {
+        let yaw_rad = self.estimator.estimate().yaw_rad;
+        let vehicle_velocity = (speed * yaw_rad.cos(), speed * yaw_rad.sin());
+        for hidden in self.obstacles.hidden.iter().filter(|h| h.spread_mps == 0.0) {
+            let shape = Shape::Disc {
+                centre: hidden.position_at(now_s),
+                radius_m: hidden.radius_m,
+            };
+            let obstacle_speed_mps = hidden.velocity.0.hypot(hidden.velocity.1);
+            if let Some(c) = self
+                .obstacles
+                .swept
+                .first_contact(&shape, hidden.velocity, speed, margin, horizon)
+            {
+                predictions.push(CollisionPrediction {
+                    track_id: hidden.id,
+                    time_s: c.time_s,
+                    place: c.place,
+                    distance_m: c.gap_now_m,
+                    relative_speed_mps: (hidden.velocity.0 - vehicle_velocity.0)
+                        .hypot(hidden.velocity.1 - vehicle_velocity.1),
+                    obstacle_speed_mps,
+                    closing: c.closing,
+                });
+            }
+        }
+    }
+
     /// A static obstacle that keeps the vehicle stopped: plan round it
     /// (notes since when it has blocked the way).
     fn note_static_block(&mut self, verdict: &Verdict, wants_to_move: bool, now_s: f64) {
@@ -729,7 +775,8 @@ impl Core {
         };
         let known_ids_to = obs.last_tracks.iter().map(|t| t.id).max().unwrap_or(0);
         for lost in obs.last_tracks.iter().filter(|l| tracks.iter().all(|t| t.id != l.id)) {
-            if gap_m(lost.position, lost.radius_m) <= margin_m + HIDDEN_NEAR_M {
+            let radius_m = lost.radius_m.max(OUT_OF_VIEW_MIN_RADIUS_M);
+            if gap_m(lost.position, radius_m) <= margin_m + HIDDEN_NEAR_M {
                 let walking = lost.velocity_sigma_mps <= gate_mps && moving(lost);
                 // Its returns were leaving their outline: it was moving, at
                 // a velocity not good enough to follow.
@@ -742,7 +789,7 @@ impl Core {
                     } else {
                         (0.0, 0.0)
                     },
-                    radius_m: lost.radius_m,
+                    radius_m,
                     lost_s: now_s,
                     spread_mps: if wandering { HIDDEN_SPREAD_MPS } else { 0.0 },
                     known_ids_to,
