@@ -29,9 +29,7 @@ fn no_avoidable_collision_and_rests_clear(seed: u64) {
 /// dropped, and the inner side of the arc sweeps into them at 1.3 m/s;
 /// the vehicle then rests against them (0.00 m) though they had stood
 /// there, in view, since the start. Now the stop after the third cycle
-/// waits until they leave their place, and a track lost beside the body is
-/// kept, at least a person wide, for the path driven as well as for a
-/// start.
+/// waits until they leave their place.
 #[test]
 fn a_person_standing_beside_an_arc_is_not_swept_into() {
     no_avoidable_collision_and_rests_clear(2285);

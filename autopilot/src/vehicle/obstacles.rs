@@ -471,7 +471,6 @@ impl Core {
         );
         self.remember_hidden_tracks(now_s, pose, footprint, margin, velocity_gate_mps);
         self.push_hidden_predictions(now_s, pose, footprint, &mut predictions_at_resume);
-        self.push_hidden_contacts(now_s, speed, (margin, horizon), &mut predictions);
         (predictions, predictions_at_resume)
     }
 
@@ -691,46 +690,6 @@ impl Core {
                 obstacle_speed_mps: hidden.velocity.0.hypot(hidden.velocity.1),
                 closing: true,
             });
-        }
-    }
-
-    /// The remembered hidden tracks that were standing or walking at a
-    /// velocity to trust, as predictions for the vehicle driving on at
-    /// `speed` along the swept path: a person lost from view beside the
-    /// body is still there, and the side of a turn sweeps into them. (One
-    /// that may have gone anywhere, growing by the second, only holds a
-    /// start: driving, it would soon stop the vehicle for everything.)
-    fn push_hidden_contacts(
-        &self,
-        now_s: f64,
-        speed: f64,
-        (margin, horizon): (f64, f64),
-        predictions: &mut Vec<CollisionPrediction>,
-    ) {
-        let yaw_rad = self.estimator.estimate().yaw_rad;
-        let vehicle_velocity = (speed * yaw_rad.cos(), speed * yaw_rad.sin());
-        for hidden in self.obstacles.hidden.iter().filter(|h| h.spread_mps == 0.0) {
-            let shape = Shape::Disc {
-                centre: hidden.position_at(now_s),
-                radius_m: hidden.radius_m,
-            };
-            let obstacle_speed_mps = hidden.velocity.0.hypot(hidden.velocity.1);
-            if let Some(c) = self
-                .obstacles
-                .swept
-                .first_contact(&shape, hidden.velocity, speed, margin, horizon)
-            {
-                predictions.push(CollisionPrediction {
-                    track_id: hidden.id,
-                    time_s: c.time_s,
-                    place: c.place,
-                    distance_m: c.gap_now_m,
-                    relative_speed_mps: (hidden.velocity.0 - vehicle_velocity.0)
-                        .hypot(hidden.velocity.1 - vehicle_velocity.1),
-                    obstacle_speed_mps,
-                    closing: c.closing,
-                });
-            }
         }
     }
 
