@@ -935,6 +935,66 @@ fn repeated_stops_for_one_object_turn_patient_after_the_set_number_of_cycles() {
     assert!(resumed.is_some());
 }
 
+/// Stands at rest from `t_s` with nothing predicted (a check at rest sees
+/// the way clear) and `tracks` in view; the events and when it resumed
+/// (None: not within 10 s).
+fn rest_with(
+    policy: &mut ObstaclePolicy,
+    config: &PolicyConfig,
+    t_s: f64,
+    tracks: &[Track],
+) -> (Vec<PolicyEvent>, Option<f64>) {
+    let mut events = Vec::new();
+    let mut t = t_s;
+    while t < t_s + 10.0 {
+        t += 0.05;
+        let mut resting = Scene::clear(t, 0.0);
+        resting.tracks = tracks.to_vec();
+        let status = policy.update(&resting.inputs(), config);
+        events.extend(status.events);
+        if !status.stopped {
+            return (events, Some(t));
+        }
+    }
+    (events, None)
+}
+
+/// Someone standing where the turn being driven sweeps: each resume (the
+/// check at rest sees the way clear) meets them again a moment later. Once
+/// the stop is patient it waits while they stand where they stood, and
+/// resumes only after they have stepped away.
+#[test]
+fn a_patient_stop_for_someone_standing_waits_until_they_step_away() {
+    let config = PolicyConfig::default();
+    let mut policy = ObstaclePolicy::new();
+    let mut person = track(1, 5.0, 0.0, 0.0, 0.0, 0.25);
+    person.still_s = 10.0;
+    let mut t = 0.0;
+    for cycle in 0..=config.stop_cycles {
+        let mut moving = Scene::clear(t, 1.0);
+        moving.tracks = vec![person];
+        moving.predictions = vec![prediction(1, 2.0)];
+        moving.predictions_at_resume = vec![prediction(1, 2.0)];
+        let status = policy.update(&moving.inputs(), &config);
+        assert!(status.stopped, "cycle {cycle}");
+        let (_, resumed) = rest_with(&mut policy, &config, t, &[person]);
+        if cycle < config.stop_cycles {
+            t = resumed.expect("a plain stop resumes once clear for OA_RESUME_S") + 1.0;
+        } else {
+            assert_eq!(resumed, None, "the patient stop waits while they stand there");
+            t += 10.0;
+        }
+    }
+    // The track's noise on a standing person is not stepping away.
+    person.position = Ned::new(5.05, 0.05);
+    assert_eq!(rest_with(&mut policy, &config, t, &[person]).1, None);
+    t += 10.0;
+    person.position = Ned::new(5.0, 1.5);
+    let (_, resumed) = rest_with(&mut policy, &config, t, &[person]);
+    let resumed = resumed.expect("resumes once they have stepped away");
+    assert!(resumed - t >= config.resume_s);
+}
+
 #[test]
 fn stops_far_apart_or_with_cycles_off_never_turn_patient() {
     for (config, gap_s) in [

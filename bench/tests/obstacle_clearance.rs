@@ -5,20 +5,14 @@
 use furrow_bench::obstacles::ROOM_CLEARANCE_M;
 use furrow_bench::obstacles::random;
 
-/// Seed 2285: a person stands beside the course of an arc, and the vehicle
-/// stops for them five times, creeping closer with each resume (0.42 m →
-/// 0.31 m at rest). The last resume leaves them beside the body, in the
-/// blind zone between the scanners' fields: their track coasts, then is
-/// dropped, and the inner side of the arc sweeps into them at 1.3 m/s;
-/// the vehicle then rests against them (0.00 m) though they had stood
-/// there, in view, since the start.
-#[test]
-#[ignore = "still collides: the track of the person beside the body is a sliver (radius 0.07 m) from partial views, so the resume check and the swept path see them clear"]
-fn a_person_standing_beside_an_arc_is_not_swept_into() {
-    let seed = 2285;
+/// Randomized run `seed`: no collision it could have avoided, and it
+/// stopped at least once with room for 0.3 m, every such rest 0.3 m clear
+/// or more.
+fn no_avoidable_collision_and_rests_clear(seed: u64) {
     let o = random::run(seed, &[], None).expect("runs");
     let r = &o.result;
     assert_eq!(r.collisions, r.unavoidable, "seed {seed}: {:?}", r.events);
+    assert!(!r.rest_clearance_with_room_m.is_empty(), "seed {seed}: {:?}", r.events);
     for &clearance_m in &r.rest_clearance_with_room_m {
         assert!(
             clearance_m >= ROOM_CLEARANCE_M,
@@ -28,12 +22,40 @@ fn a_person_standing_beside_an_arc_is_not_swept_into() {
     }
 }
 
-/// Seed 490: someone crossing walks into the vehicle as it comes to rest
-/// for them. While it still rolls at 2–4 cm/s (the brake let go at what it
-/// reckoned was 2 cm/s) the touch is a collision while moving; a vehicle
-/// truly at rest would only have been walked into.
+/// Seed 2285: a person stands beside the course of an arc, and the vehicle
+/// stops for them five times, creeping closer with each resume (0.42 m →
+/// 0.31 m at rest). The last resume leaves them beside the body, in the
+/// blind zone between the scanners' fields: their track coasts, then is
+/// dropped, and the inner side of the arc sweeps into them at 1.3 m/s;
+/// the vehicle then rests against them (0.00 m) though they had stood
+/// there, in view, since the start. Now the stop after the third cycle
+/// waits until they leave their place.
 #[test]
-#[ignore = "still collides at 0.03 m/s: with the accelerometer's bias taken out the brake still lets go with the truth at about 5 cm/s (--replay 490 --verbose): the dead-reckoned speed is still that far off"]
+fn a_person_standing_beside_an_arc_is_not_swept_into() {
+    no_avoidable_collision_and_rests_clear(2285);
+}
+
+/// Seed 58: a person stands where the turn being driven sweeps, beside
+/// the straight line a check at rest looks along. Each resume met them
+/// again a moment later and stopped a few centimetres closer (0.54 m →
+/// 0.29 m at rest over seven stops, resuming even after "stop/go x3:
+/// waiting for clear way"). Every rest is 0.3 m clear or more.
+#[test]
+fn stop_go_cycles_do_not_creep_towards_someone_standing() {
+    no_avoidable_collision_and_rests_clear(58);
+}
+
+/// Seed 490: someone crossing at 1.66 m/s walks into the side of the
+/// vehicle's arc. (Last session the touch came as the brake let go at a
+/// true ~5 cm/s; on the tree with the tracker's merge and the wait at rest
+/// the timeline differs.) Now the stop comes late, "collision in 0.8 s" at
+/// 1.22 m/s, and the stop's tail touches them at 0.11 m/s: the walker's
+/// track was ~17° off their heading ((0.12, −1.81) m/s against (0.58,
+/// −1.56)), then coasted for 0.4 s while they passed behind someone
+/// standing (a coasting walker is not stopped for), and came back with a
+/// velocity still settling (`--replay 490 --verbose`).
+#[test]
+#[ignore = "still collides in the stop's tail at 0.11 m/s: the walker's stop comes late (collision in 0.8 s), after a track velocity 17° off and 0.4 s coasting behind a standing person"]
 fn a_stop_is_at_rest_before_someone_crossing_reaches_it() {
     let seed = 490;
     let o = random::run(seed, &[], None).expect("runs");

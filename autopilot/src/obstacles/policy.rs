@@ -41,7 +41,12 @@
 //! held stop becomes patient: it resumes only once nothing at all is
 //! predicted for that object over the prediction horizon at the planned
 //! speed and the warning field is empty too, for `resume_s` (the core may
-//! plan a detour instead, with `OA_TYPE` 1).
+//! plan a detour instead, with `OA_TYPE` 1). If that object stood still
+//! when stopped for, the way is not clear either while it stands within
+//! [`STOOD_MOVED_M`] of that place: the stop/go cycles show the path meets
+//! it, whatever a check at rest finds (a path judged at rest, with no
+//! turning rate to go by, can miss an object that the turn being driven
+//! sweeps into, and each resume crept a few centimetres closer).
 //!
 //! A vehicle at rest with nothing to do (not wanting to move, not settling)
 //! is not judged at all. One settling onto a precision stop wants no speed
@@ -68,6 +73,7 @@ use super::field::FieldStatus;
 use super::prediction::{CollisionPrediction, to_body};
 use super::tracking::STILL_S;
 use super::{Footprint, Pose, Track, TrackStatus};
+use crate::geo::Ned;
 
 /// Slower than this the vehicle is at rest.
 const AT_REST_MPS: f64 = 0.02;
@@ -78,6 +84,10 @@ const MIN_FOLLOW_SPEED_MPS: f64 = 0.1;
 pub const CYCLE_WINDOW_S: f64 = 5.0;
 /// The protective field as the "object" of a stop/go cycle.
 const FIELD_OBJECT: u32 = u32::MAX;
+/// A standing object a patient stop was held for has left its place once
+/// its track is this far from it (m): well beyond the tracker's noise on a
+/// standing track's centre (a few centimetres).
+pub const STOOD_MOVED_M: f64 = 0.3;
 /// A moving vehicle stops for a predicted collision no later than this
 /// long before it would need to (s).
 pub const DECIDE_LEAD_S: f64 = 1.0;
@@ -313,6 +323,8 @@ struct HeldStop {
     announced_waiting: bool,
     /// After too many stop/go cycles: resume only on a clear way.
     patient: bool,
+    /// The track stopped for and where it stood, if it stood still.
+    stood: Option<(u32, Ned)>,
 }
 
 /// What one collision prediction asks for.
@@ -404,6 +416,7 @@ impl ObstaclePolicy {
         if let Some(held) = self.held.as_mut() {
             let blocker = if held.patient {
                 patient_blocker(inputs, config, stop_object(&held.cause))
+                    .or_else(|| still_standing(inputs, held.stood).map(|_| held.cause))
             } else {
                 resume_blocker(inputs, config)
             };
@@ -457,6 +470,14 @@ impl ObstaclePolicy {
             .is_some_and(|(o, t)| Some(o) == object && inputs.t_s - t <= CYCLE_WINDOW_S);
         self.cycles = if again { self.cycles + 1 } else { 0 };
         let patient = config.stop_cycles > 0 && self.cycles >= config.stop_cycles;
+        let stood = match cause {
+            StopCause::Collision { track_id, .. } => inputs
+                .tracks
+                .iter()
+                .find(|t| t.id == track_id && t.still_s >= STILL_S)
+                .map(|t| (t.id, t.position)),
+            _ => None,
+        };
         self.held = Some(HeldStop {
             since_s: inputs.t_s,
             cause,
@@ -464,6 +485,7 @@ impl ObstaclePolicy {
             ready_for_operator: false,
             announced_waiting: false,
             patient,
+            stood,
         });
         events.push(PolicyEvent::Stopped(cause));
         if patient {
@@ -774,6 +796,16 @@ fn patient_blocker(inputs: &PolicyInputs, config: &PolicyConfig, object: Option<
         .filter(|p| Some(p.track_id) == object)
         .fold(None, earliest)
         .map(collision_cause)
+}
+
+/// The track of `stood` (a track and where it stood still) while it is
+/// still tracked within [`STOOD_MOVED_M`] of that place.
+fn still_standing<'t>(inputs: &PolicyInputs<'t>, stood: Option<(u32, Ned)>) -> Option<&'t Track> {
+    let (id, at) = stood?;
+    inputs
+        .tracks
+        .iter()
+        .find(|t| t.id == id && t.status != TrackStatus::Tentative && t.position.distance_to(&at) <= STOOD_MOVED_M)
 }
 
 /// [`respond`] for a vehicle that moves: a coasting track that stood

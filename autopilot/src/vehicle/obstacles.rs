@@ -77,6 +77,11 @@ const HIDDEN_SEEN_M: f64 = 0.7;
 /// sliver of its side), and its last place says nothing about where it is
 /// a second later: it may be walking on into the body.
 const HIDDEN_SPREAD_MPS: f64 = 1.0;
+/// A track that leaves view is kept at least this wide (a person's radius,
+/// m): its last returns beside the body are often a sliver of its side
+/// (a radius of a few centimetres), and a sliver is passed closer than the
+/// person it belongs to.
+const OUT_OF_VIEW_MIN_RADIUS_M: f64 = 0.25;
 
 /// One scanner's latest scan, reduced to what the tick needs.
 #[derive(Clone, Debug)]
@@ -740,7 +745,8 @@ impl Core {
         };
         let known_ids_to = obs.last_tracks.iter().map(|t| t.id).max().unwrap_or(0);
         for lost in obs.last_tracks.iter().filter(|l| tracks.iter().all(|t| t.id != l.id)) {
-            if gap_m(lost.position, lost.radius_m) <= margin_m + HIDDEN_NEAR_M {
+            let radius_m = lost.radius_m.max(OUT_OF_VIEW_MIN_RADIUS_M);
+            if gap_m(lost.position, radius_m) <= margin_m + HIDDEN_NEAR_M {
                 let walking = lost.velocity_sigma_mps <= gate_mps && moving(lost);
                 // Its returns were leaving their outline: it was moving, at
                 // a velocity not good enough to follow.
@@ -753,7 +759,7 @@ impl Core {
                     } else {
                         (0.0, 0.0)
                     },
-                    radius_m: lost.radius_m,
+                    radius_m,
                     lost_s: now_s,
                     spread_mps: if wandering { HIDDEN_SPREAD_MPS } else { 0.0 },
                     known_ids_to,

@@ -67,6 +67,10 @@ pub struct ObstacleBenchArgs {
     /// Randomized runs (seeds 1..=N); 0 for none.
     #[arg(long, default_value_t = 5000)]
     pub random: u64,
+    /// The first randomized seed (with `--random N`: seeds FIRST..=N), to
+    /// run again only the seeds of interest.
+    #[arg(long, default_value_t = 1)]
+    pub random_from: u64,
     /// Run randomized seed SEED alone and print what happened (with
     /// `--verbose`, the true pose every 0.2 s too).
     #[arg(long)]
@@ -300,7 +304,8 @@ pub fn run(args: &ObstacleBenchArgs) -> Result<(), String> {
     }
     if args.random > 0 {
         let random_wall = Instant::now();
-        let outcomes = random::run_many(args.random, &args.params, threads)?;
+        let seeds = args.random_from.max(1)..=args.random;
+        let outcomes = random::run_many(seeds, &args.params, threads)?;
         println!();
         report::random_table(&outcomes, args.verbose);
         println!();

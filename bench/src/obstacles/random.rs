@@ -194,12 +194,17 @@ pub fn run(seed: u64, params: &[(String, f64)], log: Option<&TruthLog>) -> Resul
     Ok(RandomOutcome { seed, feasible, result })
 }
 
-/// Seeds 1..=`runs`, a course (its empty run, then its runs) per job.
-pub fn run_many(runs: u64, params: &[(String, f64)], threads: usize) -> Result<Vec<RandomOutcome>, String> {
-    let courses: Vec<u64> = (0..=course_of(runs)).collect();
+/// Seeds `seeds`, a course (its empty run, then its runs) per job.
+pub fn run_many(
+    seeds: std::ops::RangeInclusive<u64>,
+    params: &[(String, f64)],
+    threads: usize,
+) -> Result<Vec<RandomOutcome>, String> {
+    let (from, to) = (*seeds.start(), *seeds.end());
+    let courses: Vec<u64> = (course_of(from)..=course_of(to)).collect();
     let per_course = super::par_map(&courses, threads, |&c| -> Result<Vec<RandomOutcome>, String> {
-        let first = c * RUNS_PER_COURSE + 1;
-        let last = (first + RUNS_PER_COURSE - 1).min(runs);
+        let first = (c * RUNS_PER_COURSE + 1).max(from);
+        let last = ((c + 1) * RUNS_PER_COURSE).min(to);
         let log = super::drive::drive_empty(&course(c), c + 1, params)?;
         (first..=last).map(|seed| run(seed, params, Some(&log))).collect()
     });

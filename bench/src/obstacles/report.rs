@@ -298,6 +298,7 @@ pub fn random_table(outcomes: &[RandomOutcome], verbose: bool) {
         );
     }
     print_lowest_rests(outcomes);
+    print_avoidable(outcomes);
     println!();
     println!("Where the randomized collisions and false stops happened (both timings):");
     println!();
@@ -310,6 +311,31 @@ pub fn random_table(outcomes: &[RandomOutcome], verbose: bool) {
         "Timings: feasible when, on the course driven without people, braking the same way from the instant each person could be known avoids everyone the course would touch; infeasible otherwise. False stops: a stop when no true shape, moved on its true velocity for the horizon, comes within OA_MARGIN of the outline swept along the course for the plant's true stopping distance plus the horizon's travel (no OA_REACT_TIME or OA_DECEL in either rule)."
     );
     println!("Replay a run with `furrow-bench obstacles --replay SEED`.");
+}
+
+/// Every avoidable collision of the randomized runs with its seed and
+/// situation, to replay.
+fn print_avoidable(outcomes: &[RandomOutcome]) {
+    let avoidable: Vec<String> = outcomes
+        .iter()
+        .flat_map(|o| {
+            (o.result.collision_situations)
+                .iter()
+                .filter(|(_, unavoidable)| !unavoidable)
+                .map(|(situation, _)| {
+                    format!(
+                        "seed {} ({}, {})",
+                        o.seed,
+                        if o.feasible { "feasible" } else { "infeasible" },
+                        situation.label()
+                    )
+                })
+        })
+        .collect();
+    if !avoidable.is_empty() {
+        println!();
+        println!("Avoidable collisions ({}): {}.", avoidable.len(), avoidable.join("; "));
+    }
 }
 
 /// How many of the lowest clearances at rest with room for 0.3 m are
