@@ -241,6 +241,7 @@ impl Core {
         let t = &self.params;
         TrackingConfig {
             accel_density: f64::from(a.track_accel.get(t)),
+            steady_accel_density: f64::from(a.track_accel_steady.get(t)),
             range_sigma_m: f64::from(a.range_sigma_m.get(t)),
             bearing_sigma_rad: f64::from(a.bearing_sigma_deg.get(t)).to_radians(),
             ..TrackingConfig::default()
