@@ -74,7 +74,8 @@ pub struct Track {
     pub position: Ned,
     pub vel_north_mps: f64,
     pub vel_east_mps: f64,
-    /// 1-σ of position and of velocity (largest axis).
+    /// 1-σ of position and of velocity (largest axis); the velocity's is
+    /// the tracker's manoeuvring model's, an upper bound for a steady walk.
     pub position_sigma_m: f64,
     pub velocity_sigma_mps: f64,
     /// Half the extent of the cluster it was last fitted to: the object's
