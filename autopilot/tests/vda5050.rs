@@ -74,6 +74,11 @@ struct Fleet {
     /// Each change of `lastNodeId` as a state named it, with the true
     /// position (map x, y) and speed (m/s) then.
     claims: Vec<(String, (f64, f64), f64)>,
+    /// Each action's first state saying RUNNING, with the true speed then.
+    running: Vec<(String, f64)>,
+    /// The true speed (m/s) at each state saying `driving: false` after
+    /// one said it drove.
+    stood: Vec<f64>,
     schemas: Schemas,
     /// Where the vehicle estimated itself at the start (map x, y): node
     /// positions in the tests are relative to it.
@@ -105,6 +110,8 @@ impl Fleet {
             h,
             states: Vec::new(),
             claims: Vec::new(),
+            running: Vec::new(),
+            stood: Vec::new(),
             schemas: Schemas::new(),
         }
     }
@@ -136,6 +143,15 @@ impl Fleet {
                 if self.states.last().is_none_or(|s| s.last_node_id != state.last_node_id) {
                     self.claims
                         .push((state.last_node_id.clone(), self.truth_xy(), self.speed()));
+                }
+                for action in &state.action_states {
+                    let first = !self.running.iter().any(|(id, _)| *id == action.action_id);
+                    if action.action_status == ActionStatus::Running && first {
+                        self.running.push((action.action_id.clone(), self.speed()));
+                    }
+                }
+                if !state.driving && self.states.iter().any(|s| s.driving) {
+                    self.stood.push(self.speed());
                 }
                 self.states.push((**state).clone());
             }
@@ -237,18 +253,22 @@ fn a_six_node_order_with_a_reverse_edge_and_pick_and_drop_is_driven_node_by_node
     }
     assert!(reversed, "the edge n2 → n3 was not driven in reverse");
     // Each node named only once the true vehicle was within its allowed
-    // deviation, and at rest there on a node it stops on (the pick, the
-    // change of direction, the end).
+    // deviation (on a node it stops on too: rolling in is allowed, §6.10.2).
     let claims: Vec<_> = f.claims.iter().filter(|c| !c.0.is_empty()).collect();
-    for (id, (x, y), speed) in &claims {
+    for (id, (x, y), _) in &claims {
         let N(_, nx, ny, ..) = nodes.iter().find(|n| n.0 == id).expect("a node of the order");
         let off = (x - nx).hypot(y - ny);
         assert!(off <= ALLOWED_DEVIATION_XY_M, "{id} named {off:.3} m from it");
-        if ["n2", "n3", "n5"].contains(&id.as_str()) {
-            assert!(*speed < 0.01, "{id} named while truly moving at {speed:.4} m/s");
-        }
     }
     assert_eq!(claims.len(), 6, "{claims:?}");
+    // The HARD pick and drop run only with the vehicle truly at rest, and
+    // `driving` goes false only then.
+    assert_eq!(f.running.len(), 2, "{:?}", f.running);
+    for (id, speed) in &f.running {
+        assert!(*speed < 0.01, "{id} RUNNING while truly moving at {speed:.4} m/s");
+    }
+    let fastest = f.stood.iter().copied().fold(0.0, f64::max);
+    assert!(fastest < 0.01, "driving false while truly moving at {fastest:.4} m/s");
 }
 
 #[test]

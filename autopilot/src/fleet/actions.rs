@@ -4,6 +4,12 @@
 //! the outputs a configured action drives (a servo pulse or a relay, as
 //! DO_SET_SERVO / DO_SET_RELAY do) for its configured duration.
 //!
+//! A node counts as traversed while the vehicle may still be rolling onto
+//! it, and its actions are triggered then (§6.10.2). A SOFT or HARD action
+//! is one the vehicle must not drive during (§6.12): it stays INITIALIZING
+//! (triggered, preparing) until the vehicle is at rest, and only then sets
+//! its output and RUNS.
+//!
 //! Pure and stepped with time in seconds.
 
 use vda5050::common::{Action, BlockingType};
@@ -176,24 +182,35 @@ impl ActionRunner {
             .any(|a| a.triggered && !a.done() && a.action.blocking_type != BlockingType::None)
     }
 
+    /// Whether a SOFT or HARD action RUNS (the vehicle must stand).
+    pub fn runs_blocking(&self) -> bool {
+        self.actions
+            .iter()
+            .any(|a| a.status == ActionStatus::Running && a.action.blocking_type != BlockingType::None)
+    }
+
     /// Advances the actions to `now_s`: starts what the blocking rules let
-    /// start (not while `paused`), moves INITIALIZING to RUNNING, finishes
+    /// start (not while `paused`), moves INITIALIZING to RUNNING (a blocking
+    /// one only once the vehicle is `at_rest`) and sets its output, finishes
     /// what has run its duration. Returns the outputs to set.
-    pub fn step(&mut self, now_s: f64, paused: bool, mappings: &[ActionMapping]) -> Vec<ActionOutput> {
+    pub fn step(&mut self, now_s: f64, paused: bool, at_rest: bool, mappings: &[ActionMapping]) -> Vec<ActionOutput> {
         let mut outputs = Vec::new();
         for i in 0..self.actions.len() {
-            let duration_s = mapping(mappings, &self.actions[i].action.action_type).map(|m| m.duration_s);
+            let configured = mapping(mappings, &self.actions[i].action.action_type);
             let tracked = &mut self.actions[i];
+            let blocking = tracked.action.blocking_type != BlockingType::None;
             match tracked.status {
-                ActionStatus::Initializing => {
+                ActionStatus::Initializing if at_rest || !blocking => {
+                    outputs.extend(configured.map(|m| m.output));
                     tracked.status = ActionStatus::Running;
+                    tracked.started_s = Some(now_s);
                     self.generation += 1;
                 }
                 // Running without a duration (cancelOrder) is finished by
                 // whoever started it.
                 ActionStatus::Running if tracked.started_s.is_some() => {
                     let started = tracked.started_s.unwrap_or(now_s);
-                    if now_s - started >= duration_s.unwrap_or(0.0) {
+                    if now_s - started >= configured.map_or(0.0, |m| m.duration_s) {
                         tracked.status = ActionStatus::Finished;
                         tracked.result = Some("done".into());
                         self.finished.push(tracked.action.clone());
@@ -204,14 +221,15 @@ impl ActionRunner {
             }
         }
         if !paused {
-            self.start_ready(now_s, mappings, &mut outputs);
+            self.start_ready(mappings);
         }
         outputs
     }
 
-    /// Starts triggered WAITING actions in sequence: a HARD one only when
-    /// nothing runs, and nothing after a HARD one until it is done.
-    fn start_ready(&mut self, now_s: f64, mappings: &[ActionMapping], outputs: &mut Vec<ActionOutput>) {
+    /// Starts (INITIALIZING) triggered WAITING actions in sequence: a HARD
+    /// one only when nothing runs, and nothing after a HARD one until it is
+    /// done.
+    fn start_ready(&mut self, mappings: &[ActionMapping]) {
         let mut hard_running = self
             .actions
             .iter()
@@ -229,11 +247,7 @@ impl ActionRunner {
                 return;
             }
             match mapping(mappings, &tracked.action.action_type) {
-                Some(m) => {
-                    outputs.push(m.output);
-                    tracked.status = ActionStatus::Initializing;
-                    tracked.started_s = Some(now_s);
-                }
+                Some(_) => tracked.status = ActionStatus::Initializing,
                 None => {
                     tracked.status = ActionStatus::Failed;
                     tracked.result = Some("no output configured for this action type".into());
@@ -307,12 +321,17 @@ mod tests {
         let mut runner = ActionRunner::default();
         let maps = default_mappings();
         runner.add_waiting(&action("p1", "pick", BlockingType::Hard), Scope::Node(2));
-        assert!(runner.step(0.0, false, &maps).is_empty(), "not triggered yet");
+        assert!(runner.step(0.0, false, true, &maps).is_empty(), "not triggered yet");
         assert_eq!(runner.status("p1"), Some(ActionStatus::Waiting));
         assert!(!runner.blocks_driving());
         runner.trigger(Scope::Node(2));
         assert!(runner.blocks_driving());
-        let out = runner.step(1.0, false, &maps);
+        assert!(runner.step(1.0, false, false, &maps).is_empty(), "no output yet");
+        assert_eq!(runner.status("p1"), Some(ActionStatus::Initializing));
+        assert!(runner.step(1.1, false, false, &maps).is_empty(), "still rolling");
+        assert_eq!(runner.status("p1"), Some(ActionStatus::Initializing));
+        assert!(!runner.runs_blocking());
+        let out = runner.step(1.2, false, true, &maps);
         assert_eq!(
             out,
             vec![ActionOutput::Servo {
@@ -320,12 +339,11 @@ mod tests {
                 pwm_us: 1900
             }]
         );
-        assert_eq!(runner.status("p1"), Some(ActionStatus::Initializing));
-        runner.step(1.1, false, &maps);
-        assert_eq!(runner.status("p1"), Some(ActionStatus::Running));
-        runner.step(3.9, false, &maps);
-        assert_eq!(runner.status("p1"), Some(ActionStatus::Running), "3 s from 1.0");
-        runner.step(4.0, false, &maps);
+        assert_eq!(runner.status("p1"), Some(ActionStatus::Running), "at rest");
+        assert!(runner.runs_blocking());
+        runner.step(4.1, false, true, &maps);
+        assert_eq!(runner.status("p1"), Some(ActionStatus::Running), "3 s from 1.2");
+        runner.step(4.2, false, true, &maps);
         assert_eq!(runner.status("p1"), Some(ActionStatus::Finished));
         assert!(!runner.blocks_driving());
         assert!(!runner.busy());
@@ -340,7 +358,7 @@ mod tests {
         runner.add_waiting(&action("h1", "pick", BlockingType::Hard), Scope::Node(4));
         runner.add_waiting(&action("n1", "drop", BlockingType::None), Scope::Node(4));
         runner.trigger(Scope::Node(4));
-        runner.step(0.0, false, &maps);
+        runner.step(0.0, false, true, &maps);
         assert_eq!(runner.status("s1"), Some(ActionStatus::Initializing));
         assert_eq!(runner.status("s2"), Some(ActionStatus::Initializing));
         assert_eq!(
@@ -353,12 +371,15 @@ mod tests {
             Some(ActionStatus::Waiting),
             "comes after the hard one"
         );
-        runner.step(3.0, false, &maps);
-        runner.step(3.0, false, &maps);
+        runner.step(0.1, false, true, &maps);
+        assert_eq!(runner.status("s1"), Some(ActionStatus::Running));
+        runner.step(3.1, false, true, &maps);
+        assert_eq!(runner.status("s1"), Some(ActionStatus::Finished));
         assert_eq!(runner.status("h1"), Some(ActionStatus::Initializing));
         assert_eq!(runner.status("n1"), Some(ActionStatus::Waiting));
-        runner.step(6.0, false, &maps);
-        runner.step(6.0, false, &maps);
+        runner.step(3.2, false, true, &maps);
+        runner.step(6.2, false, true, &maps);
+        assert_eq!(runner.status("h1"), Some(ActionStatus::Finished));
         assert_eq!(runner.status("n1"), Some(ActionStatus::Initializing));
     }
 
@@ -369,9 +390,9 @@ mod tests {
         runner.add_waiting(&action("p1", "pick", BlockingType::Hard), Scope::Node(0));
         runner.add_waiting(&action("d1", "drop", BlockingType::Hard), Scope::Node(2));
         runner.trigger(Scope::Node(0));
-        assert!(runner.step(0.0, true, &maps).is_empty());
+        assert!(runner.step(0.0, true, true, &maps).is_empty());
         assert_eq!(runner.status("p1"), Some(ActionStatus::Waiting));
-        runner.step(0.5, false, &maps);
+        runner.step(0.5, false, true, &maps);
         assert_eq!(runner.cancel_all(), 2);
         assert_eq!(runner.status("p1"), Some(ActionStatus::Failed));
         assert_eq!(runner.status("d1"), Some(ActionStatus::Failed));
@@ -386,7 +407,7 @@ mod tests {
         runner.add_waiting(&action("e", "pick", BlockingType::None), Scope::Edge(3));
         runner.trigger(Scope::Edge(1));
         runner.trigger(Scope::Edge(3));
-        runner.step(0.0, false, &maps);
+        runner.step(0.0, false, true, &maps);
         assert_eq!(runner.status("x"), Some(ActionStatus::Failed));
         runner.leave_edge(3);
         assert_eq!(runner.status("e"), Some(ActionStatus::Finished));

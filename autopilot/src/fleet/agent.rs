@@ -74,7 +74,8 @@ pub struct VehicleView {
     /// the driving on; the node is reported by [`Self::fix`].
     pub arrived_at: Option<u32>,
     /// The vehicle stands still (the drive held neutral and the sensors
-    /// agree): a node it stops on counts from then.
+    /// agree): blocking actions run from then, and the leg onto a stop
+    /// node reported while rolling in is done.
     pub at_rest: bool,
     pub driving: bool,
     pub operating_mode: OperatingMode,
@@ -163,7 +164,7 @@ pub struct Agent {
     /// How close the vehicle has come to the next node to traverse.
     watch: Watch,
     /// The leg to a node traversed before the navigator finished it,
-    /// driven on until it does.
+    /// driven on until it does (or, onto a stop, until the vehicle rests).
     held_leg: Option<Leg>,
     /// The chords of the held edges' trajectories, by edge sequenceId
     /// (cut once, when the edge comes).
@@ -247,14 +248,29 @@ impl Agent {
         std::mem::take(&mut self.publish)
     }
 
-    /// Whether the order still has nodes to drive to.
+    /// Whether the order still has nodes to drive to (or the vehicle is
+    /// still coming to rest on one it has reported).
     pub fn has_order(&self) -> bool {
-        self.order.has_nodes()
+        self.order.has_nodes() || self.held_leg.is_some()
     }
 
-    /// Whether the vehicle should ask for more base (§6.10.3).
+    /// The leg onto the last node reported, driven on after the node
+    /// counted as traversed: until the vehicle rests on it (a stop) or the
+    /// navigator finishes it (a corner).
+    pub fn held_leg(&self) -> Option<&Leg> {
+        self.held_leg.as_ref()
+    }
+
+    /// Whether the vehicle should ask for more base (§6.10.3): the leg
+    /// being driven ends at the last released node (or there is none). The
+    /// driving can be a leg ahead of the nodes reported, so it is the leg
+    /// that counts, not the next node to report.
     pub fn new_base_request(&self) -> bool {
-        self.order.has_horizon() && (self.order.next_is_decision_point() || self.order.next_leg().is_none())
+        // The node after the one the driving heads for: a held leg heads
+        // for the last node reported, else the `passed`-th still held.
+        let after = if self.held_leg.is_some() { 0 } else { self.passed + 1 };
+        let released_after = self.order.nodes.get(after).is_some_and(|n| n.released);
+        self.order.has_horizon() && !released_after
     }
 
     /// One step: the payloads received, node arrivals, actions, the
@@ -273,7 +289,14 @@ impl Agent {
             self.handle(topic, &payload, view);
         }
         self.traverse_nodes(view);
-        let outputs = self.actions.step(view.boot_s, self.paused, &self.config.mappings);
+        if view.at_rest && self.held_leg.as_ref().is_some_and(|l| l.stop) {
+            // At rest on a stop node already reported: the stop is done
+            // (the navigator may settle on longer; nothing waits for it).
+            self.held_leg = None;
+        }
+        let outputs = self
+            .actions
+            .step(view.boot_s, self.paused, view.at_rest, &self.config.mappings);
         self.outputs.extend(outputs);
         for action in self.actions.take_finished() {
             super::loads::apply(&mut self.loads, &action);
@@ -300,7 +323,15 @@ impl Agent {
 
     fn command(&self, view: &VehicleView) -> Command {
         let in_charge = view.operating_mode == OperatingMode::Automatic;
-        if self.paused || !in_charge || self.actions.blocks_driving() {
+        if self.paused || !in_charge {
+            return Command::Hold;
+        }
+        // Rolling in onto a stop node reported: the navigator brings the
+        // vehicle to rest there, and the node's blocking actions wait for it.
+        if let Some(leg) = self.held_leg.as_ref().filter(|l| l.stop) {
+            return Command::Drive(leg.clone());
+        }
+        if self.actions.blocks_driving() {
             return Command::Hold;
         }
         match &self.held_leg {
@@ -366,7 +397,6 @@ impl Agent {
             let stops = self.drive_through(0).is_none();
             let passage = traversal::Passage {
                 stops,
-                at_rest: view.at_rest,
                 driven_past: self.passed > 0,
                 left_behind: self.passed > 1,
                 way: self.way_through_next_node(),
@@ -393,10 +423,10 @@ impl Agent {
                     self.errors.push(error("nodeMissed", text, refs));
                 }
             }
-            if self.passed == 0 && !stops && self.held_leg.is_none() {
+            if self.passed == 0 && self.held_leg.is_none() {
                 // Traversed before the navigator is done with its leg (the
-                // middle of a corner's arc comes later): it drives the leg
-                // on as planned.
+                // middle of a corner's arc comes later; a stop is reported
+                // while still rolling in): it drives the leg on as planned.
                 self.held_leg = self.leg_command(0);
             }
             self.passed = self.passed.saturating_sub(1);
@@ -517,8 +547,26 @@ impl Agent {
             // came (the stitching node keeps the first order's).
             let kept = known_nodes.min(self.order.nodes.len());
             self.add_order_actions(kept);
+            self.drive_on_from_a_reported_stop();
         }
         self.events.push(OrderEvent::Accepted { new_order });
+    }
+
+    /// The vehicle is rolling in onto the decision point, already reported,
+    /// and an update released the way on from it: it drives on instead of
+    /// stopping (the same way, and nothing at the node blocks).
+    fn drive_on_from_a_reported_stop(&mut self) {
+        let Some(held) = self.held_leg.as_ref().filter(|l| l.stop) else {
+            return;
+        };
+        let same_way = self
+            .order
+            .next_leg()
+            .is_some_and(|(edge, _)| drives_in_reverse(edge) == held.reverse);
+        let unblocked = self.order.last_node.as_ref().is_some_and(|n| !has_blocking_action(n));
+        if same_way && unblocked {
+            self.held_leg = None;
+        }
     }
 
     /// The chords of every held edge's trajectory not cut yet (an update's

@@ -113,11 +113,6 @@ impl OrderBook {
         self.nodes.iter().rev().find(|n| n.released).or(self.last_node.as_ref())
     }
 
-    /// Whether the released nodes left end at the next one.
-    pub fn next_is_decision_point(&self) -> bool {
-        self.nodes.first().is_some_and(|n| n.released) && !self.nodes.get(1).is_some_and(|n| n.released)
-    }
-
     /// The next node was reached: it becomes the last node, the edge that led
     /// to it is left. Returns both.
     pub fn reach_next(&mut self) -> Option<(Node, Option<Edge>)> {

@@ -280,10 +280,14 @@ fn a_hard_node_action_holds_the_vehicle_until_it_finishes_and_reverse_edges_say_
     at_b.arrived_at = Some(2);
     assert_eq!(a.step(&at_b), Command::Hold);
     assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Initializing));
-    assert_eq!(a.take_outputs().len(), 1, "the pick's servo output");
-    assert_eq!(a.step(&view(11.0)), Command::Hold);
+    assert!(a.take_outputs().is_empty(), "not at rest yet");
+    let mut resting = at(11.0, 10.0, 0.0);
+    resting.at_rest = true;
+    assert_eq!(a.step(&resting), Command::Hold);
     assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Running));
-    let command = a.step(&view(13.0));
+    assert_eq!(a.take_outputs().len(), 1, "the pick's servo output");
+    assert_eq!(a.step(&at(13.9, 10.0, 0.0)), Command::Hold);
+    let command = a.step(&at(14.0, 10.0, 0.0));
     assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Finished));
     assert!(leg(&command).reverse, "orientation π, tangential: backwards");
 }
@@ -523,17 +527,125 @@ fn a_node_driven_past_outside_its_deviation_is_reported_with_an_error() {
 }
 
 #[test]
-fn a_stop_node_is_reported_once_the_vehicle_rests_within_its_deviation() {
+fn a_stop_node_is_reported_while_rolling_in_within_its_deviation_and_driven_on_to_rest() {
     let mut a = agent();
     send(&mut a, Topic::Order, &two_nodes());
     a.step(&view(0.0));
-    let (command, last) = drive_at(&mut a, 8.0, 9.9, None, false);
-    assert_eq!(last, "a", "within the deviation, still moving");
-    assert!(leg(&command).stop);
-    let (command, last) = drive_at(&mut a, 8.1, 9.9, None, true);
-    assert_eq!(last, "b", "at rest within the deviation, before the navigator settles");
-    assert_eq!(command, Command::Hold);
+    let (_, last) = drive_at(&mut a, 8.0, 9.7, None, false);
+    assert_eq!(last, "a", "0.3 m short, outside the deviation");
+    let (command, last) = drive_at(&mut a, 8.1, 9.9, None, false);
+    assert_eq!(last, "b", "within the deviation, still rolling");
+    assert!(a.order.nodes.is_empty(), "nodeStates: b is gone");
+    assert_eq!(
+        (leg(&command).node_sequence_id, leg(&command).stop),
+        (2, true),
+        "the stop is driven on"
+    );
+    assert!(a.has_order(), "AUTO drives the stop out");
+    let (command, _) = drive_at(&mut a, 8.5, 9.95, None, true);
+    assert_eq!(command, Command::Hold, "at rest: done");
     assert!(!a.has_order());
+    assert!(error_types(&a).is_empty(), "{:?}", error_types(&a));
+}
+
+#[test]
+fn a_hard_pick_on_a_stop_node_reported_while_rolling_runs_only_at_rest() {
+    let mut a = agent();
+    let o = order(
+        "o1",
+        0,
+        0,
+        &[
+            N("a", 0.0, 0.0, true, None),
+            N("b", 10.0, 0.0, true, Some(("pick1", "pick"))),
+            N("c", 20.0, 0.0, true, None),
+        ],
+        &[],
+    );
+    send(&mut a, Topic::Order, &o);
+    a.step(&view(0.0));
+    let (command, last) = drive_at(&mut a, 5.0, 9.9, None, false);
+    assert_eq!(last, "b");
+    assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Initializing), "triggered");
+    assert_eq!(leg(&command).node_sequence_id, 2, "rolling in onto b");
+    let (command, _) = drive_at(&mut a, 5.1, 9.97, None, false);
+    assert_eq!(
+        a.actions.status("pick1"),
+        Some(ActionStatus::Initializing),
+        "still rolling"
+    );
+    assert_eq!(leg(&command).node_sequence_id, 2);
+    assert!(a.take_outputs().is_empty(), "no pick while moving");
+    let (command, _) = drive_at(&mut a, 5.2, 9.98, None, true);
+    assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Running));
+    assert_eq!(a.take_outputs().len(), 1, "the pick's servo output");
+    assert_eq!(command, Command::Hold);
+    // The navigator settling afterwards changes nothing.
+    let (command, _) = drive_at(&mut a, 6.0, 9.98, Some(2), true);
+    assert_eq!(command, Command::Hold);
+    let (command, last) = drive_at(&mut a, 8.3, 9.98, None, true);
+    assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Finished));
+    assert_eq!((leg(&command).node_sequence_id, last.as_str()), (4, "b"), "on to c");
+}
+
+#[test]
+fn a_decision_point_reported_before_rest_is_stitched_on_and_driven_on_from() {
+    let mut a = agent();
+    send(&mut a, Topic::Order, &with_horizon());
+    a.step(&view(0.0));
+    let (command, last) = drive_at(&mut a, 5.0, 9.9, None, false);
+    assert_eq!(last, "b", "the decision point, still rolling");
+    assert!(leg(&command).stop);
+    assert!(a.new_base_request());
+    let update = order(
+        "o1",
+        1,
+        2,
+        &[
+            N("b", 10.0, 0.0, true, None),
+            N("c", 20.0, 0.0, true, None),
+            N("d", 30.0, 0.0, true, None),
+        ],
+        &[],
+    );
+    send(&mut a, Topic::Order, &update);
+    let (command, _) = drive_at(&mut a, 5.1, 9.95, None, false);
+    assert!(error_types(&a).is_empty(), "{:?}", error_types(&a));
+    assert_eq!(a.order.order_update_id, 1);
+    let ids: Vec<&str> = a.order.nodes.iter().map(|n| n.node_id.as_str()).collect();
+    assert_eq!(ids, ["c", "d"]);
+    let next = leg(&command);
+    assert_eq!(
+        (next.from, next.to, next.stop),
+        ((10.0, 0.0), (20.0, 0.0), false),
+        "no stop at b"
+    );
+    assert!(!a.new_base_request());
+}
+
+#[test]
+fn the_base_request_follows_the_leg_being_driven() {
+    let mut a = agent();
+    let o = order(
+        "o1",
+        0,
+        0,
+        &[
+            N("a", 0.0, 0.0, true, None),
+            N("b", 10.0, 0.0, true, None),
+            N("c", 20.0, 0.0, true, None),
+            N("d", 30.0, 0.0, false, None),
+        ],
+        &[],
+    );
+    send(&mut a, Topic::Order, &o);
+    a.step(&view(0.0));
+    assert!(!a.new_base_request(), "driving to b, c is released");
+    // The navigator leaves b's leg 2 m ahead of it: the leg to c, the
+    // decision point, is driven while b is not reported yet.
+    let (command, last) = drive_at(&mut a, 5.0, 8.0, Some(2), false);
+    assert_eq!((leg(&command).node_sequence_id, last.as_str()), (4, "a"));
+    assert!(a.new_base_request(), "the leg being driven ends the base");
 }
 
 #[test]

@@ -3,7 +3,9 @@
 //! `allowedDeviationTheta` when the node gives a `theta`, by the estimate
 //! *and* its uncertainty (the estimate's distance plus the radius that holds
 //! the vehicle with 95 % confidence). A node the vehicle stops on counts
-//! only once it is at rest there.
+//! by the same rule, while it is still rolling in: the standard asks for
+//! the control point within the deviation, not for rest (its blocking
+//! actions wait for rest, see [`super::actions`]).
 //!
 //! The navigator's own leg switching (`WP_RADIUS` ahead of a node it drives
 //! through, the corner arc's middle) only moves the driving on; it claims
@@ -54,8 +56,6 @@ pub enum Verdict {
 pub struct Passage {
     /// The vehicle is to stop on the node.
     pub stops: bool,
-    /// It stands still.
-    pub at_rest: bool,
     /// The navigator has finished the leg to the node (driven through it,
     /// or settled on it).
     pub driven_past: bool,
@@ -104,7 +104,6 @@ impl Watch {
     pub fn judge(&mut self, node: &Node, fix: Option<&Fix>, passage: &Passage) -> Verdict {
         let &Passage {
             stops,
-            at_rest,
             driven_past,
             left_behind,
             way,
@@ -146,10 +145,7 @@ impl Watch {
         };
         let distance = (fix.pose.x_m - x).hypot(fix.pose.y_m - y);
         self.closest_m = self.closest_m.min(distance);
-        let within = distance + fix.position_bound_m <= allowed_m && heading_fits(node, fix);
-        // A stop counts once at rest there (the navigator's settling says
-        // so too).
-        if within && (!stops || at_rest || driven_past) {
+        if distance + fix.position_bound_m <= allowed_m && heading_fits(node, fix) {
             return Verdict::Traversed;
         }
         let behind = if stops {
@@ -204,7 +200,6 @@ mod tests {
 
     const THROUGH: Passage = Passage {
         stops: false,
-        at_rest: false,
         driven_past: true,
         left_behind: false,
         way: (2.0, 0.0),
@@ -239,14 +234,33 @@ mod tests {
             ..THROUGH
         };
         assert!(matches!(watch.judge(&b, None, &behind), Verdict::Missed { .. }));
-        // A stop counts only at rest, or once the navigator has settled.
+    }
+
+    #[test]
+    fn a_stop_counts_within_its_deviation_while_rolling_in_and_by_the_navigator_without_one() {
         let stop = Passage {
             stops: true,
             driven_past: false,
             ..THROUGH
         };
-        assert_eq!(watch.judge(&b, Some(&fix(10.1, 0.0)), &stop), Verdict::No);
-        let resting = Passage { at_rest: true, ..stop };
-        assert_eq!(watch.judge(&b, Some(&fix(10.1, 0.0)), &resting), Verdict::Traversed);
+        let mut watch = Watch::default();
+        let b = node(Some(0.0));
+        assert_eq!(watch.judge(&b, Some(&fix(9.6, 0.0)), &stop), Verdict::No, "0.4 m short");
+        assert_eq!(
+            watch.judge(&b, Some(&fix(9.9, 0.2)), &stop),
+            Verdict::No,
+            "heading outside its deviation"
+        );
+        assert_eq!(watch.judge(&b, Some(&fix(9.9, 0.05)), &stop), Verdict::Traversed);
+        // No deviation of its own: the navigator's tolerance decides.
+        let mut bare = node(None);
+        bare.node_position.as_mut().unwrap().allowed_deviation_x_y = Some(0.0);
+        let mut watch = Watch::default();
+        assert_eq!(watch.judge(&bare, Some(&fix(10.0, 0.0)), &stop), Verdict::No);
+        let settled = Passage {
+            driven_past: true,
+            ..stop
+        };
+        assert_eq!(watch.judge(&bare, Some(&fix(10.0, 0.0)), &settled), Verdict::Traversed);
     }
 }

@@ -35,6 +35,11 @@ const DRIVING_SPEED_MPS: f64 = 0.03;
 /// Below this measured speed the vehicle rests (the tracking benchmark's
 /// line between creeping and resting).
 const RESTING_MPS: f64 = 0.01;
+/// With the drive neutral and the estimate's speed under
+/// [`DRIVING_SPEED_MPS`] this long, the vehicle counts as at rest even
+/// when the receiver's speed never settles under [`RESTING_MPS`] (a
+/// noisier receiver than the simulated one).
+const QUIET_REST_S: f64 = 1.0;
 
 /// The core's fleet state: the agent, and the leg being driven.
 pub(super) struct FleetState {
@@ -55,6 +60,9 @@ pub(super) struct FleetState {
     /// Along a trajectory: the path obstacle protection looks along, built
     /// once per chord (see [`FleetState::trajectory_ahead`]).
     ahead: Option<TrajectoryAhead>,
+    /// Since when (vehicle time, s) the drive has been neutral and the
+    /// estimate's speed under [`DRIVING_SPEED_MPS`].
+    quiet_since_s: Option<f64>,
 }
 
 /// The navigator's path for one chord of a trajectory, then the chords
@@ -131,6 +139,7 @@ impl Core {
             tolerance: None,
             remote_stop: false,
             ahead: None,
+            quiet_since_s: None,
         }));
     }
 
@@ -181,6 +190,15 @@ impl Core {
         };
         fleet.remote_stop &= !armed;
         let remote_stop = fleet.remote_stop;
+        let quiet = !self.drive_commanded() && self.estimator.estimate().speed_mps.abs() <= DRIVING_SPEED_MPS;
+        let now_s = self.now.boot.as_secs_f64();
+        if let Some(fleet) = self.fleet.as_mut() {
+            fleet.quiet_since_s = if quiet {
+                fleet.quiet_since_s.or(Some(now_s))
+            } else {
+                None
+            };
+        }
         let mut view = self.fleet_view(!inputs.vda5050.is_empty(), remote_stop);
         // Nodes are judged by the pose while an order is driven.
         if view.fix.is_none() && self.fleet_drives() {
@@ -266,13 +284,17 @@ impl Core {
         })
     }
 
-    /// Standing still, for a node the vehicle stops on: the drive held
-    /// neutral and the GNSS agreeing (the estimator's rest, which its
-    /// speed's zero updates follow) and the receiver's own speed below
-    /// [`RESTING_MPS`]. A receiver noisier than that leaves the node to the
-    /// navigator's longer settling.
+    /// Standing still (a stop node's blocking actions run from then, and
+    /// `driving` goes false): the drive held neutral and the GNSS agreeing
+    /// (the estimator's rest, which its speed's zero updates follow) and
+    /// the receiver's own speed below [`RESTING_MPS`]; or, for a receiver
+    /// noisier than that, the drive neutral and the estimate's speed low
+    /// for [`QUIET_REST_S`].
     fn fleet_at_rest(&self) -> bool {
-        self.estimator.at_rest() && self.estimator.gnss().speed_mps.abs() < RESTING_MPS
+        let quiet_s = self.fleet.as_ref().and_then(|f| f.quiet_since_s);
+        let quiet_long = quiet_s.is_some_and(|t| self.now.boot.as_secs_f64() - t >= QUIET_REST_S);
+        let resting = self.estimator.at_rest() && self.estimator.gnss().speed_mps.abs() < RESTING_MPS;
+        !self.drive_commanded() && (resting || quiet_long)
     }
 
     fn fleet_view(&self, with_pose: bool, remote_stop: bool) -> VehicleView {
@@ -307,12 +329,17 @@ impl Core {
 
     /// Driving or rotating (§6.10.6's `driving`): the drive is commanded to
     /// move (the motors push from this tick on; the speed estimate lags the
-    /// wheels by a few hundred milliseconds), or the estimate still moves.
+    /// wheels by a few hundred milliseconds), or the vehicle is not yet at
+    /// rest (see [`Core::fleet_at_rest`]).
     fn fleet_driving(&self) -> bool {
+        self.armed && !self.fleet_at_rest()
+    }
+
+    /// The drive is commanded to move or, a differential one, to turn.
+    fn drive_commanded(&self) -> bool {
         let pivoting =
             self.drive_train == crate::control::mixer::DriveTrain::Differential && self.drive.steering != 0.0;
-        let commanded = self.drive.throttle != 0.0 || pivoting;
-        self.armed && (commanded || self.estimator.estimate().speed_mps.abs() > DRIVING_SPEED_MPS)
+        self.drive.throttle != 0.0 || pivoting
     }
 
     fn vehicle_description(&self) -> VehicleDescription {
@@ -406,6 +433,9 @@ impl Core {
                 self.navigator.clear();
             }
             Command::Drive(leg) if current != Some(leg.node_sequence_id) => {
+                // A new leg, as an AUTO mission's: its changes of direction
+                // count from here.
+                self.navigator.count_directions_afresh();
                 let tolerance = self.leg_tolerance(&leg);
                 if let Some(fleet) = self.fleet.as_mut() {
                     fleet.leg = Some(leg.node_sequence_id);

@@ -233,6 +233,7 @@ impl Bench<'_> {
             &format!(" with ATC_DRV_LAG={LEAD_S} (the throttle leads the ramp by the drive's lag)"),
         );
         print_nodes(&measured.nodes);
+        print_standing(&measured.standing);
         Ok(())
     }
 
@@ -374,8 +375,9 @@ fn print_starts(starts: &[start::Start], driving_ms: &[f64], label: &str) {
 }
 
 /// Node reached -> its `state`, in-process, pass-through and stop nodes
-/// apart (a pass-through node is reached once the vehicle is within its
-/// allowed deviation, a stop once the vehicle rests within it).
+/// apart (a node is reached once the vehicle is within its allowed
+/// deviation; the stop, which gives a theta, with its heading within the
+/// allowed deviation too).
 fn print_nodes(nodes: &[start::NodeReach]) {
     for stops in [false, true] {
         let of =
@@ -399,9 +401,9 @@ fn print_nodes(nodes: &[start::NodeReach]) {
         println!(
             "  from the truth {}   {}",
             if stops {
-                "at rest within the deviation"
+                "within the deviation, heading too"
             } else {
-                "within the deviation        "
+                "within the deviation             "
             },
             median_max(&of(|n| n.from_truth_ms))
         );
@@ -412,12 +414,27 @@ fn print_nodes(nodes: &[start::NodeReach]) {
         println!(
             "  false claims (the truth not {} the node when its state left): {false_claims} of {count}",
             if stops {
-                "at rest within the deviation of"
+                "within the deviation (position and heading) of"
             } else {
                 "within the deviation of"
             }
         );
     }
+}
+
+/// The stop at each order's end: the truth at rest -> `driving: false`.
+fn print_standing(standing: &[start::Standing]) {
+    let from_rest: Vec<f64> = standing.iter().map(|s| s.from_rest_ms).collect();
+    let false_claims: usize = standing.iter().map(|s| s.false_claims).sum();
+    println!(
+        "truth at rest (< 1 cm/s) within the stop's deviation -> state with driving: false leaves the core, in-process, {} stops (simulated ms; median / max):",
+        standing.len()
+    );
+    println!(
+        "  {} (rest is known from the receiver's speed, 10 Hz, or 1 s of a quiet estimate)",
+        median_max(&from_rest)
+    );
+    println!("  states saying driving: false while the truth moved >= 1 cm/s: {false_claims}");
 }
 
 fn median(values: &[f64]) -> Option<f64> {

@@ -12,10 +12,13 @@
 //! above the largest it showed during the rest before the order.
 //!
 //! A node is timed from the truth reaching it (the vehicle first within the
-//! allowed deviation of a pass-through node; at rest within it on a stop)
-//! and from the navigator's decision that it has arrived, to the first
-//! `state` that names it `lastNodeId` as it leaves the core. A state that
-//! names a node the truth has not reached is a false claim, counted apart.
+//! allowed deviation; on the stop, which gives a `theta`, also heading
+//! within its allowed deviation) and from the navigator's decision that it
+//! has arrived, to the first `state` that names it `lastNodeId` as it
+//! leaves the core. A state that names a node the truth has not reached is
+//! a false claim, counted apart. The stop is timed once more: from the
+//! truth at rest there to the first `state` saying `driving: false`; one
+//! saying so while the truth still moves is a false claim too.
 //!
 //! A real order also waits for the next tick (up to one period) and its
 //! MQTT transit: the end-to-end figures above these say what those add.
@@ -35,6 +38,9 @@ const REST_S: f64 = 5.0;
 /// Slower than this the vehicle has come to rest on a stop (m/s): the
 /// tracking bench's line between driving and resting.
 const RESTING_MPS: f64 = 0.01;
+/// The stop node's `allowedDeviationTheta` (rad) about its `theta`, the
+/// way the order drives (north).
+const ALLOWED_DEVIATION_THETA_RAD: f64 = 0.1;
 
 /// Milliseconds from an order's tick to each mark of its start.
 #[derive(Clone, Copy, Debug, Default)]
@@ -70,11 +76,23 @@ pub struct NodeReach {
     pub false_claim: bool,
 }
 
+/// The stop at an order's end, as `driving` told it.
+#[derive(Clone, Copy, Debug)]
+pub struct Standing {
+    /// From the truth at rest within the stop's deviation to the first
+    /// `state` saying `driving: false` (NaN: none came).
+    pub from_rest_ms: f64,
+    /// States that said `driving: false` while the truth moved at
+    /// [`RESTING_MPS`] or more, once the order had been driving.
+    pub false_claims: usize,
+}
+
 /// What the in-process orders measured.
 #[derive(Default)]
 pub struct Measured {
     pub starts: Vec<Start>,
     pub nodes: Vec<NodeReach>,
+    pub standing: Vec<Standing>,
 }
 
 /// `orders` orders, each from rest, each of three nodes 6 m apart north of
@@ -104,13 +122,18 @@ pub fn measure(orders: usize, params: &[(String, f64)]) -> Result<Measured, Stri
         let at = sim.core().estimator().estimate().position;
         let (x, y) = (at.east_m, at.north_m);
         let nodes = [("a", x, y), ("b", x, y + 6.0), ("c", x, y + 12.0)];
-        let order = super::order("start", &format!("start-{k}"), &nodes);
+        let mut order = super::order("start", &format!("start-{k}"), &nodes);
+        // The stop faces the way the order drives (north: theta π/2).
+        let stop = &mut order["nodes"][nodes.len() - 1]["nodePosition"];
+        stop["theta"] = serde_json::json!(std::f64::consts::FRAC_PI_2);
+        stop["allowedDeviationTheta"] = serde_json::json!(ALLOWED_DEVIATION_THETA_RAD);
         let payload = serde_json::to_vec(&order).map_err(|e| e.to_string())?;
         sim.inputs_mut().vda5050.push((vda5050::Topic::Order, payload));
         measured.starts.push(time_start(&mut sim, rest_floor_mps)?);
-        let reached = follow_nodes(&mut sim, &nodes, 60.0)
+        let (reached, standing) = follow_nodes(&mut sim, &nodes, 60.0)
             .ok_or_else(|| format!("order start-{k} did not finish within 60 s"))?;
         measured.nodes.extend(reached);
+        measured.standing.push(standing);
     }
     Ok(measured)
 }
@@ -166,8 +189,8 @@ struct Marks {
 
 /// Steps until the order is done and the vehicle at rest, timing each of
 /// `nodes` after the first (id, map x, map y: the map is the estimator's
-/// frame here).
-fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) -> Option<Vec<NodeReach>> {
+/// frame here), and the stop's `driving: false`.
+fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) -> Option<(Vec<NodeReach>, Standing)> {
     let frame = sim.core().estimator().frame().copied()?;
     let stop_at = nodes.len() - 1;
     let mut marks = vec![
@@ -181,30 +204,47 @@ fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) 
         nodes.len()
     ];
     let mut was_arrived = sim.core().navigator().arrived();
+    let (mut drove, mut rest_ms, mut standing_ms, mut false_standing) = (false, f64::NAN, f64::NAN, 0);
     let end = sim.time() + Duration::from_secs_f64(seconds);
     while sim.time() < end {
         let wall = sim.time();
         let out = sim.step(wall, &mut FrozenTimer);
         out.mavlink.clear();
-        let named: Vec<String> = out
+        let states: Vec<(String, bool)> = out
             .vda5050
             .drain(..)
             .filter_map(|m| match m {
-                FleetMessage::State(state) => Some(state.last_node_id),
+                FleetMessage::State(state) => Some((state.last_node_id, state.driving)),
                 _ => None,
             })
             .collect();
+        let named: Vec<&String> = states.iter().map(|(id, _)| id).collect();
         let now_ms = sim.time().as_secs_f64() * 1e3;
         let truth = *sim.world().truth();
         let at = crate::tracking::true_local(sim, &frame, truth.north_m, truth.east_m);
         let arrived = sim.core().navigator().arrived();
+        // The stop's theta is north: the truth's yaw (clockwise from north).
+        let heading_fits = truth.yaw_rad.abs() <= ALLOWED_DEVIATION_THETA_RAD;
+        let resting = truth.speed_mps.abs() < RESTING_MPS;
         for i in 1..nodes.len() {
             let (_, x, y) = nodes[i];
             let (dx, dy) = (at.east_m - x, at.north_m - y);
             let within = dx.hypot(dy) <= super::ALLOWED_DEVIATION_M;
-            let truly = within && (i + 1 < nodes.len() || truth.speed_mps.abs() < RESTING_MPS);
+            let truly = within && (i + 1 < nodes.len() || heading_fits);
             if truly && marks[i].truth_ms.is_nan() {
                 marks[i].truth_ms = now_ms;
+            }
+            if i == stop_at && within && resting && rest_ms.is_nan() {
+                rest_ms = now_ms;
+            }
+        }
+        for &(_, driving) in &states {
+            drove |= driving;
+            if drove && !driving {
+                false_standing += usize::from(!resting);
+                if standing_ms.is_nan() && !rest_ms.is_nan() {
+                    standing_ms = now_ms;
+                }
             }
         }
         // The leg being driven ends at the first node not yet named.
@@ -214,19 +254,20 @@ fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) 
             if arrived && !was_arrived && m.decision_ms.is_nan() {
                 m.decision_ms = now_ms;
             }
-            if named.iter().any(|named| named == id) {
+            if named.iter().any(|named| *named == id) {
                 m.state_ms = now_ms;
                 m.distance_at_state_m = (at.east_m - x).hypot(at.north_m - y);
-                let resting = i < stop_at || truth.speed_mps.abs() < RESTING_MPS;
-                m.false_claim = !(m.distance_at_state_m <= super::ALLOWED_DEVIATION_M && resting);
+                let faces = i < stop_at || heading_fits;
+                m.false_claim = !(m.distance_at_state_m <= super::ALLOWED_DEVIATION_M && faces);
             }
         }
         was_arrived = arrived;
-        if sim.core().fleet_agent().is_some_and(|a| !a.has_order()) && truth.speed_mps.abs() < 1e-3 {
+        let done = sim.core().fleet_agent().is_some_and(|a| !a.has_order());
+        if done && truth.speed_mps.abs() < 1e-3 && !standing_ms.is_nan() {
             break;
         }
     }
-    marks[1..]
+    let reached = marks[1..]
         .iter()
         .enumerate()
         .map(|(k, m)| {
@@ -238,7 +279,12 @@ fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) 
                 false_claim: m.false_claim,
             })
         })
-        .collect()
+        .collect::<Option<Vec<_>>>()?;
+    let standing = Standing {
+        from_rest_ms: standing_ms - rest_ms,
+        false_claims: false_standing,
+    };
+    Some((reached, standing))
 }
 
 fn moves(demand: ActuatorDemand) -> bool {
