@@ -291,7 +291,15 @@ impl Core {
                 r.yaw_error_rad.to_degrees()
             )
         });
+        let doubt = report.and_then(|r| self.miss_in_doubt(r));
         match self.goals.goal {
+            Some(goal) if !goal.retried && doubt.is_some() => {
+                let why = doubt.unwrap_or_default();
+                self.send_text(
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    &format!("Destination NOT reached: {miss}; no retry: the miss is within {why}"),
+                );
+            }
             Some(mut goal) if !goal.retried => {
                 self.send_text(
                     MavSeverity::MAV_SEVERITY_WARNING,
@@ -374,6 +382,35 @@ impl Core {
             (Some(why), _) => format!("Stopped at destination: {error_mm:.1} mm, unconfirmed ({why})"),
         };
         self.send_text(MavSeverity::MAV_SEVERITY_INFO, &text);
+    }
+
+    /// A stop out of tolerance by the estimate is retried only when the
+    /// estimate is sure of the miss, as sure as a claim must be of a hit
+    /// (the mirror of [`Core::unconfirmed_because`]): the error less its
+    /// uncertainty is still past the tolerance. A miss within the
+    /// estimate's own doubt is as likely the estimate's error as the
+    /// stop's (a turn on the spot stirs the position estimate up by
+    /// 5–10 mm; the GNSS walk is a slow bias a retry aims with again), and
+    /// retrying it drives a whole manoeuvre (a differential vehicle turns
+    /// to face a point 15 mm away and back; an Ackermann one reverses 8 m)
+    /// for nothing. Some(the uncertainty that holds the miss).
+    pub(super) fn miss_in_doubt(&self, report: &StopReport) -> Option<String> {
+        let tolerance = self.nav_config().stop;
+        let sigma_m = self.estimator.estimate().horiz_sigma_m;
+        let yaw_sigma_rad = self
+            .estimator
+            .ekf_status()
+            .map_or(f64::INFINITY, |s| s.heading_sigma_rad);
+        let position_sure = report.position_error_m() - CONFIRM_POSITION_SIGMAS * sigma_m > tolerance.position_m;
+        let yaw_sure = report.yaw_error_rad.abs() - CONFIRM_YAW_SIGMAS * yaw_sigma_rad > tolerance.yaw_rad;
+        // NaN compares false: an estimate that cannot say is not sure.
+        (!position_sure && !yaw_sure).then(|| {
+            format!(
+                "position sigma {:.1} mm, heading sigma {:.3} deg",
+                sigma_m * 1000.0,
+                yaw_sigma_rad.to_degrees()
+            )
+        })
     }
 
     /// Why a stop `error_m`, `yaw_error_rad` from its pose by the estimate
