@@ -23,7 +23,7 @@ impl Core {
         let config = self.nav_config();
         let estimate = *self.estimator.estimate();
         let nav = self.navigator.update(&estimate, &config, dt_s);
-        let report = self.navigator.take_stop_report();
+        let report = self.navigator.take_stop_report().map(|r| self.against_pose_goal(r));
         if let Some(report) = &report {
             self.report_stop(report);
             if let Some(seq) = report.seq.filter(|_| !self.retry_mission_stop(report)) {
