@@ -376,14 +376,16 @@ impl Navigator {
     /// The turn on the spot onto the goal's heading that ends a manoeuvre
     /// with pivots. Without a stroke before it, the leg is a short one
     /// ending at the goal on its heading, for reports and the ground
-    /// station, never driven.
+    /// station, never driven; it replaces a leg already arrived at (a
+    /// retry's turn onto the heading at the stop: the old leg's arrival
+    /// stood, and AUTO claimed the item before the turn).
     fn start_final_pivot(&mut self) {
         let Some(run) = &self.manoeuvre else {
             return;
         };
         let goal = run.goal;
         let seq = run.seq;
-        if self.leg.is_none() {
+        if self.leg.is_none() || self.arrived {
             let from = Ned::new(
                 goal.position.north_m - PIVOT_ONLY_LEG_M * goal.yaw_rad.cos(),
                 goal.position.east_m - PIVOT_ONLY_LEG_M * goal.yaw_rad.sin(),
