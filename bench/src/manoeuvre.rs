@@ -67,9 +67,17 @@ struct Outcome {
     /// not, the miss is the estimate's error, not the stop's.
     estimated_mm: f64,
     estimated_yaw_deg: f64,
-    /// From the truth coming within [`SETTLE_ZONE_M`] of the goal for good
+    /// From the truth's pose coming within [`SETTLE_ZONE_M`] and
+    /// [`SETTLE_ZONE_DEG`] of the goal for good
     /// to the vehicle's last stop report (NaN: never within it then).
     settle_s: f64,
+    /// The same from the position alone coming within [`SETTLE_ZONE_M`]
+    /// (the heading may still be far: a turn on the spot counts in it).
+    settle_position_s: f64,
+    /// Retries after a miss, and of them those called while the truth was
+    /// within tolerance (the estimate's error made the miss).
+    retries: usize,
+    needless_retries: usize,
     /// The estimator's 1-σ horizontal position and heading at the verdict.
     sigma_mm: f64,
     /// The estimate's error from the truth at the verdict per axis (north,
@@ -112,15 +120,30 @@ struct Run {
     /// The goal being driven to: at a miss, the truth's error from it is
     /// noted among the texts (what a retry has to correct).
     goal: Option<Goal>,
-    /// Since when the truth has been within [`SETTLE_ZONE_M`] of the goal…
+    /// Since when the truth's pose has been within [`SETTLE_ZONE_M`] and
+    /// [`SETTLE_ZONE_DEG`] of the goal…
     within_since_s: Option<f64>,
     /// …and how long it had been at the last stop report.
     settled_s: f64,
+    /// The same for the position alone.
+    near_since_s: Option<f64>,
+    settled_position_s: f64,
+    /// Retries after a miss, and those with the truth within tolerance.
+    retries: usize,
+    needless_retries: usize,
+    /// Print every tick ([`Run::trace_row`]).
+    trace: bool,
 }
 
 /// A stop's settling time runs from the truth coming this close to the
 /// goal for good (the navigator's and the tracking bench's zone).
 const SETTLE_ZONE_M: f64 = autopilot::guidance::navigator::SETTLE_ZONE_M;
+/// Every goal here has a heading, so the stop is of a pose: it settles
+/// once the heading is near too. The zone is three heading tolerances, as
+/// the position's 30 mm is three of its 10 mm; a differential vehicle's
+/// turn on the spot onto the heading after it stopped on the point is
+/// part of the manoeuvre until then, its last 0.15° part of the settling.
+const SETTLE_ZONE_DEG: f64 = 3.0 * TOL_DEG;
 
 impl Run {
     /// `MNV_WP_YAW` is 1: a mission stop's heading is driven to.
@@ -154,6 +177,11 @@ impl Run {
             goal: None,
             within_since_s: None,
             settled_s: f64::NAN,
+            near_since_s: None,
+            settled_position_s: f64::NAN,
+            retries: 0,
+            needless_retries: 0,
+            trace: false,
         };
         run.drive_until(5.0, |_| false);
         gcs::send(&mut run.sim, gcs::set_mode(15));
@@ -196,17 +224,25 @@ impl Run {
             }
             pivoting = turning && (pivoting || speed.abs() <= 0.02);
             self.watch_settling();
+            if self.trace {
+                self.trace_row(&texts[before..]);
+            }
             if texts[before..]
                 .iter()
                 .any(|t| t.starts_with("Stop:") || t.starts_with("Stop #"))
             {
                 let now_s = self.sim.time().as_secs_f64();
                 self.settled_s = self.within_since_s.map_or(f64::NAN, |since| now_s - since);
+                self.settled_position_s = self.near_since_s.map_or(f64::NAN, |since| now_s - since);
             }
             let missed = texts[before..].iter().any(|t| MISSES.iter().any(|m| t.contains(m)));
             if let Some(goal) = self.goal.filter(|_| missed) {
                 let (mm, deg) = self.error(&goal);
                 texts.push(format!("{TRUTH} {mm:.1} mm, yaw {deg:.3}°]"));
+                self.retries += 1;
+                if mm <= TOL_M * 1000.0 && deg.abs() <= TOL_DEG {
+                    self.needless_retries += 1;
+                }
             }
             if texts[before..].iter().any(|t| done(t)) {
                 break;
@@ -215,17 +251,49 @@ impl Run {
         (texts, changes, pivots)
     }
 
-    /// Notes when the truth came within [`SETTLE_ZONE_M`] of the goal and
+    /// One tick of a traced goal: time, the truth's and the estimate's
+    /// error from the goal (mm, °), the truth's speed (mm/s) and yaw rate
+    /// (°/s), the actuator demand, the navigator's turn-on-the-spot target
+    /// and the texts of the tick.
+    fn trace_row(&self, texts: &[String]) {
+        let Some(goal) = self.goal else {
+            return;
+        };
+        let (mm, deg) = self.error(&goal);
+        let (est_mm, est_deg) = self.estimated_error(&goal);
+        let truth = self.sim.world().truth();
+        let nav = self.sim.core().navigator();
+        println!(
+            "trace {:.2} truth {mm:.1} mm {deg:.4}° est {est_mm:.1} mm {est_deg:.4}° v {:.1} mm/s r {:.3}°/s demand {:?} pivot {:?} stopping {} {}",
+            self.sim.time().as_secs_f64(),
+            truth.speed_mps * 1000.0,
+            truth.yaw_rate_rad_s.to_degrees(),
+            self.sim.last_demand(),
+            nav.pivot_target().map(|y| (y - goal.yaw_rad).to_degrees()),
+            nav.stopping(),
+            texts.join(" | "),
+        );
+    }
+
+    /// Notes when the truth's pose came within [`SETTLE_ZONE_M`] and
+    /// [`SETTLE_ZONE_DEG`] of the goal and
     /// stayed.
     fn watch_settling(&mut self) {
         let Some(goal) = self.goal else {
             return;
         };
-        let (mm, _) = self.error(&goal);
-        if mm > SETTLE_ZONE_M * 1000.0 {
+        let (mm, deg) = self.error(&goal);
+        let now_s = self.sim.time().as_secs_f64();
+        let near = mm <= SETTLE_ZONE_M * 1000.0;
+        if !near {
+            self.near_since_s = None;
+        } else if self.near_since_s.is_none() {
+            self.near_since_s = Some(now_s);
+        }
+        if !(near && deg.abs() <= SETTLE_ZONE_DEG) {
             self.within_since_s = None;
         } else if self.within_since_s.is_none() {
-            self.within_since_s = Some(self.sim.time().as_secs_f64());
+            self.within_since_s = Some(now_s);
         }
     }
 
@@ -280,10 +348,12 @@ impl Run {
         let start_s = self.sim.time().as_secs_f64();
         self.goal = Some(goal);
         (self.within_since_s, self.settled_s) = (None, f64::NAN);
+        (self.near_since_s, self.settled_position_s) = (None, f64::NAN);
+        (self.retries, self.needless_retries) = (0, 0);
         gcs::send(&mut self.sim, message);
         let verdict = |t: &str| VERDICTS.iter().any(|v| t.starts_with(v));
         let (texts, direction_changes, pivots) = self.drive_until(TIMEOUT_S, verdict);
-        let settle_s = self.settled_s;
+        let (settle_s, settle_position_s) = (self.settled_s, self.settled_position_s);
         let (estimated_mm, estimated_yaw_deg) = self.estimated_error(&goal);
         let (verdict_mm, _) = self.error(&goal);
         let at_verdict = *self.sim.world().truth();
@@ -325,6 +395,9 @@ impl Run {
             estimated_mm,
             estimated_yaw_deg,
             settle_s,
+            settle_position_s,
+            retries: self.retries,
+            needless_retries: self.needless_retries,
             sigma_mm,
             normalised_error,
             sigma_deg,
@@ -445,23 +518,49 @@ const PLAN_TEXTS: [&str; 7] = ["Manoeuvre", "Missed", "missed", "trying again", 
 /// only 86.5 % of the time), and an RTK-grade one that can confirm 10 mm.
 const RECEIVERS: [(&str, Option<f64>); 2] = [("walk 5 mm", None), ("walk 1 mm", Some(0.001))];
 
-/// Runs every goal (and RTL from it) on both models with `seeds` seeds
-/// each and prints the table.
-/// With `params` (NAME, value) set on every vehicle.
-pub fn report(seeds: u64, params: &[(String, f64)]) {
+/// What the manoeuvre section runs.
+pub struct Options<'a> {
+    /// Seeds 1..=seeds of every goal.
+    pub seeds: u64,
+    /// (NAME, value) set on every vehicle.
+    pub params: &'a [(String, f64)],
+    /// The models (none: both).
+    pub models: &'a [ModelKind],
+    /// Only these run seeds (none: all).
+    pub run_seeds: &'a [u64],
+    /// Print the goals tick by tick.
+    pub trace: bool,
+}
+
+/// Runs every goal (and RTL from it) on the models with the seeds and
+/// prints the table.
+pub fn report(options: &Options<'_>) {
+    let (seeds, params) = (options.seeds, options.params);
     println!();
     println!(
         "## manoeuvres: GUIDED to a pose {DISTANCES_M:?} m away in {BEARINGS} directions, facing north as at the start, then RTL, then AUTO to the same pose (a mission stop with a heading) (seeds 1..={seeds}; truth)"
     );
     println!();
     println!(
-        "| model | GNSS | leg | goals | reached within 10 mm & 0.05° | \"Reached\" claimed | false \"Reached\" | stopped, unconfirmed | most direction changes | most turns on the spot | failsafes | p95 mm | worst mm | worst yaw ° | median s | stop settled s median / max | estimate error > 2σ / > 3σ (axes) | most moved after the verdict mm / ° |"
+        "| model | GNSS | leg | goals | reached within 10 mm & 0.05° | \"Reached\" claimed | false \"Reached\" | stopped, unconfirmed | most direction changes | most turns on the spot | failsafes | p95 mm | worst mm | worst yaw ° | median s | stop settled s median / max | position settled s median / max | retries (truth already within) | estimate error > 2σ / > 3σ (axes) | most moved after the verdict mm / ° |"
     );
-    println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     let (mut misses, mut many_changes, mut caps) = (Vec::new(), Vec::new(), Vec::new());
-    for model in [ModelKind::Ackermann, ModelKind::Differential] {
+    let mut slow = Vec::new();
+    let models = if options.models.is_empty() {
+        &[ModelKind::Ackermann, ModelKind::Differential][..]
+    } else {
+        options.models
+    };
+    for &model in models {
         for (receiver, walk_m) in RECEIVERS {
-            let rows = drive_goals(model, (receiver, walk_m), seeds, params, &mut misses, &mut many_changes);
+            let rows = drive_goals(model, (receiver, walk_m), options, &mut misses, &mut many_changes);
+            slow.extend(
+                rows.iter()
+                    .flat_map(|(_, outcomes)| outcomes)
+                    .filter(|o| o.settle_s > SETTLE_MAX_S)
+                    .cloned(),
+            );
             let walk_m = walk_m.unwrap_or_else(|| default_walk_m(model, params));
             caps.extend(
                 rows.iter()
@@ -471,12 +570,36 @@ pub fn report(seeds: u64, params: &[(String, f64)]) {
     }
     println!();
     println!(
-        "Settling runs from the truth coming within {:.0} mm of the goal for good to the vehicle's last stop report (`Stop: …`); the verdict after it waits up to {CONFIRM_WAIT_S:.0} s more at rest for the estimate to be sure (GUIDED, RTL and AUTO pose stops alike), which the median s column includes. The last column is the estimate's error from the truth at the verdict on each axis (north, east) in the estimator's own σ of that axis: a true σ has 4.6 % beyond 2σ and 0.27 % beyond 3σ.",
+        "Settling runs from the truth's pose coming within {:.0} mm and {SETTLE_ZONE_DEG:.2}° of the goal for good to the vehicle's last stop report (`Stop: …`); \"position settled\" from the position alone within {0:.0} mm (on a differential vehicle it includes the turn on the spot onto the heading after stopping on the point). A retry is counted needless when the truth was within tolerance as it was called. The verdict after it waits up to {CONFIRM_WAIT_S:.0} s more at rest for the estimate to be sure (GUIDED, RTL and AUTO pose stops alike), which the median s column includes. The last column is the estimate's error from the truth at the verdict on each axis (north, east) in the estimator's own σ of that axis: a true σ has 4.6 % beyond 2σ and 0.27 % beyond 3σ.",
         SETTLE_ZONE_M * 1000.0
     );
     print_caps(&caps);
     print_misses(&misses);
     print_many_changes(&many_changes);
+    print_slow_stops(&slow);
+}
+
+/// The target's longest settling of a stop: slower stops are listed with
+/// what the vehicle said.
+const SETTLE_MAX_S: f64 = 8.0;
+
+fn print_slow_stops(outcomes: &[Outcome]) {
+    println!();
+    println!("Stops that took more than {SETTLE_MAX_S:.0} s to settle, with what the vehicle planned and said:");
+    println!();
+    if outcomes.is_empty() {
+        println!("- none");
+    }
+    for o in outcomes {
+        println!(
+            "- {}: {:.1} s, {:.1} mm, yaw {:.3}°: {}",
+            o.label,
+            o.settle_s,
+            o.position_mm,
+            o.yaw_deg,
+            o.plans.join(" | ")
+        );
+    }
 }
 
 /// Every goal and RTL on one model and receiver: three rows (returned with
@@ -484,19 +607,22 @@ pub fn report(seeds: u64, params: &[(String, f64)]) {
 fn drive_goals(
     model: ModelKind,
     (receiver, walk_m): (&str, Option<f64>),
-    seeds: u64,
-    params: &[(String, f64)],
+    options: &Options<'_>,
     misses: &mut Vec<Outcome>,
     many_changes: &mut Vec<Outcome>,
 ) -> Vec<(&'static str, Vec<Outcome>)> {
     let (mut guided, mut rtl, mut auto) = (Vec::new(), Vec::new(), Vec::new());
-    for seed in 1..=seeds {
+    for seed in 1..=options.seeds {
         for (i, &distance) in DISTANCES_M.iter().enumerate() {
             for b in 0..BEARINGS {
                 let bearing = (b as f64 * 360.0 / BEARINGS as f64).to_radians();
                 let (north, east) = (distance * bearing.cos(), distance * bearing.sin());
                 let run_seed = seed * 100 + (i * BEARINGS + b) as u64;
-                let mut run = Run::new(model, run_seed, walk_m, params);
+                if !(options.run_seeds.is_empty() || options.run_seeds.contains(&run_seed)) {
+                    continue;
+                }
+                let mut run = Run::new(model, run_seed, walk_m, options.params);
+                run.trace = options.trace;
                 let label = format!(
                     "{model:?} {receiver} seed {run_seed}: {distance} m at {:.0}°",
                     bearing.to_degrees()
@@ -506,6 +632,9 @@ fn drive_goals(
                 auto.push(run.mission(format!("{label} AUTO"), north, east));
             }
         }
+    }
+    if guided.is_empty() {
+        return Vec::new();
     }
     let rows = vec![("GUIDED", guided), ("RTL", rtl), ("AUTO", auto)];
     for (leg, outcomes) in &rows {
@@ -591,8 +720,15 @@ fn print_row(model: ModelKind, receiver: &str, leg: &str, outcomes: &[Outcome]) 
     secs.sort_by(f64::total_cmp);
     let worst_yaw = outcomes.iter().map(|o| o.yaw_deg.abs()).fold(0.0, f64::max);
     // NaN: the truth never came within the zone (sorted last, shown as such).
-    let mut settle: Vec<f64> = outcomes.iter().map(|o| o.settle_s).collect();
-    settle.sort_by(f64::total_cmp);
+    let sorted = |f: fn(&Outcome) -> f64| {
+        let mut v: Vec<f64> = outcomes.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        v
+    };
+    let settle = sorted(|o| o.settle_s);
+    let settle_position = sorted(|o| o.settle_position_s);
+    let retries: usize = outcomes.iter().map(|o| o.retries).sum();
+    let needless: usize = outcomes.iter().map(|o| o.needless_retries).sum();
     let at = |v: &[f64], q: f64| v[((q * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
     let beyond = |k: f64| {
         let axes = outcomes.iter().flat_map(|o| o.normalised_error);
@@ -600,13 +736,15 @@ fn print_row(model: ModelKind, receiver: &str, leg: &str, outcomes: &[Outcome]) 
         100.0 * axes.filter(|z| z.is_nan() || z.abs() > k).count() as f64 / (2 * n) as f64
     };
     println!(
-        "| {model:?} | {receiver} | {leg} | {n} | {within} ({:.0} %) | {claims} | {false_claims} | {unconfirmed} | {changes} | {pivots} | {failsafes} | {:.1} | {:.1} | {worst_yaw:.3} | {:.0} | {:.1} / {:.1} | {:.1} % / {:.1} % | {:.1} / {:.3} |",
+        "| {model:?} | {receiver} | {leg} | {n} | {within} ({:.0} %) | {claims} | {false_claims} | {unconfirmed} | {changes} | {pivots} | {failsafes} | {:.1} | {:.1} | {worst_yaw:.3} | {:.0} | {:.1} / {:.1} | {:.1} / {:.1} | {retries} ({needless}) | {:.1} % / {:.1} % | {:.1} / {:.3} |",
         100.0 * within as f64 / n as f64,
         at(&mm, 0.95),
         mm[n - 1],
         at(&secs, 0.5),
         at(&settle, 0.5),
         settle[n - 1],
+        at(&settle_position, 0.5),
+        settle_position[n - 1],
         beyond(2.0),
         beyond(3.0),
         outcomes.iter().map(|o| o.moved_after_mm).fold(0.0, f64::max),

@@ -113,6 +113,11 @@ pub struct TrackingBenchArgs {
     /// Vehicle models to run each course with (repeatable). Default: both.
     #[arg(long = "model", value_enum)]
     pub models: Vec<BenchModel>,
+    /// The manoeuvre section: only the goals of this run seed (as the
+    /// misses list names them; repeatable), with `--trace` printed tick by
+    /// tick.
+    #[arg(long = "manoeuvre-seed")]
+    pub manoeuvre_seeds: Vec<u64>,
 }
 
 /// `--model` of the tracking bench.
@@ -218,7 +223,15 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
     let mut probe = SimulationParams::new(ModelKind::Ackermann);
     probe.apply(&args.params)?;
     if let Some(seeds) = args.manoeuvres_only {
-        super::manoeuvre::report(seeds.max(1), &args.params);
+        let models: Vec<ModelKind> = args.models.iter().map(|m| m.kind()).collect();
+        let options = super::manoeuvre::Options {
+            seeds: seeds.max(1),
+            params: &args.params,
+            models: &models,
+            run_seeds: &args.manoeuvre_seeds,
+            trace: args.trace,
+        };
+        super::manoeuvre::report(&options);
         return Ok(());
     }
     let courses = load_courses(&args.courses)?;
@@ -272,7 +285,13 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
     }
     if args.courses.is_empty() {
         super::magnetic::report(args.seeds.min(4));
-        super::manoeuvre::report(1, &args.params);
+        super::manoeuvre::report(&super::manoeuvre::Options {
+            seeds: 1,
+            params: &args.params,
+            models: &[],
+            run_seeds: &[],
+            trace: false,
+        });
     }
     Ok(())
 }

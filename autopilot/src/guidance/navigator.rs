@@ -83,8 +83,13 @@ const PIVOT_STEADY_S: f64 = 0.5;
 const PIVOT_EXTRA_S: f64 = 10.0;
 /// The last turn of a manoeuvre is its stop: it rests this long (the
 /// heading estimate settles after turning), and turns again, as a stop
-/// creeps again, when more than half the tolerance off.
+/// creeps again, when more than half the tolerance off…
 const PIVOT_REST_S: f64 = 2.0;
+/// …once: the heading estimate after a turn on the spot wanders by
+/// 0.01–0.03° for seconds while the truth stands still (bench seed 210: a
+/// second and third turn, 3 s each, chased that wander from 0.027° to
+/// 0.024° by the estimate while the truth went from 0.007° to 0.025°).
+const PIVOT_RETURNS_MAX: u32 = 1;
 /// A manoeuvre with no stroke (a heading change at a stop) still has a
 /// leg for reports and the ground station: one this long ending at the
 /// goal on its heading.
@@ -205,6 +210,10 @@ pub struct StopReport {
     /// resting: what a slow stop spent its time on.
     pub settle_s: f64,
     pub reapproaches: u32,
+    /// Of the settling, the turn on the spot onto the goal's heading that
+    /// ended the stop (a differential vehicle's manoeuvre), with its rest
+    /// and turns again; 0 without one.
+    pub turn_s: f64,
 }
 
 impl StopReport {
@@ -367,14 +376,16 @@ impl Navigator {
     /// The turn on the spot onto the goal's heading that ends a manoeuvre
     /// with pivots. Without a stroke before it, the leg is a short one
     /// ending at the goal on its heading, for reports and the ground
-    /// station, never driven.
+    /// station, never driven; it replaces a leg already arrived at (a
+    /// retry's turn onto the heading at the stop: the old leg's arrival
+    /// stood, and AUTO claimed the item before the turn).
     fn start_final_pivot(&mut self) {
         let Some(run) = &self.manoeuvre else {
             return;
         };
         let goal = run.goal;
         let seq = run.seq;
-        if self.leg.is_none() {
+        if self.leg.is_none() || self.arrived {
             let from = Ned::new(
                 goal.position.north_m - PIVOT_ONLY_LEG_M * goal.yaw_rad.cos(),
                 goal.position.east_m - PIVOT_ONLY_LEG_M * goal.yaw_rad.sin(),
@@ -478,7 +489,7 @@ impl Navigator {
                 return NavDemand::default();
             }
             if error_rad.abs() > config.stop.yaw_rad / 2.0
-                && pivot.returns < MAX_REAPPROACHES
+                && pivot.returns < PIVOT_RETURNS_MAX
                 && pivot.elapsed_s <= timeout_s
             {
                 pivot.returns += 1;
@@ -502,21 +513,21 @@ impl Navigator {
                 return NavDemand::default();
             }
         }
-        let last = pivot.last;
+        let (last, turn_s) = (pivot.last, pivot.elapsed_s);
         if let Some(run) = &mut self.manoeuvre {
             run.pivot = None;
         }
         self.tracker.reset();
         self.speed.reset();
         if last {
-            self.finish_with_pivot(est, config);
+            self.finish_with_pivot(est, config, turn_s);
         }
         NavDemand::default()
     }
 
     /// The manoeuvre's last turn on the spot is done: it stopped at the
     /// goal, and the report says how well, against the goal's pose.
-    fn finish_with_pivot(&mut self, est: &Estimate, config: &NavConfig) {
+    fn finish_with_pivot(&mut self, est: &Estimate, config: &NavConfig, turn_s: f64) {
         let Some(run) = &self.manoeuvre else {
             return;
         };
@@ -535,6 +546,7 @@ impl Navigator {
             goal,
             settle_s: self.settle_clock_s.unwrap_or(0.0),
             reapproaches: self.reapproaches,
+            turn_s,
         };
         self.stop_report = Some(StopReport {
             within_tolerance: report.position_error_m() <= config.stop.position_m
@@ -707,6 +719,17 @@ impl Navigator {
     /// At the end of a stop leg: coming to rest or resting there.
     pub fn stopping(&self) -> bool {
         self.target().is_some_and(|t| t.stop) && (self.arrived || self.settling.is_some())
+    }
+
+    /// Resting after the last turn on the spot of a manoeuvre: to be held
+    /// still, not driven at a speed of 0 (the speed loop chasing the
+    /// estimate's ±2–5 mm/s noise moved bench seed 210's resting vehicle
+    /// 2 mm).
+    pub fn pivot_resting(&self) -> bool {
+        self.manoeuvre
+            .as_ref()
+            .and_then(|m| m.pivot)
+            .is_some_and(|p| p.resting_s.is_some())
     }
 
     /// The stop error of a precision stop, once, when the vehicle has come
@@ -1142,6 +1165,7 @@ fn stop_report(
         },
         settle_s: 0.0,
         reapproaches: 0,
+        turn_s: 0.0,
     };
     StopReport {
         within_tolerance: report.position_error_m() <= config.stop.position_m && yaw_error.abs() <= config.stop.yaw_rad,

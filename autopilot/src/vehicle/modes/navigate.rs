@@ -23,7 +23,7 @@ impl Core {
         let config = self.nav_config();
         let estimate = *self.estimator.estimate();
         let nav = self.navigator.update(&estimate, &config, dt_s);
-        let report = self.navigator.take_stop_report();
+        let report = self.navigator.take_stop_report().map(|r| self.against_pose_goal(r));
         if let Some(report) = &report {
             self.report_stop(report);
             if let Some(seq) = report.seq.filter(|_| !self.retry_mission_stop(report)) {
@@ -43,7 +43,7 @@ impl Core {
         }
         // Arrived (or nothing to do): stop outright, so no integrator
         // keeps the wheels creeping.
-        let stopped = self.navigator.stopping();
+        let stopped = self.navigator.stopping() || self.navigator.pivot_resting();
         if self.navigator.target().is_some() && !stopped {
             Demand::Navigate(nav)
         } else {
@@ -64,6 +64,13 @@ impl Core {
             return false;
         }
         self.missions.stop_retried = Some(seq);
+        if let Some(why) = self.miss_in_doubt(report) {
+            self.send_text(
+                MavSeverity::MAV_SEVERITY_WARNING,
+                &format!("Waypoint #{seq} missed, no retry: the miss is within {why}"),
+            );
+            return false;
+        }
         let estimate = self.estimator.estimate();
         let start = Pose {
             position: estimate.position,
@@ -136,11 +143,7 @@ impl Core {
             verdict.push_str(&format!(", unconfirmed ({why})"));
         }
         if report.settle_s > SETTLE_TARGET_S {
-            let why = match report.reapproaches {
-                0 => String::from("slow final creep"),
-                1 => String::from("1 re-approach"),
-                n => format!("{n} re-approaches"),
-            };
+            let why = settle_reason(report);
             verdict.push_str(&format!(", settled in {:.1} s: {why}", report.settle_s));
         }
         let text = format!(
@@ -157,5 +160,22 @@ impl Core {
         if let Some(truth) = self.true_stop_text(report) {
             self.send_text(MavSeverity::MAV_SEVERITY_INFO, &truth);
         }
+    }
+}
+
+/// What a stop that settled slowly spent its time on: the turn on the spot
+/// onto the heading (from the point, however far it had to turn), the
+/// re-approaches, or else the final creep.
+fn settle_reason(report: &StopReport) -> String {
+    let creeps = match report.reapproaches {
+        0 => None,
+        1 => Some(String::from("1 re-approach")),
+        n => Some(format!("{n} re-approaches")),
+    };
+    match (report.turn_s > 0.0, creeps) {
+        (true, Some(creeps)) => format!("{creeps}, turn on the spot {:.1} s", report.turn_s),
+        (true, None) => format!("turn on the spot {:.1} s", report.turn_s),
+        (false, Some(creeps)) => creeps,
+        (false, None) => String::from("slow final creep"),
     }
 }
