@@ -32,3 +32,27 @@ fn a_start_put_off_for_a_walker_does_not_creep_towards_them() {
     assert_eq!(r.collisions, r.unavoidable, "seed {seed}: {:?}", r.events);
     assert!(r.completion_s.is_some(), "seed {seed}: {:?}", r.events);
 }
+
+/// The same wait is shown to the ground station: one "waiting for it to
+/// pass" at the start point, before the stop, not one per tick.
+#[test]
+fn a_start_put_off_for_a_walker_is_announced_once() {
+    let seed = 106;
+    let o = random::run(seed, &[], None).expect("runs");
+    let events = &o.result.events;
+    let waits: Vec<&String> = events.iter().filter(|e| e.contains("waiting for it to pass")).collect();
+    let first_wait = waits
+        .first()
+        .unwrap_or_else(|| panic!("seed {seed}: no wait announced: {events:?}"));
+    let (north_m, east_m) = place_m(first_wait);
+    assert!(north_m.hypot(east_m) < 0.01, "seed {seed}: {first_wait}");
+    let stop = events.iter().position(|e| e.contains("Obstacle stop:"));
+    let wait = events.iter().position(|e| e == *first_wait);
+    assert!(wait < stop, "seed {seed}: the wait after the stop: {events:?}");
+    // Waits at the start point before the stop: one announcement.
+    let before_stop = events[..stop.unwrap_or(events.len())]
+        .iter()
+        .filter(|e| e.contains("waiting for it to pass"))
+        .count();
+    assert_eq!(before_stop, 1, "seed {seed}: {events:?}");
+}

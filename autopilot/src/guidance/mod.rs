@@ -11,5 +11,6 @@ pub mod manoeuvre;
 pub mod navigator;
 pub mod path;
 pub mod reeds_shepp;
+pub mod rejoin;
 pub mod speed;
 pub mod tracker;

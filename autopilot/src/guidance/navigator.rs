@@ -12,6 +12,7 @@ use crate::guidance::direction_count::DirectionCount;
 use crate::guidance::manoeuvre::{Manoeuvre, stroke_start_yaw};
 use crate::guidance::path::{Arc, ArcSpan, LegPath, PathProjection, fit_corner};
 use crate::guidance::reeds_shepp::{Pose, Stroke};
+use crate::guidance::rejoin::{RejoinLeg, RejoinSpeed, rejoin_poses};
 use crate::guidance::speed::{SpeedConfig, SpeedInputs, SpeedState, SpeedStatus, scheduled_speed};
 use crate::guidance::tracker::{Direction, TrackInput, TrackerConfig, TrackerState, TrackerStatus, VehiclePose, track};
 
@@ -1060,6 +1061,42 @@ impl Navigator {
         Self::ensure_path(leg, position, config);
         let path = leg.path.as_ref()?;
         Some((path, path.project(&position, leg.piece).along_m))
+    }
+
+    /// The path the tracker will drive from `pose` onto the current leg
+    /// ([`rejoin_poses`]: this tracker's state, run forward), poses every
+    /// `step_m` for `length_m` appended to `out`; false without a built path.
+    pub fn rejoin_path(
+        &self,
+        pose: VehiclePose,
+        speed: RejoinSpeed,
+        config: &NavConfig,
+        (step_m, length_m): (f64, f64),
+        out: &mut Vec<VehiclePose>,
+    ) -> bool {
+        let Some((leg, path)) = self.leg.as_ref().and_then(|l| Some((l, l.path.as_ref()?))) else {
+            return false;
+        };
+        let target = &leg.target;
+        let cusp = self.manoeuvre.as_ref().is_some_and(|m| !m.rest.is_empty());
+        let remaining = path.end_m() - path.project(&pose.position, leg.piece).along_m;
+        let rejoin = RejoinLeg {
+            path,
+            piece: leg.piece,
+            direction: target.direction,
+            stop: target.stop,
+            min_preview_m: stop_preview_m(target, config, cusp, remaining),
+        };
+        rejoin_poses(
+            &config.tracker,
+            self.tracker,
+            &rejoin,
+            pose,
+            speed,
+            (step_m, length_m),
+            out,
+        );
+        true
     }
 
     /// Builds the leg's path on its first update. A leg that ends where it

@@ -736,6 +736,73 @@ fn polygon_rect_gap(polygon: &[(f64, f64)], front_m: f64, rear_m: f64, half_widt
     from_polygon.min(least_length(&offsets[..4 * n]))
 }
 
+/// A path given as poses (the path a vehicle off its leg drives back onto
+/// it, simulated: `guidance::rejoin`), rather than one [`PathAhead`] can
+/// place. The poses are `ds` apart along a path whose curvature is at most
+/// κ, so the module's sampling bound holds with `spread` = 1 + reach·κ and
+/// no blend: the simulation itself starts at the vehicle's pose.
+impl SweptPath {
+    /// The spacing the poses of `length_m` of path, curving at most
+    /// `curvature_max`, must have for the sampling bound ([`MAX_STEP_M`],
+    /// or coarser where more than [`MAX_POSES`] would be needed).
+    pub fn pose_spacing_m(footprint: &Footprint, curvature_max: f64, length_m: f64) -> f64 {
+        let reach_m = footprint
+            .front_m
+            .max(footprint.rear_m)
+            .max(0.0)
+            .hypot(footprint.half_width_m.max(0.0));
+        let curvature = if curvature_max.is_finite() {
+            curvature_max.abs()
+        } else {
+            0.0
+        };
+        let ideal_ds = MAX_STEP_M / (1.0 + reach_m * curvature);
+        let length_m = if length_m.is_finite() { length_m.max(0.0) } else { 0.0 };
+        ideal_ds.max(length_m / (MAX_POSES - 1) as f64)
+    }
+
+    /// Takes `poses` (the first the vehicle's own, then every `ds_m` along
+    /// a path curving at most `curvature_max`; at most [`MAX_POSES`] used)
+    /// as the samples. Reuses its buffers.
+    pub fn build_from_poses(
+        &mut self,
+        poses: impl IntoIterator<Item = Pose>,
+        ds_m: f64,
+        curvature_max: f64,
+        footprint: &Footprint,
+    ) {
+        self.front_m = footprint.front_m.max(0.0);
+        self.rear_m = footprint.rear_m.max(0.0);
+        self.half_width_m = footprint.half_width_m.max(0.0);
+        self.reach_m = self.front_m.max(self.rear_m).hypot(self.half_width_m);
+        let curvature = if curvature_max.is_finite() {
+            curvature_max.abs()
+        } else {
+            0.0
+        };
+        self.spread = 1.0 + self.reach_m * curvature;
+        self.ds_m = if ds_m.is_finite() && ds_m > 0.0 {
+            ds_m
+        } else {
+            MAX_STEP_M / self.spread
+        };
+        self.step_m = self.ds_m * self.spread;
+        self.samples.clear();
+        let mut bounds = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        for pose in poses.into_iter().take(MAX_POSES) {
+            let sample = Sample::of(&pose);
+            bounds = (
+                bounds.0.min(sample.north_m),
+                bounds.1.max(sample.north_m),
+                bounds.2.min(sample.east_m),
+                bounds.3.max(sample.east_m),
+            );
+            self.samples.push(sample);
+        }
+        self.bounds = bounds;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1057,5 +1124,99 @@ mod tests {
             .expect("caught up");
         assert!(contact.time_s > 0.7 && contact.time_s < 1.2, "{contact:?}");
         assert!(contact.along_m < 0.5, "{contact:?}");
+    }
+
+    /// The path a vehicle 2 m beside a straight leg drives back onto it,
+    /// turned 30° away from it and turning further away as it stopped (a
+    /// stop in a corner): simulated from that pose with the default tracker,
+    /// forwards or in reverse.
+    fn rejoin_sweep(reverse: bool) -> (SweptPath, Vec<crate::guidance::tracker::VehiclePose>) {
+        use crate::guidance::path::LegPath;
+        use crate::guidance::rejoin::{RejoinLeg, RejoinSpeed, default_tracker_config, max_curvature, rejoin_poses};
+        use crate::guidance::tracker::{Direction, TrackerState, VehiclePose};
+        let config = default_tracker_config();
+        let path = LegPath::new(None, Ned::new(0.0, 0.0), Ned::new(100.0, 0.0), None);
+        let direction = if reverse {
+            Direction::Reverse
+        } else {
+            Direction::Forward
+        };
+        let leg = RejoinLeg {
+            path: &path,
+            piece: 0,
+            direction,
+            stop: false,
+            min_preview_m: 0.0,
+        };
+        let travel_rad = 30f64.to_radians();
+        let start = VehiclePose {
+            position: Ned::new(0.0, 2.0),
+            yaw_rad: if reverse {
+                wrap_pi(travel_rad + std::f64::consts::PI)
+            } else {
+                travel_rad
+            },
+        };
+        let speed = RejoinSpeed {
+            from_mps: 0.0,
+            to_mps: 1.5,
+            accel_mps2: 0.5,
+        };
+        let (length_m, curvature_max) = (10.0, max_curvature(&config));
+        let ds_m = SweptPath::pose_spacing_m(&AGV, curvature_max, length_m);
+        let mut poses = Vec::new();
+        rejoin_poses(
+            &config,
+            TrackerState::default(),
+            &leg,
+            start,
+            speed,
+            (ds_m, length_m),
+            &mut poses,
+        );
+        let mut swept = SweptPath::default();
+        let as_poses = poses.iter().map(|p| Pose {
+            position: p.position,
+            yaw_rad: p.yaw_rad,
+        });
+        swept.build_from_poses(as_poses, ds_m, curvature_max, &AGV);
+        assert!(swept.step_m <= MAX_STEP_M + 1e-12, "step {}", swept.step_m);
+        (swept, poses)
+    }
+
+    /// Off the leg, the swept area is the way back onto it: a point on the
+    /// rejoin curve is met, while the far side of the circle the vehicle was
+    /// turning on when it stopped (5.5 m, away from the leg), which the
+    /// current-curvature sweep met, is clear. Forwards and in reverse.
+    #[test]
+    fn off_the_leg_the_sweep_follows_the_way_back_not_the_turn_it_stopped_in() {
+        for reverse in [false, true] {
+            let (swept, poses) = rejoin_sweep(reverse);
+            assert!(swept.pose_count() > 50, "{} poses", swept.pose_count());
+            // Towards the leg (2 m off at the start), not away from it.
+            let last = poses.last().unwrap();
+            assert!(last.position.east_m.abs() < 1.0, "reverse {reverse}: ends {last:?}");
+            // A point on the rejoin curve 6 m on, beside the reference point.
+            let on_curve = poses[poses.len() * 6 / 10].position;
+            let entry = swept.point_entry_m(on_curve, 0.3, swept.length_m());
+            assert!(entry.is_some_and(|m| m < 6.0), "reverse {reverse}: {entry:?}");
+            // The old sweep: carrying on round a 5.5 m circle away from the leg.
+            let start = Pose {
+                position: poses[0].position,
+                yaw_rad: poses[0].yaw_rad,
+            };
+            let mut circle = SweptPath::default();
+            let turning = PathAhead::Curvature {
+                curvature: 1.0 / 5.5,
+                reverse,
+            };
+            circle.build(&turning, &start, &AGV, 10.0);
+            // The circle's far side: the reference point after 8 m of it.
+            let far_side = circle.pose(circle.pose_count() * 8 / 10).unwrap().position;
+            assert!(far_side.east_m > 6.0, "reverse {reverse}: {far_side:?}");
+            assert!(circle.point_entry_m(far_side, 0.3, circle.length_m()).is_some());
+            let entry = swept.point_entry_m(far_side, 0.3, swept.length_m());
+            assert_eq!(entry, None, "reverse {reverse}: the rejoin sweep meets {far_side:?}");
+        }
     }
 }

@@ -13,7 +13,10 @@ use mavlink::dialects::ardupilotmega::{MavDistanceSensor, MavFrame, MavSeverity,
 use super::{Core, ScanInput};
 use crate::estimation::Estimate;
 use crate::geo::{Ned, wrap_pi};
-use crate::guidance::tracker::Direction;
+use crate::guidance::navigator::NavTarget;
+use crate::guidance::path::LegPath;
+use crate::guidance::rejoin::{RejoinSpeed, max_curvature};
+use crate::guidance::tracker::{Direction, VehiclePose};
 use crate::modes::Mode;
 use crate::obstacles::cluster::{
     BeamAngles, Cluster, ClusterConfig, ScanPoint, cluster_points, mark_field_edges, scan_points,
@@ -55,9 +58,12 @@ const SETTLED_S: f64 = 1.0;
 /// view turns, in extents (see `ViewChange`).
 const VIEW_WALK_PER_RAD: f64 = 2.0;
 /// Further off its leg than this (or turned further from it), the vehicle
-/// is manoeuvring onto it: the path it drives next is its current turn.
+/// is manoeuvring onto it: the path it drives next is the tracker's way
+/// back onto the leg (simulated), not the leg.
 const ON_PATH_M: f64 = 1.0;
 const ON_PATH_RAD: f64 = 0.35;
+/// A wait is over once the vehicle drives faster than this (m/s).
+const WAIT_OVER_MPS: f64 = 0.1;
 /// Below this speed the yaw rate says nothing about the curvature driven.
 const CURVATURE_MIN_SPEED_MPS: f64 = 0.2;
 /// A track lost from view this near the outline (beyond `OA_MARGIN`) is
@@ -120,8 +126,11 @@ pub struct ObstacleStatus {
     /// Every fitted scanner has sent a scan recently.
     pub scans_fresh: bool,
     pub stopped: bool,
-    /// Why, while stopped.
+    /// Why, while stopped or waiting.
     pub stop_cause: Option<StopCause>,
+    /// At rest and not starting yet for a walker's far prediction
+    /// (`stop_cause` names it): braked like a stop, but not a held stop.
+    pub waiting: bool,
     /// The speed limit the warning field or a followed obstacle imposes.
     pub speed_limit_mps: Option<f64>,
     /// Pass first (OA_PASS): the speed to drive at until the obstacle is
@@ -204,6 +213,11 @@ pub(super) struct ObstacleState {
     detour: Option<ActiveDetour>,
     detour_refusal_reported: bool,
     next_detour_attempt_s: f64,
+    /// The simulated rejoin path's poses (a buffer kept between ticks).
+    rejoin_poses: Vec<VehiclePose>,
+    /// The wait announced (the track waited for, if any), until the vehicle
+    /// moves, stops for an obstacle or changes mode.
+    wait_announced: Option<Option<u32>>,
 }
 
 impl ObstacleState {
@@ -416,6 +430,7 @@ impl Core {
         self.obstacles.predictions = predictions;
         self.obstacles.predictions_at_resume = predictions_at_resume;
         let verdict = self.apply_policy_status(&status);
+        self.announce_wait(&verdict, speed);
         self.note_static_block(&verdict, wants_to_move, now_s);
         verdict
     }
@@ -443,7 +458,7 @@ impl Core {
             .warning_length_m
             .max(resume_fields.warning_length_m)
             .max(speed.abs().max(planned_mps.abs()) * horizon);
-        self.sweep_path_ahead(pose, footprint, sign < 0.0, sweep_m);
+        self.sweep_path_ahead(pose, footprint, sign < 0.0, sweep_m, (speed, planned_mps));
         let [field, field_at_resume] = self.check_fields(&here_fields, &resume_fields, &field_config);
         // At rest the fields that matter are those it would start with.
         let warning_limit_mps = if speed.abs() <= 0.05 {
@@ -492,6 +507,7 @@ impl Core {
         self.obstacles.policy.reset();
         self.obstacles.static_stop_since = None;
         self.obstacles.hidden.clear();
+        self.obstacles.wait_announced = None;
         self.obstacles.last_tracks.clear();
     }
 
@@ -531,9 +547,10 @@ impl Core {
         let verdict = status.verdict;
         self.obstacles.status.stopped = status.stopped;
         self.obstacles.status.stop_cause = match verdict {
-            Verdict::Stop(cause) => Some(cause),
+            Verdict::Stop(cause) | Verdict::Wait(cause) => Some(cause),
             _ => None,
         };
+        self.obstacles.status.waiting = matches!(verdict, Verdict::Wait(_));
         self.obstacles.status.speed_limit_mps = match verdict {
             Verdict::Slow { limit_mps } => Some(limit_mps),
             _ => None,
@@ -583,6 +600,7 @@ impl Core {
             scans_fresh,
             stopped: false,
             stop_cause: None,
+            waiting: false,
             speed_limit_mps: None,
             speed_up_mps: None,
             confirmed_tracks: confirmed,
@@ -790,28 +808,36 @@ impl Core {
     }
 
     /// Samples the path the vehicle is about to drive: its turn on the spot,
-    /// the navigator's leg from where the vehicle is on it, or, without one (MAGNETIC, a leg not
-    /// yet started) or far from it (turning onto a new leg), the curvature
-    /// it is turning at now.
-    fn sweep_path_ahead(&mut self, pose: &Pose, footprint: &Footprint, reverse: bool, length_m: f64) {
-        let estimate = self.estimator.estimate();
+    /// the navigator's leg from where the vehicle is on it, the tracker's way
+    /// back onto the leg when it is far from it (after a stop in a corner,
+    /// turning onto a new leg), or, without a leg (MAGNETIC, MANUAL), the
+    /// curvature it is turning at now. `speeds`: the speed now and the
+    /// speed it would drive at, m/s.
+    fn sweep_path_ahead(
+        &mut self,
+        pose: &Pose,
+        footprint: &Footprint,
+        reverse: bool,
+        length_m: f64,
+        speeds: (f64, f64),
+    ) {
         let nav_config = self.nav_config();
         let pivot = self.navigator.pivot_target().filter(|_| self.mode != Mode::Magnetic);
         let target = self.navigator.target().copied();
+        let leg = (self.mode != Mode::Magnetic)
+            .then(|| self.navigator.path_ahead(pose.position, &nav_config).zip(target))
+            .flatten();
+        let off_leg = leg.is_some_and(|((path, along_m), target)| !on_leg(pose, path, along_m, &target));
+        if pivot.is_none() && off_leg && self.sweep_rejoin(pose, footprint, length_m, speeds) {
+            return;
+        }
+        let estimate = self.estimator.estimate();
         let frame = self.estimator.frame();
         let fleet = self.fleet.as_deref_mut();
         let leg = (self.mode != Mode::Magnetic)
             .then(|| self.navigator.path_ahead(pose.position, &nav_config).zip(target))
             .flatten()
-            .filter(|((path, along_m), target)| {
-                let flip = if target.direction == Direction::Reverse {
-                    std::f64::consts::PI
-                } else {
-                    0.0
-                };
-                let heading_off = wrap_pi(pose.yaw_rad - path.heading_at(*along_m) - flip).abs();
-                path.point_at(*along_m).distance_to(&pose.position) <= ON_PATH_M && heading_off <= ON_PATH_RAD
-            })
+            .filter(|((path, along_m), target)| on_leg(pose, path, *along_m, target))
             // Along a fleet order's trajectory: on over the chords after this one.
             .map(
                 |((path, along_m), target)| match fleet.and_then(|f| f.trajectory_ahead(path, frame)) {
@@ -839,6 +865,74 @@ impl Core {
             }
         };
         self.obstacles.swept.build(&ahead, pose, footprint, length_m);
+    }
+
+    /// Sweeps the path the tracker drives from `pose` back onto the leg
+    /// (`guidance::rejoin`): from the speed now towards the speed it would
+    /// drive at, at `ATC_ACCEL_MAX`. False (nothing swept) without a leg's
+    /// path or a pose beyond the vehicle's own.
+    fn sweep_rejoin(
+        &mut self,
+        pose: &Pose,
+        footprint: &Footprint,
+        length_m: f64,
+        (speed, planned_mps): (f64, f64),
+    ) -> bool {
+        let nav_config = self.nav_config();
+        let curvature_max = max_curvature(&nav_config.tracker);
+        let ds_m = SweptPath::pose_spacing_m(footprint, curvature_max, length_m);
+        let rejoin_speed = RejoinSpeed {
+            from_mps: speed.abs(),
+            to_mps: planned_mps.abs(),
+            accel_mps2: self.policy_config().accel_mps2,
+        };
+        let start = VehiclePose {
+            position: pose.position,
+            yaw_rad: pose.yaw_rad,
+        };
+        let mut poses = std::mem::take(&mut self.obstacles.rejoin_poses);
+        poses.clear();
+        let built = self
+            .navigator
+            .rejoin_path(start, rejoin_speed, &nav_config, (ds_m, length_m), &mut poses)
+            && poses.len() > 1;
+        if built {
+            let as_poses = poses.iter().map(|p| Pose {
+                position: p.position,
+                yaw_rad: p.yaw_rad,
+            });
+            self.obstacles
+                .swept
+                .build_from_poses(as_poses, ds_m, curvature_max, footprint);
+        }
+        self.obstacles.rejoin_poses = poses;
+        built
+    }
+
+    /// One STATUSTEXT per wait at rest (the verdict is decided again every
+    /// tick, and may flicker while the walker passes): a new one only after
+    /// the vehicle has moved or stopped for an obstacle since, or for
+    /// another object.
+    fn announce_wait(&mut self, verdict: &Verdict, speed_mps: f64) {
+        match verdict {
+            Verdict::Wait(cause) => {
+                let object = match cause {
+                    StopCause::Collision { track_id, .. } => Some(*track_id),
+                    _ => None,
+                };
+                if self.obstacles.wait_announced != Some(object) {
+                    self.obstacles.wait_announced = Some(object);
+                    let text = match object {
+                        Some(id) => format!("Obstacle #{id}: waiting for it to pass"),
+                        None => format!("Obstacle: waiting ({cause})"),
+                    };
+                    self.send_text(MavSeverity::MAV_SEVERITY_INFO, &text);
+                }
+            }
+            Verdict::Stop(_) => self.obstacles.wait_announced = None,
+            _ if speed_mps.abs() > WAIT_OVER_MPS => self.obstacles.wait_announced = None,
+            _ => {}
+        }
     }
 
     fn report_obstacle_event(&mut self, event: &PolicyEvent) {
@@ -900,6 +994,7 @@ impl Core {
     /// abandons a detour.
     pub(super) fn obstacles_mode_changed(&mut self) {
         self.obstacles.policy.reset();
+        self.obstacles.wait_announced = None;
         self.obstacles.detour = None;
         self.obstacles.static_stop_since = None;
     }
@@ -1337,6 +1432,19 @@ impl Mode {
     pub fn self_driving(self) -> bool {
         matches!(self, Mode::Auto | Mode::Guided | Mode::Rtl | Mode::Magnetic)
     }
+}
+
+/// Whether the vehicle at `pose` is on its leg: near the path at its
+/// projection `along_m`, and pointing along it (within `ON_PATH_M`,
+/// `ON_PATH_RAD`).
+fn on_leg(pose: &Pose, path: &LegPath, along_m: f64, target: &NavTarget) -> bool {
+    let flip = if target.direction == Direction::Reverse {
+        std::f64::consts::PI
+    } else {
+        0.0
+    };
+    let heading_off = wrap_pi(pose.yaw_rad - path.heading_at(along_m) - flip).abs();
+    path.point_at(along_m).distance_to(&pose.position) <= ON_PATH_M && heading_off <= ON_PATH_RAD
 }
 
 #[cfg(test)]
