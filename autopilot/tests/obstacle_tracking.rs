@@ -115,7 +115,6 @@ struct Pipeline {
     points: Vec<ScanPoint>,
     clusters: Vec<Cluster>,
     fit: FitScratch,
-    config: TrackingConfig,
 }
 
 impl Pipeline {
@@ -134,7 +133,8 @@ impl Pipeline {
             &mut self.fit,
             &mut self.clusters,
         );
-        self.tracker.update(scan.t, sensor, &self.clusters, &self.config)
+        self.tracker
+            .update(scan.t, sensor, &self.clusters, &TrackingConfig::default())
     }
 }
 
@@ -195,68 +195,6 @@ fn a_walking_persons_velocity_converges_within_a_second() {
     assert!(rms < 0.15, "{rms}");
     assert!(worst < 0.3, "{worst}");
     assert!(pos_rms < 0.05, "{pos_rms}");
-}
-
-/// Velocity error (RMS and worst, m/s) of people walking steadily across
-/// the view at 1.0–1.6 m/s, 3–7 m away, sampled every scan from 1.5 s to
-/// 4 s after the track is born, with the tracker's `config`.
-fn steady_walk_velocity_error(config: TrackingConfig) -> (f64, f64) {
-    let pose = Pose::default();
-    let mount = ScannerMount::default();
-    let runs = 20;
-    let (mut sq_err, mut n, mut worst) = (0.0f64, 0u32, 0.0f64);
-    for run in 0..runs {
-        let mut rng = Noise::new(2000 + run);
-        let speed = 1.0 + 0.03 * run as f64;
-        let person = Person::walking(Ned::new(3.0 + 0.2 * run as f64, -3.0), 0.1, speed);
-        let mut pipeline = Pipeline {
-            config,
-            ..Pipeline::default()
-        };
-        let mut born: Option<u64> = None;
-        for k in 0..250u64 {
-            let t = time_s(k);
-            let s = pipeline.scan(&ray_cast(t, &pose, &mount, &[person], &[], &mut rng), &pose, &mount);
-            if born.is_none() && s.births == 1 {
-                born = Some(k);
-            }
-            let Some(k0) = born else { continue };
-            if k < k0 + 75 || k > k0 + 200 {
-                continue;
-            }
-            let track = nearest_track(pipeline.tracker.tracks(), person.at(t)).expect("tracked");
-            let err = (track.vel_north_mps - 0.1).hypot(track.vel_east_mps - speed);
-            sq_err += err * err;
-            n += 1;
-            worst = worst.max(err);
-        }
-    }
-    ((sq_err / f64::from(n)).sqrt(), worst)
-}
-
-/// Over the 3 s horizon a velocity error of 0.1 m/s is 0.3 m: a walker who
-/// passes 0.5 m clear of the vehicle is predicted within the margin. The
-/// tracker's steady model keeps a steady walk's velocity well inside that;
-/// one filter at the manoeuvre's white acceleration alone (both models the
-/// same: the tracker before the steady model) does not.
-#[test]
-fn a_steady_walkers_velocity_does_not_wander_with_the_centroid() {
-    let (rms, worst) = steady_walk_velocity_error(TrackingConfig::default());
-    let single = TrackingConfig {
-        steady_accel_density: TrackingConfig::default().accel_density,
-        ..TrackingConfig::default()
-    };
-    let (single_rms, single_worst) = steady_walk_velocity_error(single);
-    println!(
-        "steady walk 1.0-1.6 m/s, 1.5-4 s after birth: velocity error RMS {rms:.3} m/s, worst {worst:.3} m/s; \
-         one filter at the manoeuvre noise: RMS {single_rms:.3} m/s, worst {single_worst:.3} m/s"
-    );
-    assert!(rms < 0.065, "RMS {rms}");
-    assert!(worst < 0.2, "worst {worst}");
-    assert!(
-        single_rms >= 0.065,
-        "the single filter is already this good: {single_rms} / {single_worst}"
-    );
 }
 
 /// The identities of two people, and every scan's tracks: `a` and `b` are

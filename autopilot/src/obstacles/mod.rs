@@ -1,13 +1,12 @@
 //! Obstacles (docs/architecture.md §Obstacles, seed 004 §III): a 2D laser scan turned into
-//! points in the local frame, clusters, and one tracking filter (two
-//! constant-velocity Kalman models) per object; collision prediction
-//! against the vehicle's footprint; and the policy that stops (or passes
-//! first) and resumes.
+//! points in the local frame, clusters, and one Kalman filter per tracked
+//! object; collision prediction against the vehicle's footprint; and the
+//! policy that stops (or passes first) and resumes.
 //!
 //! Pure and deterministic like the rest of the core: every function takes
 //! its inputs and time explicitly and returns a status.
 //!
-//! - [`cluster`], [`kalman`], [`imm`], [`tracking`]: perception (scan → tracks);
+//! - [`cluster`], [`kalman`], [`tracking`]: perception (scan → tracks);
 //! - [`outline`]: the shape of what is not a walking person;
 //! - [`swept`]: the outline swept along the path ahead;
 //! - [`prediction`], [`field`], [`policy`], [`detour`]: decisions.
@@ -17,7 +16,6 @@
 pub mod cluster;
 pub mod detour;
 pub mod field;
-pub mod imm;
 pub mod kalman;
 pub mod outline;
 pub mod params;
@@ -74,8 +72,7 @@ pub struct Track {
     pub position: Ned,
     pub vel_north_mps: f64,
     pub vel_east_mps: f64,
-    /// 1-σ of position and of velocity (largest axis); the velocity's is
-    /// the tracker's manoeuvring model's, an upper bound for a steady walk.
+    /// 1-σ of position and of velocity (largest axis).
     pub position_sigma_m: f64,
     pub velocity_sigma_mps: f64,
     /// Half the extent of the cluster it was last fitted to: the object's

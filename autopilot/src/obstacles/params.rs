@@ -140,11 +140,7 @@ declare_params! {
         },
         track_accel: f32 = "OA_TRK_ACC" => {
             default: 1.5, range: 0.01, 50.0, unit: "m2/s3",
-            desc: "Obstacle tracker process noise of someone starting, stopping or turning: white-acceleration spectral density",
-        },
-        track_accel_steady: f32 = "OA_TRK_ACC_ST" => {
-            default: 0.1, range: 0.001, 50.0, unit: "m2/s3",
-            desc: "Obstacle tracker process noise of someone walking steadily (the tracker weighs both models by how well each predicts)",
+            desc: "Obstacle tracker process noise: white-acceleration spectral density",
         },
         velocity_gate_mps: f32 = "OA_TRK_VEL_SD" => {
             default: 0.5, range: 0.01, 10.0, unit: "m/s",

@@ -1,6 +1,5 @@
-//! Clusters → tracks (seed 004 §III.B): one filter per object (an
-//! [`ImmKalman`] of two constant-velocity Kalman filters, steady and
-//! manoeuvring, where the seed has one), clusters associated to tracks by Mahalanobis
+//! Clusters → tracks (seed 004 §III.B): one constant-velocity Kalman filter
+//! ([`CvKalman`]) per object, clusters associated to tracks by Mahalanobis
 //! gating and a global (greedy by ascending cost) assignment, births from
 //! clusters no track claims, confirmation after a few hits, coasting and
 //! deletion by time.
@@ -25,8 +24,7 @@ use std::time::Duration;
 use nalgebra::Matrix2;
 
 use super::cluster::Cluster;
-use super::imm::{ImmConfig, ImmKalman};
-use super::kalman::{chi2_gate_2dof, polar_measurement_covariance};
+use super::kalman::{CvKalman, chi2_gate_2dof, polar_measurement_covariance};
 #[cfg(test)]
 use super::outline::FitScratch;
 use super::outline::Outline;
@@ -76,13 +74,8 @@ const BIRTH_EXCLUSION_M: f64 = 0.2;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TrackingConfig {
     /// Power spectral density `q` of the white acceleration (eq. 6's `a`),
-    /// m²/s³ per axis, of someone starting, stopping or turning: about 1–2.
+    /// m²/s³ per axis; a walking person: about 1–2.
     pub accel_density: f64,
-    /// …and of someone walking steadily (the IMM's other model).
-    pub steady_accel_density: f64,
-    /// Mean times an object keeps walking steadily and keeps manoeuvring, s.
-    pub steady_mean_s: f64,
-    pub manoeuvre_mean_s: f64,
     /// Range and bearing σ of the scanner (the corrected eq. 7).
     pub range_sigma_m: f64,
     pub bearing_sigma_rad: f64,
@@ -109,15 +102,6 @@ impl Default for TrackingConfig {
     fn default() -> Self {
         TrackingConfig {
             accel_density: 1.5,
-            // A steady walk's velocity drifts ~0.3 m/s per √s: the sway of
-            // a gait and slow turns, not steps.
-            steady_accel_density: 0.1,
-            // Switching often keeps the manoeuvre model close behind: a
-            // person stepping out is picked up ~0.03 s after one filter at
-            // the manoeuvre noise alone would, where a steady walk lasting
-            // 10 s on average cost 0.12 s (a step to 0.47 m/s, 70 % of it).
-            steady_mean_s: 0.5,
-            manoeuvre_mean_s: 1.0,
             // LMS1xx class: ~12 mm systematic + statistical range error.
             range_sigma_m: 0.02,
             // Half a 0.5° beam step.
@@ -132,18 +116,6 @@ impl Default for TrackingConfig {
             // Leigh et al. delete a person track at σ > 0.9 m.
             max_position_sigma_m: 0.9,
             initial_velocity_sigma_mps: 2.0,
-        }
-    }
-}
-
-impl TrackingConfig {
-    /// The IMM's two models.
-    pub fn imm(&self) -> ImmConfig {
-        ImmConfig {
-            steady_psd_m2ps3: self.steady_accel_density,
-            manoeuvre_psd_m2ps3: self.accel_density,
-            steady_mean_s: self.steady_mean_s,
-            manoeuvre_mean_s: self.manoeuvre_mean_s,
         }
     }
 }
@@ -166,7 +138,7 @@ pub struct TrackingStatus {
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Entry {
     track: Track,
-    kf: ImmKalman,
+    kf: CvKalman,
     /// The time the filter's state is at.
     filter_t: Duration,
     born_t: Duration,
@@ -357,10 +329,10 @@ impl ObstacleTracker {
                 let centroid = clusters[meas.cluster].centroid;
                 let r = measurement_r(entry, meas, false, clusters);
                 // Most pairs are far apart: skip them before the inverse.
-                if entry.kf.combined().surely_outside_gate(centroid, &r, gate) {
+                if entry.kf.surely_outside_gate(centroid, &r, gate) {
                     continue;
                 }
-                let d2 = entry.kf.combined().mahalanobis_sq(centroid, &r);
+                let d2 = entry.kf.mahalanobis_sq(centroid, &r);
                 if d2 <= gate {
                     pairs.push((d2, i, m));
                 }
@@ -408,7 +380,7 @@ impl ObstacleTracker {
                     .any(|(k, (other, slot))| {
                         k != i
                             && slot.is_none()
-                            && other.kf.combined().position().distance_to(&cluster.centroid) <= cluster.radius_m
+                            && other.kf.position().distance_to(&cluster.centroid) <= cluster.radius_m
                     })
             };
             if gated || covered() {
@@ -481,7 +453,7 @@ impl ObstacleTracker {
                         entry.stillness.see(cluster, now);
                         entry.rest.see(cluster, now);
                         entry.full_view_t = now;
-                        entry.full_view_position = entry.kf.combined().position();
+                        entry.full_view_position = entry.kf.position();
                     } else {
                         // A part of the object off where it stood shows it
                         // moving; on it, it proves nothing.
@@ -523,12 +495,7 @@ impl ObstacleTracker {
             if part_of_known {
                 continue;
             }
-            let Ok(kf) = ImmKalman::new(
-                cluster.centroid,
-                &meas.r,
-                config.initial_velocity_sigma_mps,
-                &config.imm(),
-            ) else {
+            let Ok(kf) = CvKalman::new(cluster.centroid, &meas.r, config.initial_velocity_sigma_mps) else {
                 continue;
             };
             let id = self.take_id();
@@ -539,8 +506,8 @@ impl ObstacleTracker {
                     position: cluster.centroid,
                     vel_north_mps: 0.0,
                     vel_east_mps: 0.0,
-                    position_sigma_m: kf.combined().position_sigma_m(),
-                    velocity_sigma_mps: kf.manoeuvre().velocity_sigma_mps(),
+                    position_sigma_m: kf.position_sigma_m(),
+                    velocity_sigma_mps: kf.velocity_sigma_mps(),
                     radius_m: cluster.radius_m,
                     outline: cluster.outline,
                     age_s: 0.0,
@@ -584,10 +551,9 @@ impl ObstacleTracker {
     /// number deleted.
     fn predict_all(&mut self, now: Duration, config: &TrackingConfig, failed: &mut Vec<bool>) -> u32 {
         refill(failed, self.entries.len(), false);
-        let imm = config.imm();
         for (entry, failed) in self.entries.iter_mut().zip(failed.iter_mut()) {
             let dt_s = now.saturating_sub(entry.filter_t).as_secs_f64();
-            if entry.kf.predict(dt_s, &imm).is_err() {
+            if entry.kf.predict(dt_s, config.accel_density).is_err() {
                 *failed = true;
             } else {
                 entry.filter_t = now;
@@ -605,7 +571,7 @@ impl ObstacleTracker {
             let track = &mut entry.track;
             track.age_s = now.saturating_sub(entry.born_t).as_secs_f64();
             track.unseen_s = unseen_s;
-            track.position = entry.kf.combined().position();
+            track.position = entry.kf.position();
             let full_view_t = entry.full_view_t;
             track.still_s = entry
                 .stillness
@@ -629,13 +595,9 @@ impl ObstacleTracker {
                     centre.east_m + moved.1 - track.position.east_m,
                 )
             });
-            (track.vel_north_mps, track.vel_east_mps) = entry.kf.combined().velocity_mps();
-            track.position_sigma_m = entry.kf.combined().position_sigma_m();
-            // The manoeuvring model's σ: what is known of the velocity if
-            // the object may be changing it. The combined σ of a young
-            // track falls within a few scans, while a sliver's centroid
-            // still slides with the view; the gates on σ rely on it.
-            track.velocity_sigma_mps = entry.kf.manoeuvre().velocity_sigma_mps();
+            (track.vel_north_mps, track.vel_east_mps) = entry.kf.velocity_mps();
+            track.position_sigma_m = entry.kf.position_sigma_m();
+            track.velocity_sigma_mps = entry.kf.velocity_sigma_mps();
             // A NaN σ or limit deletes.
             let too_uncertain = !at_most(track.position_sigma_m, config.max_position_sigma_m);
             *dead = too_uncertain
@@ -1196,11 +1158,9 @@ mod tests {
         assert_eq!(tracker.tracks().len(), 1);
         let change = |t: &Track| (t.vel_north_mps - before.vel_north_mps).hypot(t.vel_east_mps - before.vel_east_mps);
         let (plain_change, pieces_change) = (change(&plain.tracks()[0]), change(&tracker.tracks()[0]));
-        // What an ordinary update with the piece does to the velocity (the
-        // steady model already damps one such jump: 0.1 m/s, where one
-        // filter at the manoeuvre noise alone made it 0.2 and more).
-        assert!(plain_change > 0.08, "{plain_change}");
-        assert!(pieces_change < 0.25 * plain_change, "{pieces_change} vs {plain_change}");
+        // What an ordinary update with the piece does to the velocity.
+        assert!(plain_change > 0.2, "{plain_change}");
+        assert!(pieces_change < 0.05, "{pieces_change} vs {plain_change}");
         let track = tracker.tracks()[0];
         assert_eq!(track.misses, 0);
         assert_eq!(track.radius_m, before.radius_m);

@@ -264,7 +264,6 @@ impl Core {
         let t = &self.params;
         TrackingConfig {
             accel_density: f64::from(a.track_accel.get(t)),
-            steady_accel_density: f64::from(a.track_accel_steady.get(t)),
             range_sigma_m: f64::from(a.range_sigma_m.get(t)),
             bearing_sigma_rad: f64::from(a.bearing_sigma_deg.get(t)).to_radians(),
             ..TrackingConfig::default()
@@ -1275,9 +1274,8 @@ fn shows_speed(track: &Track, sigmas: f64) -> bool {
 /// motion can walk a standing object's centroid (`ViewChange`), its returns
 /// not shown to be still (`STILL_S`), and its speed shown by the filter:
 /// twice its velocity σ, as in [`moving`], or, once the track has been
-/// followed for `SETTLED_S`, one σ. That σ (the manoeuvring model's)
-/// settles at 0.35–0.43 m/s for someone walking steadily, several times the
-/// real error, so two of them
+/// followed for `SETTLED_S`, one σ. That σ settles at 0.35–0.43 m/s for
+/// someone walking steadily, about twice the real error, so two of them
 /// called a walker below 0.7–0.9 m/s standing, and the vehicle drove into
 /// them. A new track's velocity is not settled (a sliver seen at the
 /// field's edge for 0.2 s: 0.5 m/s at σ 0.6), so it still needs two.
