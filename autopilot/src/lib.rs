@@ -56,6 +56,7 @@ pub mod obstacles;
 pub mod offline;
 pub mod run;
 pub mod sched;
+pub mod shared_thread;
 pub mod sitl;
 pub mod stderr_log;
 pub mod storage;

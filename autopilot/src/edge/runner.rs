@@ -14,10 +14,11 @@ use tokio::sync::{mpsc, oneshot};
 use super::clock::InstantTimer;
 use super::mqtt::{MqttConfig, MqttLink};
 use super::persistence::Persistence;
-use crate::ftp::service::FtpService;
+use crate::ftp::service::{self as ftp_service, FtpService, FtpThread};
 use crate::link::hub::{self, CoreChannels, HubConfig, LinkRuntime, ToCore};
 use crate::link::sockets::LinkSockets;
-use crate::logging::edge::Logger;
+use crate::logging::edge::{self as log_edge, LogThread, Logger};
+use crate::storage::signing_key::{self, KeyFileThread};
 use crate::vehicle::{Core, Inbound, Inputs, Outbound, Outputs, SaveRequest};
 
 /// The core with the devices around it: a simulated world, or a real
@@ -48,11 +49,16 @@ pub trait Platform {
     fn stop(&mut self, wall: Duration, dropped_to_links: u64);
 }
 
-/// The one tokio runtime of a running furrow and the wall clock's origin.
+/// The one tokio runtime of a running furrow, the wall clock's origin, and
+/// the threads that do every vehicle's file work (FTP, onboard log, signing
+/// key): one of each, however many vehicles.
 pub struct EdgeRunner {
     pub(super) runtime: Runtime,
     origin: Instant,
     mqtt: Option<MqttConfig>,
+    ftp: FtpThread,
+    log: LogThread,
+    key_files: KeyFileThread,
 }
 
 impl EdgeRunner {
@@ -62,6 +68,9 @@ impl EdgeRunner {
             runtime,
             origin: Instant::now(),
             mqtt: None,
+            ftp: ftp_service::start_thread().map_err(|e| format!("FTP thread: {e}"))?,
+            log: log_edge::start_thread().map_err(|e| format!("onboard log thread: {e}"))?,
+            key_files: signing_key::start_thread().map_err(|e| format!("signing key thread: {e}"))?,
         })
     }
 
@@ -143,7 +152,7 @@ pub(super) struct Edge {
     origin: Instant,
     /// The VDA 5050 client, when configured.
     mqtt: Option<MqttLink>,
-    /// Answers FILE_TRANSFER_PROTOCOL on a thread of its own.
+    /// Answers FILE_TRANSFER_PROTOCOL off the core's thread.
     ftp: FtpService,
     /// Writes the core's onboard log records off the core's thread.
     logger: Logger,
@@ -169,12 +178,18 @@ impl Edge {
         let config = HubConfig {
             sysid: core.sysid(),
             signing_dir: Some(persistence.dir().to_path_buf()),
+            key_files: Some(runner.key_files.clone()),
             sign_require_mask: core.sign_require_mask(),
         };
         let handle = runner.runtime.handle();
         let (links, channels) = hub::spawn(handle, sockets, config).map_err(|e| format!("MAVLink links: {e}"))?;
-        let ftp = FtpService::start(persistence.dir(), channels.outbound.clone());
-        let logger = Logger::start(persistence.dir(), channels.outbound.clone(), channels.backlog.clone());
+        let ftp = FtpService::start(&runner.ftp, persistence.dir(), channels.outbound.clone());
+        let logger = Logger::on(
+            &runner.log,
+            persistence.dir(),
+            channels.outbound.clone(),
+            channels.backlog.clone(),
+        );
         Ok(Edge {
             mqtt: mqtt.map(|config| MqttLink::spawn(handle, config)),
             origin: runner.origin,

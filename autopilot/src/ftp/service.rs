@@ -1,11 +1,12 @@
-//! The FTP worker: a thread of its own that answers FILE_TRANSFER_PROTOCOL
-//! requests straight onto the links, so file I/O never runs on the core's
-//! thread. The runners hand it each batch of link messages
-//! ([`FtpService::offer`]); the core ignores FTP messages.
+//! The FTP worker: a thread off the core's that answers
+//! FILE_TRANSFER_PROTOCOL requests straight onto the links, so file I/O
+//! never runs on the core's thread. The runners hand it each batch of link
+//! messages ([`FtpService::offer`]); the core ignores FTP messages. A
+//! fleet's vehicles share one such thread ([`FtpThread`]), each with its
+//! own files and clients.
 
 use std::collections::HashMap;
 use std::path::Path;
-use std::sync::mpsc;
 
 use mavlink::dialects::ardupilotmega::{FILE_TRANSFER_PROTOCOL_DATA, MavMessage};
 
@@ -13,12 +14,13 @@ use super::disk::{DataFiles, Handle, PARAM_DIR};
 use super::param_pack;
 use super::server::Server;
 use super::wire::{FtpError, Opcode, Payload};
+use crate::shared_thread::{Client, Session, SharedThread};
 use crate::vehicle::{Core, Destination, Inbound, LinkId, Outbound};
 
 /// MAV_COMP_ID_AUTOPILOT1: the component that serves FTP.
 const AUTOPILOT_COMPONENT: u8 = 1;
 
-struct Job {
+pub struct Job {
     link: LinkId,
     client: (u8, u8),
     request: Result<Payload, Payload>,
@@ -26,23 +28,34 @@ struct Job {
     param_pack: Option<(bool, Vec<u8>)>,
 }
 
-/// The handle the runners keep; dropping it stops the worker.
+/// The thread that serves FTP (one per process: a fleet's vehicles share it).
+pub type FtpThread = SharedThread<VehicleFiles>;
+
+/// Starts the FTP thread.
+pub fn start_thread() -> std::io::Result<FtpThread> {
+    SharedThread::start("ftp")
+}
+
+/// The handle the runners keep; dropping it ends this vehicle's session.
 pub struct FtpService {
-    jobs: mpsc::Sender<Job>,
+    jobs: Client<VehicleFiles>,
 }
 
 impl FtpService {
-    /// Serves `data_dir` (and its `logs/` as `@LOGS/`), replying through
-    /// `outbound`.
-    pub fn start(data_dir: &Path, outbound: tokio::sync::mpsc::Sender<Outbound>) -> FtpService {
+    /// Serves `data_dir` (and its `logs/` as `@LOGS/`) on `thread`, replying
+    /// through `outbound`.
+    pub fn start(thread: &FtpThread, data_dir: &Path, outbound: tokio::sync::mpsc::Sender<Outbound>) -> FtpService {
         let mut files = DataFiles::new(data_dir);
         files.mount("LOGS", data_dir.join("logs"));
-        let (jobs, rx) = mpsc::channel();
-        std::thread::Builder::new()
-            .name("ftp".into())
-            .spawn(move || serve(files, &rx, &outbound))
-            .expect("spawn ftp thread");
-        FtpService { jobs }
+        let session = VehicleFiles {
+            files,
+            clients: HashMap::new(),
+            replies: Vec::new(),
+            outbound: Some(outbound),
+        };
+        FtpService {
+            jobs: thread.client(session),
+        }
     }
 
     /// Passes the FTP requests among `messages` addressed to this vehicle to
@@ -73,28 +86,41 @@ impl FtpService {
                 request,
                 param_pack,
             };
-            if self.jobs.send(job).is_err() {
+            if !self.jobs.send(job) {
                 tracing::warn!("FTP worker gone: request dropped");
             }
         }
     }
 }
 
-fn serve(mut files: DataFiles, jobs: &mpsc::Receiver<Job>, outbound: &tokio::sync::mpsc::Sender<Outbound>) {
-    let mut clients: HashMap<(LinkId, u8, u8), Server<Handle>> = HashMap::new();
-    let mut replies = Vec::new();
-    while let Ok(job) = jobs.recv() {
+/// One vehicle's files, its FTP clients and where its replies go.
+pub struct VehicleFiles {
+    files: DataFiles,
+    clients: HashMap<(LinkId, u8, u8), Server<Handle>>,
+    replies: Vec<Payload>,
+    /// `None` once the links have gone: requests are then dropped.
+    outbound: Option<tokio::sync::mpsc::Sender<Outbound>>,
+}
+
+impl Session for VehicleFiles {
+    type Job = Job;
+
+    fn handle(&mut self, job: Job) {
+        let Some(outbound) = &self.outbound else {
+            return;
+        };
         if let Some((with_defaults, bytes)) = job.param_pack {
-            files.set_param_pack(with_defaults, bytes);
+            self.files.set_param_pack(with_defaults, bytes);
         }
-        replies.clear();
+        self.replies.clear();
         match &job.request {
-            Ok(req) => clients
+            Ok(req) => self
+                .clients
                 .entry((job.link, job.client.0, job.client.1))
                 .or_default()
-                .handle(&mut files, req, &mut replies),
+                .handle(&mut self.files, req, &mut self.replies),
             // A size past the payload: said so, nothing done.
-            Err(req) => replies.push(Payload {
+            Err(req) => self.replies.push(Payload {
                 seq: req.seq.wrapping_add(1),
                 session: req.session,
                 opcode: Opcode::Nak as u8,
@@ -104,7 +130,7 @@ fn serve(mut files: DataFiles, jobs: &mpsc::Receiver<Job>, outbound: &tokio::syn
                 data: vec![FtpError::InvalidDataSize as u8],
             }),
         }
-        for reply in replies.drain(..) {
+        for reply in self.replies.drain(..) {
             let message = MavMessage::FILE_TRANSFER_PROTOCOL(FILE_TRANSFER_PROTOCOL_DATA {
                 target_network: 0,
                 target_system: job.client.0,
@@ -112,15 +138,20 @@ fn serve(mut files: DataFiles, jobs: &mpsc::Receiver<Job>, outbound: &tokio::syn
                 payload: reply.encode(),
             });
             // Waiting here is the worker's back-pressure, never the core's.
-            if outbound
-                .blocking_send(Outbound {
-                    dest: Destination::Link(job.link),
-                    message,
-                })
-                .is_err()
-            {
+            let sent = outbound.blocking_send(Outbound {
+                dest: Destination::Link(job.link),
+                message,
+            });
+            if sent.is_err() {
+                self.outbound = None;
                 return;
             }
         }
     }
+
+    fn pass(&mut self) -> Option<std::time::Duration> {
+        None
+    }
+
+    fn close(&mut self) {}
 }

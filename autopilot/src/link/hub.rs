@@ -48,7 +48,7 @@ use super::sign_policy::{Admission, DropReason, LinkSecurity, admit, makes_peer}
 use super::signing::{KeyChange, SecretKey, SigningState, TimestampSaver, Verdict};
 use super::sockets::{BoundAddresses, LinkSocket, LinkSockets};
 use super::tlog::TlogRecord;
-use crate::storage::signing_key::{self, KeyFileWriter, StoredSigning};
+use crate::storage::signing_key::{self, KeyFileThread, KeyFileWriter, StoredSigning};
 use crate::vehicle::{COMPONENT_ID, Destination, Inbound, LinkEvent, LinkId, Outbound, PeerId, UndecodableItem};
 
 /// Messages queued per link before new ones are dropped.
@@ -305,6 +305,9 @@ pub struct HubConfig {
     /// Where the signing key is kept (the data directory). `None`: no key
     /// is loaded and a new one lasts until exit.
     pub signing_dir: Option<PathBuf>,
+    /// The thread that writes the key file (a fleet's vehicles share one);
+    /// `None`: a thread of its own.
+    pub key_files: Option<KeyFileThread>,
     /// `SIGN_REQUIRE` at start; [`LinkRuntime::set_sign_require_mask`]
     /// follows changes.
     pub sign_require_mask: u8,
@@ -373,7 +376,11 @@ pub fn spawn(runtime: &Handle, sockets: LinkSockets, config: HubConfig) -> io::R
     let (core_tx, core_rx) = mpsc::channel::<ToCore>(CORE_QUEUE);
     let (out_tx, out_rx) = mpsc::channel::<Outbound>(CORE_QUEUE);
     let signing = load_signing(config.signing_dir.as_deref(), wall_clock());
-    let key_writer = config.signing_dir.clone().map(KeyFileWriter::start).transpose()?;
+    let key_writer = match (config.signing_dir.clone(), &config.key_files) {
+        (Some(dir), Some(thread)) => Some(KeyFileWriter::on(thread, dir)),
+        (Some(dir), None) => Some(KeyFileWriter::start(dir)?),
+        (None, _) => None,
+    };
     let sign_require = Arc::new(AtomicU8::new(config.sign_require_mask));
     let LinkSockets { links, tlog, bound } = sockets;
     let tlog = tlog.map(|(tx, task)| {
@@ -1146,6 +1153,7 @@ mod tests {
             sysid: 1,
             sign_require_mask,
             signing_dir,
+            key_files: None,
         };
         let (links, channels) = spawn(runtime.handle(), sockets, config).expect("links start");
         (

@@ -1,5 +1,6 @@
 //! The log's edge: a thread that writes the core's records to `logs/` and
-//! serves downloads. The core's side only ever `try_send`s into a bounded
+//! serves downloads (a fleet's vehicles share one, [`LogThread`], each with
+//! its own files and queue). The core's side only ever `try_send`s into a bounded
 //! queue: when the disk falls behind, commands are dropped and counted, and
 //! the core never waits. A download reads ahead only while the links'
 //! backlog of bulk replies is short: it goes at the link's pace.
@@ -13,9 +14,7 @@
 use std::io::{BufWriter, Write};
 use std::path::Path;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError};
-use std::thread::JoinHandle;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use tokio::sync::mpsc::Sender;
@@ -26,9 +25,11 @@ use super::protocol::{Action, LogTransfer};
 use super::store::LogStore;
 use super::{FileLimits, LogCommand};
 use crate::link::hub::BulkBacklog;
+use crate::shared_thread::{Client, Session, SharedThread};
 use crate::vehicle::{Destination, Outbound};
 
-/// Commands queued for the thread: about a minute of record batches.
+/// Commands queued for the thread per vehicle: about a minute of record
+/// batches.
 const QUEUE: usize = 256;
 /// Records are held at most this long before they go to the thread …
 const BATCH_AGE: Duration = Duration::from_millis(250);
@@ -45,39 +46,70 @@ const DOWNLOAD_PASS: Duration = Duration::from_millis(2);
 /// file being written, a crash).
 const FLUSH_EVERY: Duration = Duration::from_secs(1);
 
+/// The thread that writes onboard logs (one per process: a fleet's
+/// vehicles share it).
+pub type LogThread = SharedThread<VehicleLog>;
+
+/// Starts the onboard log's thread.
+pub fn start_thread() -> std::io::Result<LogThread> {
+    SharedThread::start("log")
+}
+
 /// The handle the runner keeps: hands commands over and counts drops.
 pub struct Logger {
-    tx: Option<SyncSender<LogCommand>>,
+    client: Option<Client<VehicleLog>>,
+    /// Commands handed over and not yet taken by the thread (at most
+    /// [`QUEUE`]).
+    queued: Arc<AtomicUsize>,
     /// Records not yet handed over, and how many commands they came in.
     batch: Vec<u8>,
     batch_commands: u64,
     batch_started: Instant,
     dropped: u64,
     written_bytes: Arc<AtomicU64>,
-    thread: Option<JoinHandle<()>>,
 }
 
 impl Logger {
-    /// Starts the thread for the data directory at `data_dir`; replies to
-    /// downloads go to `outbound`, paced by the links' `backlog`.
+    /// Starts a thread of its own for the data directory at `data_dir`;
+    /// replies to downloads go to `outbound`, paced by the links' `backlog`.
     pub fn start(data_dir: &Path, outbound: Sender<Outbound>, backlog: BulkBacklog) -> Logger {
-        let (tx, rx) = std::sync::mpsc::sync_channel(QUEUE);
+        match start_thread() {
+            Ok(thread) => Logger::on(&thread, data_dir, outbound, backlog),
+            Err(e) => {
+                tracing::error!("onboard log thread: {e}; not logging");
+                Logger::with_client(None, Arc::default(), Arc::default())
+            }
+        }
+    }
+
+    /// As [`Logger::start`], on `thread`.
+    pub fn on(thread: &LogThread, data_dir: &Path, outbound: Sender<Outbound>, backlog: BulkBacklog) -> Logger {
         let store = LogStore::new(data_dir);
         let written_bytes = Arc::new(AtomicU64::new(0));
-        let written = written_bytes.clone();
-        let thread = std::thread::Builder::new()
-            .name("log".into())
-            .spawn(move || run(rx, store, Replies { outbound, backlog }, &written))
-            .map_err(|e| tracing::error!("onboard log thread: {e}; not logging"))
-            .ok();
+        let queued = Arc::new(AtomicUsize::new(0));
+        let session = VehicleLog {
+            writer: Writer {
+                store,
+                open: None,
+                last_flush: Instant::now(),
+                written: written_bytes.clone(),
+            },
+            transfer: LogTransfer::default(),
+            replies: Replies { outbound, backlog },
+            queued: queued.clone(),
+        };
+        Logger::with_client(Some(thread.client(session)), queued, written_bytes)
+    }
+
+    fn with_client(client: Option<Client<VehicleLog>>, queued: Arc<AtomicUsize>, written: Arc<AtomicU64>) -> Logger {
         Logger {
-            tx: thread.is_some().then_some(tx),
+            client,
+            queued,
             batch: Vec::new(),
             batch_commands: 0,
             batch_started: Instant::now(),
             dropped: 0,
-            written_bytes,
-            thread,
+            written_bytes: written,
         }
     }
 
@@ -85,7 +117,7 @@ impl Logger {
     /// is dropped and counted. Records join the batch; any other command
     /// first sends the batch, so the thread sees everything in order.
     pub fn send(&mut self, commands: &mut Vec<LogCommand>) {
-        if self.tx.is_none() {
+        if self.client.is_none() {
             commands.clear();
             return;
         }
@@ -127,12 +159,19 @@ impl Logger {
 
     /// `command`, standing for `merged` of the core's commands.
     fn hand_over(&mut self, command: LogCommand, merged: u64) {
-        let Some(tx) = &self.tx else {
+        let Some(client) = &self.client else {
             return;
         };
-        match tx.try_send(command) {
-            Ok(()) => {}
-            Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => self.dropped += merged,
+        // The thread takes one off as it takes each command.
+        let room = self
+            .queued
+            .fetch_update(Ordering::AcqRel, Ordering::Acquire, |n| (n < QUEUE).then_some(n + 1))
+            .is_ok();
+        if !room {
+            self.dropped += merged;
+        } else if !client.send(command) {
+            self.queued.fetch_sub(1, Ordering::AcqRel);
+            self.dropped += merged;
         }
     }
 
@@ -148,13 +187,10 @@ impl Logger {
 }
 
 impl Drop for Logger {
-    /// Closes the queue and waits for the thread to write what it holds.
+    /// Ends its session and waits for the thread to write what it holds.
     fn drop(&mut self) {
         self.send_batch();
-        self.tx.take();
-        if let Some(thread) = self.thread.take() {
-            let _ = thread.join();
-        }
+        self.client.take();
     }
 }
 
@@ -166,14 +202,14 @@ struct OpenLog {
     limits: FileLimits,
 }
 
-struct Writer<'a> {
+struct Writer {
     store: LogStore,
     open: Option<OpenLog>,
     last_flush: Instant,
-    written: &'a AtomicU64,
+    written: Arc<AtomicU64>,
 }
 
-impl Writer<'_> {
+impl Writer {
     fn open(&mut self, limits: FileLimits) {
         self.close();
         match self.store.create_next(limits.max_files) {
@@ -231,46 +267,55 @@ struct Replies {
     backlog: BulkBacklog,
 }
 
-fn run(rx: Receiver<LogCommand>, store: LogStore, replies: Replies, written: &AtomicU64) {
-    let mut writer = Writer {
-        store: store.clone(),
-        open: None,
-        last_flush: Instant::now(),
-        written,
-    };
-    let mut transfer = LogTransfer::default();
-    loop {
-        let wait = if transfer.busy() { DOWNLOAD_PASS } else { FLUSH_EVERY };
-        let first = match rx.recv_timeout(wait) {
-            Ok(command) => Some(command),
-            Err(RecvTimeoutError::Timeout) => None,
-            Err(RecvTimeoutError::Disconnected) => break,
-        };
-        for command in first.into_iter().chain(rx.try_iter()) {
-            match command {
-                LogCommand::Open(limits) => writer.open(limits),
-                LogCommand::Records(bytes) => writer.write(&bytes),
-                LogCommand::Close => writer.close(),
-                LogCommand::LinkClosed(link) => transfer.link_closed(link),
-                LogCommand::Request { link, message } => {
-                    // A download sees everything written so far.
-                    writer.flush();
-                    let logs: Vec<_> = store.list().iter().map(|l| l.info()).collect();
-                    for action in transfer.handle(link, &message, &logs) {
-                        match action {
-                            Action::Send(link, message) => send(&replies.outbound, link, *message),
-                            Action::EraseAll => erase(&store, writer.open.as_ref().map(|l| l.number)),
-                        }
+/// One vehicle's onboard log on the log thread.
+pub struct VehicleLog {
+    writer: Writer,
+    transfer: LogTransfer,
+    replies: Replies,
+    queued: Arc<AtomicUsize>,
+}
+
+impl Session for VehicleLog {
+    type Job = LogCommand;
+
+    fn handle(&mut self, command: LogCommand) {
+        self.queued.fetch_sub(1, Ordering::AcqRel);
+        let writer = &mut self.writer;
+        match command {
+            LogCommand::Open(limits) => writer.open(limits),
+            LogCommand::Records(bytes) => writer.write(&bytes),
+            LogCommand::Close => writer.close(),
+            LogCommand::LinkClosed(link) => self.transfer.link_closed(link),
+            LogCommand::Request { link, message } => {
+                // A download sees everything written so far.
+                writer.flush();
+                let store = &writer.store;
+                let logs: Vec<_> = store.list().iter().map(|l| l.info()).collect();
+                for action in self.transfer.handle(link, &message, &logs) {
+                    match action {
+                        Action::Send(link, message) => send(&self.replies.outbound, link, *message),
+                        Action::EraseAll => erase(store, writer.open.as_ref().map(|l| l.number)),
                     }
                 }
             }
         }
-        if writer.last_flush.elapsed() >= FLUSH_EVERY {
-            writer.flush();
-        }
-        pump(&mut transfer, &store, &replies);
     }
-    writer.close();
+
+    fn pass(&mut self) -> Option<Duration> {
+        if self.writer.last_flush.elapsed() >= FLUSH_EVERY {
+            self.writer.flush();
+        }
+        pump(&mut self.transfer, &self.writer.store, &self.replies);
+        Some(if self.transfer.busy() {
+            DOWNLOAD_PASS
+        } else {
+            FLUSH_EVERY.saturating_sub(self.writer.last_flush.elapsed())
+        })
+    }
+
+    fn close(&mut self) {
+        self.writer.close();
+    }
 }
 
 fn send(

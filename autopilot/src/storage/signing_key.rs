@@ -4,17 +4,18 @@
 //! directory), so a crash leaves the old file or the new one. The key goes
 //! nowhere else: not to parameters, logs or tlogs.
 //!
-//! Writes happen on a thread of their own ([`KeyFileWriter`]) so the link
-//! hub never waits for a disk.
+//! Writes happen off the link hub's thread ([`KeyFileWriter`], on a
+//! [`KeyFileThread`] a fleet's vehicles share) so the hub never waits for a
+//! disk.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, Write};
 use std::os::unix::fs::{OpenOptionsExt, PermissionsExt};
 use std::path::{Path, PathBuf};
-use std::sync::mpsc;
-use std::thread::JoinHandle;
+use std::time::Duration;
 
 use crate::link::signing::{KEY_LEN, SecretKey};
+use crate::shared_thread::{Client, Session, SharedThread};
 
 pub const KEY_FILE: &str = "signing.key";
 const OWNER_ONLY: u32 = 0o600;
@@ -135,63 +136,85 @@ pub fn remove(dir: &Path) -> io::Result<()> {
     }
 }
 
-enum Request {
+pub enum Request {
     Save(StoredSigning),
     Remove,
 }
 
-/// Saves and removals on a thread of their own, newest first: a burst of
+/// The thread that writes key files (one per process: a fleet's vehicles
+/// share it).
+pub type KeyFileThread = SharedThread<KeyFile>;
+
+/// Starts the key files' thread.
+pub fn start_thread() -> io::Result<KeyFileThread> {
+    SharedThread::start("signing key writer")
+}
+
+/// One data directory's key file on the thread: the newest request of a
+/// burst is the one written.
+pub struct KeyFile {
+    dir: PathBuf,
+    pending: Option<Request>,
+}
+
+impl KeyFile {
+    fn write_pending(&mut self) {
+        let Some(request) = self.pending.take() else {
+            return;
+        };
+        let result = match &request {
+            Request::Save(stored) => save(&self.dir, stored),
+            Request::Remove => remove(&self.dir),
+        };
+        if let Err(e) = result {
+            tracing::error!("signing key file {}: {e}", path(&self.dir).display());
+        }
+    }
+}
+
+impl Session for KeyFile {
+    type Job = Request;
+
+    fn handle(&mut self, request: Request) {
+        self.pending = Some(request);
+    }
+
+    fn pass(&mut self) -> Option<Duration> {
+        self.write_pending();
+        None
+    }
+
+    fn close(&mut self) {
+        self.write_pending();
+    }
+}
+
+/// Saves and removals off the caller's thread, newest first: a burst of
 /// requests becomes one write of the last. Dropping it finishes what is
 /// pending.
 pub struct KeyFileWriter {
-    tx: Option<mpsc::Sender<Request>>,
-    thread: Option<JoinHandle<()>>,
+    client: Client<KeyFile>,
 }
 
 impl KeyFileWriter {
+    /// A writer on a thread of its own.
     pub fn start(dir: PathBuf) -> io::Result<KeyFileWriter> {
-        let (tx, rx) = mpsc::channel::<Request>();
-        let thread = std::thread::Builder::new()
-            .name("signing key writer".into())
-            .spawn(move || {
-                while let Ok(mut request) = rx.recv() {
-                    while let Ok(newer) = rx.try_recv() {
-                        request = newer;
-                    }
-                    let result = match &request {
-                        Request::Save(stored) => save(&dir, stored),
-                        Request::Remove => remove(&dir),
-                    };
-                    if let Err(e) = result {
-                        tracing::error!("signing key file {}: {e}", path(&dir).display());
-                    }
-                }
-            })?;
-        Ok(KeyFileWriter {
-            tx: Some(tx),
-            thread: Some(thread),
-        })
+        Ok(KeyFileWriter::on(&start_thread()?, dir))
+    }
+
+    /// A writer for the key file in `dir`, on `thread`.
+    pub fn on(thread: &KeyFileThread, dir: PathBuf) -> KeyFileWriter {
+        KeyFileWriter {
+            client: thread.client(KeyFile { dir, pending: None }),
+        }
     }
 
     pub fn save(&self, stored: StoredSigning) {
-        if let Some(tx) = &self.tx {
-            let _ = tx.send(Request::Save(stored));
-        }
+        self.client.send(Request::Save(stored));
     }
 
     pub fn remove(&self) {
-        if let Some(tx) = &self.tx {
-            let _ = tx.send(Request::Remove);
-        }
-    }
-}
-
-impl Drop for KeyFileWriter {
-    fn drop(&mut self) {
-        self.tx.take();
-        if let Some(thread) = self.thread.take() {
-            let _ = thread.join();
-        }
+        self.client.send(Request::Remove);
     }
 }
 
