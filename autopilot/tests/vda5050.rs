@@ -686,3 +686,35 @@ fn the_state_of_the_tick_an_order_starts_in_says_driving() {
     assert!(state.driving, "{state:?}");
     assert_eq!(state.operating_mode, OperatingMode::Automatic);
 }
+
+#[test]
+fn a_node_is_named_in_the_state_of_the_tick_whose_pose_first_puts_it_within_its_deviation() {
+    let mut f = Fleet::new();
+    let nodes = [
+        N("a", 0.0, 0.0, true, None),
+        N("b", 0.0, 10.0, true, None),
+        N("c", 0.0, 20.0, true, None),
+    ];
+    f.send_order("tick", 0, 0, &nodes, &[]);
+    let b = (f.origin.0, f.origin.1 + 10.0);
+    let (mut within_tick, mut named_tick) = (None, None);
+    for tick in 0..3000 {
+        f.step();
+        // The pose the tick ended with, by the agent's rule: the estimate's
+        // distance plus its 95 % radius within the deviation.
+        let estimate = f.h.sim.core().estimator().estimate();
+        let distance_m = (estimate.position.east_m - b.0).hypot(estimate.position.north_m - b.1);
+        if within_tick.is_none() && distance_m + 1.731 * estimate.horiz_sigma_m <= ALLOWED_DEVIATION_XY_M {
+            within_tick = Some(tick);
+        }
+        if named_tick.is_none() && f.last().last_node_id == "b" {
+            named_tick = Some(tick);
+            break;
+        }
+    }
+    assert!(within_tick.is_some(), "the estimate never came within b's deviation");
+    assert_eq!(
+        named_tick, within_tick,
+        "b named in another tick than the one its pose came within"
+    );
+}

@@ -321,6 +321,15 @@ impl Agent {
         self.command(view)
     }
 
+    /// Judges the nodes again with the pose the tick ended with, before
+    /// its messages are scheduled: a node the estimate has just reached is
+    /// in this tick's `state`, not the next one's (the pose
+    /// [`Self::advance`] sees is the one before the tick's sensors). What
+    /// it changes drives the next tick's command, as before.
+    pub fn traverse(&mut self, view: &VehicleView) {
+        self.traverse_nodes(view);
+    }
+
     fn command(&self, view: &VehicleView) -> Command {
         let in_charge = view.operating_mode == OperatingMode::Automatic;
         if self.paused || !in_charge {

@@ -228,10 +228,19 @@ impl Core {
         let Some(remote_stop) = self.fleet.as_ref().map(|f| f.remote_stop) else {
             return;
         };
-        let view = self.fleet_view(false, remote_stop);
+        let mut view = self.fleet_view(false, remote_stop);
+        // The tick's own pose: a node reached now goes out in this state.
+        let judge = self.fleet_drives();
+        if judge {
+            view.fix = self.fleet_fix();
+            view.pose = view.fix.map(|f| f.pose);
+        }
         let Some(fleet) = self.fleet.as_mut() else {
             return;
         };
+        if judge {
+            fleet.agent.traverse(&view);
+        }
         fleet.agent.schedule_messages(&view);
         let publish = fleet.agent.take_publish();
         if !publish.is_empty() {

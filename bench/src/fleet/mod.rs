@@ -233,6 +233,7 @@ impl Bench<'_> {
             &format!(" with ATC_DRV_LAG={LEAD_S} (the throttle leads the ramp by the drive's lag)"),
         );
         print_nodes(&measured.nodes);
+        print_stop_approach(&measured.stop_approaches, &measured.coverage);
         print_standing(&measured.standing);
         Ok(())
     }
@@ -420,6 +421,63 @@ fn print_nodes(nodes: &[start::NodeReach]) {
             }
         );
     }
+}
+
+/// Where a stop node's time goes, and whether the bounds it waits for are
+/// true 95 % bounds.
+fn print_stop_approach(approaches: &[start::StopApproach], coverage: &start::Coverage) {
+    let of = |f: fn(&start::StopApproach) -> f64| approaches.iter().map(f).collect::<Vec<f64>>();
+    println!(
+        "the stop node at the truth's first tick within its deviation, {} stops (median / max):",
+        approaches.len()
+    );
+    println!(
+        "  true speed (cm/s)                          {}",
+        median_max(&of(|a| 100.0 * a.speed_at_truth_mps))
+    );
+    println!(
+        "  estimate's 95 % radius (1.731 sigma, cm)   {}",
+        median_max(&of(|a| 100.0 * a.bound_at_truth_m))
+    );
+    println!(
+        "  estimate's true error (cm)                 {}",
+        median_max(&of(|a| 100.0 * a.error_at_truth_m))
+    );
+    println!(
+        "  heading's bound (1.96 sigma, mrad)         {}",
+        median_max(&of(|a| 1e3 * a.yaw_bound_at_truth_rad))
+    );
+    println!(
+        "  -> estimate + radius within (ms)           {}",
+        median_max(&of(|a| a.position_test_ms))
+    );
+    println!(
+        "  -> estimate's heading + bound within (ms)  {}",
+        median_max(&of(|a| a.heading_test_ms))
+    );
+    println!(
+        "  of which behind the truth, toward the stop (cm)  {}",
+        median_max(&of(|a| 100.0 * a.behind_at_truth_m))
+    );
+    let ticks = coverage.ticks.max(1) as f64;
+    let bound_m = median(&of(|a| a.bound_at_truth_m)).unwrap_or(f64::NAN);
+    let speed_mps = median(&of(|a| a.speed_at_truth_mps)).unwrap_or(f64::NAN);
+    let mut ratios = coverage.error_over_bound.clone();
+    ratios.sort_by(f64::total_cmp);
+    let p95 = ratios.get(ratios.len() * 95 / 100).copied().unwrap_or(f64::NAN);
+    println!(
+        "  while moving ({} ticks of {} orders): truth within the 95 % radius {:.1} % of ticks (a calibrated bound: 95 %; true error's 95th percentile {:.2} of the radius), heading within its 1.96 sigma {:.1} %",
+        coverage.ticks,
+        approaches.len(),
+        100.0 * coverage.position_held as f64 / ticks,
+        p95,
+        100.0 * coverage.heading_held as f64 / ticks
+    );
+    println!(
+        "  (the estimate must come within the deviation less its radius: at the true speed v the truth first crosses at, that is about radius / v after it, {:.0} ms at the medians, plus the estimate's lag behind the truth / v; <= 50 ms would need v >= radius / 50 ms = {:.2} m/s here)",
+        bound_m / speed_mps * 1e3,
+        bound_m / 0.05
+    );
 }
 
 /// The stop at each order's end: the truth at rest -> `driving: false`.

@@ -20,6 +20,14 @@
 //! truth at rest there to the first `state` saying `driving: false`; one
 //! saying so while the truth still moves is a false claim too.
 //!
+//! Where a stop node's time goes is printed too: the true speed, the
+//! estimate's 95 % radius and its true error at the tick the truth comes
+//! within the deviation, and how often that radius held the truth while
+//! the vehicle moved. The agent names the node once the estimate is within
+//! the deviation less the radius, so at roll-in speed v it comes about
+//! radius / v after the truth (1.7 cm at 15 cm/s: ~114 ms); ≤ 50 ms with a
+//! true 95 % radius needs v ≥ radius / 50 ms there.
+//!
 //! A real order also waits for the next tick (up to one period) and its
 //! MQTT transit: the end-to-end figures above these say what those add.
 
@@ -87,12 +95,52 @@ pub struct Standing {
     pub false_claims: usize,
 }
 
+/// Where a stop node's time goes: the truth and the estimate at the tick
+/// the truth first comes within the stop's deviation (heading too), and
+/// when the agent's two tests (position: the estimate's distance plus its
+/// 95 % radius; heading: its error plus 1.96 σ) are first met.
+#[derive(Clone, Copy, Debug)]
+pub struct StopApproach {
+    /// The true speed when the truth comes within the deviation (m/s).
+    pub speed_at_truth_mps: f64,
+    /// The estimate's 95 % radius then (1.731 σ, m)…
+    pub bound_at_truth_m: f64,
+    /// …and its true error then (m)…
+    pub error_at_truth_m: f64,
+    /// …of which this far behind the truth on the way to the stop (the
+    /// estimate's distance to it less the truth's; negative: ahead) (m).
+    pub behind_at_truth_m: f64,
+    /// The heading's bound (1.96 σ) then (rad).
+    pub yaw_bound_at_truth_rad: f64,
+    /// From the truth within to the estimate's position test met (ms).
+    pub position_test_ms: f64,
+    /// From the truth within to the heading test met (ms).
+    pub heading_test_ms: f64,
+}
+
+/// How often the estimate's bounds held the truth while it moved (from the
+/// order's start to rest on its stop): the bound is honest when it holds
+/// about 95 % of ticks.
+#[derive(Clone, Debug, Default)]
+pub struct Coverage {
+    pub ticks: usize,
+    /// The true position within the estimate's 95 % radius.
+    pub position_held: usize,
+    /// The true heading within the estimate's 1.96 σ.
+    pub heading_held: usize,
+    /// The true error over the radius, each tick: its 95th percentile is
+    /// the share of the radius a calibrated 95 % bound would need.
+    pub error_over_bound: Vec<f64>,
+}
+
 /// What the in-process orders measured.
 #[derive(Default)]
 pub struct Measured {
     pub starts: Vec<Start>,
     pub nodes: Vec<NodeReach>,
     pub standing: Vec<Standing>,
+    pub stop_approaches: Vec<StopApproach>,
+    pub coverage: Coverage,
 }
 
 /// `orders` orders, each from rest, each of three nodes 6 m apart north of
@@ -130,10 +178,11 @@ pub fn measure(orders: usize, params: &[(String, f64)]) -> Result<Measured, Stri
         let payload = serde_json::to_vec(&order).map_err(|e| e.to_string())?;
         sim.inputs_mut().vda5050.push((vda5050::Topic::Order, payload));
         measured.starts.push(time_start(&mut sim, rest_floor_mps)?);
-        let (reached, standing) = follow_nodes(&mut sim, &nodes, 60.0)
+        let (reached, standing, approach) = follow_nodes(&mut sim, &nodes, 60.0, &mut measured.coverage)
             .ok_or_else(|| format!("order start-{k} did not finish within 60 s"))?;
         measured.nodes.extend(reached);
         measured.standing.push(standing);
+        measured.stop_approaches.extend(approach);
     }
     Ok(measured)
 }
@@ -190,7 +239,12 @@ struct Marks {
 /// Steps until the order is done and the vehicle at rest, timing each of
 /// `nodes` after the first (id, map x, map y: the map is the estimator's
 /// frame here), and the stop's `driving: false`.
-fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) -> Option<(Vec<NodeReach>, Standing)> {
+fn follow_nodes(
+    sim: &mut Simulation,
+    nodes: &[(&str, f64, f64)],
+    seconds: f64,
+    coverage: &mut Coverage,
+) -> Option<(Vec<NodeReach>, Standing, Option<StopApproach>)> {
     let frame = sim.core().estimator().frame().copied()?;
     let stop_at = nodes.len() - 1;
     let mut marks = vec![
@@ -204,6 +258,7 @@ fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) 
         nodes.len()
     ];
     let mut was_arrived = sim.core().navigator().arrived();
+    let mut approach: Option<StopApproach> = None;
     let (mut drove, mut rest_ms, mut standing_ms, mut false_standing) = (false, f64::NAN, f64::NAN, 0);
     let end = sim.time() + Duration::from_secs_f64(seconds);
     while sim.time() < end {
@@ -226,6 +281,20 @@ fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) 
         // The stop's theta is north: the truth's yaw (clockwise from north).
         let heading_fits = truth.yaw_rad.abs() <= ALLOWED_DEVIATION_THETA_RAD;
         let resting = truth.speed_mps.abs() < RESTING_MPS;
+        let (_, stop_x, stop_y) = nodes[stop_at];
+        let check = EstimateCheck::of(sim, at, truth.yaw_rad, (stop_x, stop_y));
+        if rest_ms.is_nan() && !resting {
+            check.count(coverage);
+        }
+        if let Some(a) = approach.as_mut() {
+            let since_ms = now_ms - marks[stop_at].truth_ms;
+            if check.position_test && a.position_test_ms.is_nan() {
+                a.position_test_ms = since_ms;
+            }
+            if check.heading_test && a.heading_test_ms.is_nan() {
+                a.heading_test_ms = since_ms;
+            }
+        }
         for i in 1..nodes.len() {
             let (_, x, y) = nodes[i];
             let (dx, dy) = (at.east_m - x, at.north_m - y);
@@ -233,6 +302,9 @@ fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) 
             let truly = within && (i + 1 < nodes.len() || heading_fits);
             if truly && marks[i].truth_ms.is_nan() {
                 marks[i].truth_ms = now_ms;
+                if i == stop_at {
+                    approach = Some(check.approach(truth.speed_mps.abs()));
+                }
             }
             if i == stop_at && within && resting && rest_ms.is_nan() {
                 rest_ms = now_ms;
@@ -284,7 +356,67 @@ fn follow_nodes(sim: &mut Simulation, nodes: &[(&str, f64, f64)], seconds: f64) 
         from_rest_ms: standing_ms - rest_ms,
         false_claims: false_standing,
     };
-    Some((reached, standing))
+    Some((reached, standing, approach))
+}
+
+/// The estimate against the truth this tick, and the agent's two tests of
+/// the stop node as the estimate stands.
+struct EstimateCheck {
+    error_m: f64,
+    behind_m: f64,
+    bound_m: f64,
+    yaw_error_rad: f64,
+    yaw_bound_rad: f64,
+    position_test: bool,
+    heading_test: bool,
+}
+
+impl EstimateCheck {
+    /// `at`: the truth in the estimator's frame; `true_yaw_rad` clockwise
+    /// from north, as the estimate's; `stop`: the stop node (east, north),
+    /// whose theta is north.
+    fn of(sim: &Simulation, at: autopilot::geo::Ned, true_yaw_rad: f64, stop: (f64, f64)) -> EstimateCheck {
+        let estimate = sim.core().estimator().estimate();
+        let p = estimate.position;
+        let bound_m = 1.731 * estimate.horiz_sigma_m;
+        let yaw_sigma_rad = sim
+            .core()
+            .estimator()
+            .ekf_status()
+            .map_or(f64::INFINITY, |s| s.heading_sigma_rad);
+        let yaw_bound_rad = 1.96 * yaw_sigma_rad;
+        let distance_m = (p.east_m - stop.0).hypot(p.north_m - stop.1);
+        let true_distance_m = (at.east_m - stop.0).hypot(at.north_m - stop.1);
+        EstimateCheck {
+            error_m: (p.east_m - at.east_m).hypot(p.north_m - at.north_m),
+            behind_m: distance_m - true_distance_m,
+            bound_m,
+            yaw_error_rad: autopilot::geo::wrap_pi(estimate.yaw_rad - true_yaw_rad).abs(),
+            yaw_bound_rad,
+            position_test: distance_m + bound_m <= super::ALLOWED_DEVIATION_M,
+            heading_test: autopilot::geo::wrap_pi(estimate.yaw_rad).abs() + yaw_bound_rad
+                <= ALLOWED_DEVIATION_THETA_RAD,
+        }
+    }
+
+    fn count(&self, coverage: &mut Coverage) {
+        coverage.ticks += 1;
+        coverage.position_held += usize::from(self.error_m <= self.bound_m);
+        coverage.heading_held += usize::from(self.yaw_error_rad <= self.yaw_bound_rad);
+        coverage.error_over_bound.push(self.error_m / self.bound_m);
+    }
+
+    fn approach(&self, speed_mps: f64) -> StopApproach {
+        StopApproach {
+            speed_at_truth_mps: speed_mps,
+            bound_at_truth_m: self.bound_m,
+            error_at_truth_m: self.error_m,
+            behind_at_truth_m: self.behind_m,
+            yaw_bound_at_truth_rad: self.yaw_bound_rad,
+            position_test_ms: if self.position_test { 0.0 } else { f64::NAN },
+            heading_test_ms: if self.heading_test { 0.0 } else { f64::NAN },
+        }
+    }
 }
 
 fn moves(demand: ActuatorDemand) -> bool {
