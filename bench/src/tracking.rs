@@ -18,7 +18,7 @@ use crate::plot::{self, PlotData};
 
 use autopilot::edge::clock::InstantTimer;
 use autopilot::geo::{GeoPoint, LocalFrame, Ned, wrap_pi};
-use autopilot::guidance::navigator::NavTarget;
+use autopilot::guidance::navigator::{NavTarget, Navigator};
 use autopilot::guidance::path::{LegPath, PathProjection, Piece};
 use autopilot::guidance::tracker::Direction;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
@@ -235,29 +235,13 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
         return Ok(());
     }
     let courses = load_courses(&args.courses)?;
-    let value = |name: &str| probe.table.value_of(name).unwrap_or(f64::NAN);
-    let (noise_mm, walk_mm) = (value("SIM_GPS_NOISE") * 1000.0, value("SIM_GPS_WALK") * 1000.0);
-    let (rate_hz, heading_deg) = (value("SIM_GPS_RATE"), value("SIM_HDG_NOISE"));
     std::fs::create_dir_all(&args.out_dir).map_err(|e| format!("{}: {e}", args.out_dir.display()))?;
     let models = if args.models.is_empty() {
         vec![BenchModel::Ackermann, BenchModel::Differential]
     } else {
         args.models.clone()
     };
-    println!(
-        "furrow-bench tracking: seeds 1..={}, bench vehicle {models:?}, RTK GNSS σ {noise_mm:.1} mm white + \
-         {walk_mm:.1} mm walk (τ 60 s) per axis at {rate_hz:.0} Hz, dual-antenna heading σ {heading_deg:.3}°; \
-         errors are of the true pose",
-        args.seeds
-    );
-    // The walk is a slow bias of every fix: no filter of these fixes can see
-    // it, so it alone sets how often even a perfect stop lands within 10 mm
-    // (a 2-D Gaussian of σ per axis: Rayleigh).
-    let ceiling = 1.0 - (-(10.0f64 * 10.0) / (2.0 * walk_mm * walk_mm)).exp();
-    println!(
-        "noise floor: the walk alone puts a perfectly estimated-and-controlled stop within 10 mm in {:.1} % of cases",
-        100.0 * ceiling
-    );
+    print_conditions(&probe, args.seeds, &models);
     for (course, model) in courses.iter().flat_map(|c| models.iter().map(move |m| (c, *m))) {
         let started = std::time::Instant::now();
         let runs: Vec<RunRecord> = (1..=args.seeds)
@@ -294,6 +278,27 @@ pub fn run(args: &TrackingBenchArgs) -> Result<(), String> {
         });
     }
     Ok(())
+}
+
+/// The bench's conditions, and how often the GNSS walk alone lets even a
+/// perfect stop land within 10 mm.
+fn print_conditions(probe: &SimulationParams, seeds: u64, models: &[BenchModel]) {
+    let value = |name: &str| probe.table.value_of(name).unwrap_or(f64::NAN);
+    let (noise_mm, walk_mm) = (value("SIM_GPS_NOISE") * 1000.0, value("SIM_GPS_WALK") * 1000.0);
+    let (rate_hz, heading_deg) = (value("SIM_GPS_RATE"), value("SIM_HDG_NOISE"));
+    println!(
+        "furrow-bench tracking: seeds 1..={seeds}, bench vehicle {models:?}, RTK GNSS σ {noise_mm:.1} mm white + \
+         {walk_mm:.1} mm walk (τ 60 s) per axis at {rate_hz:.0} Hz, dual-antenna heading σ {heading_deg:.3}°; \
+         errors are of the true pose"
+    );
+    // The walk is a slow bias of every fix: no filter of these fixes can see
+    // it, so it alone sets how often even a perfect stop lands within 10 mm
+    // (a 2-D Gaussian of σ per axis: Rayleigh).
+    let ceiling = 1.0 - (-(10.0f64 * 10.0) / (2.0 * walk_mm * walk_mm)).exp();
+    println!(
+        "noise floor: the walk alone puts a perfectly estimated-and-controlled stop within 10 mm in {:.1} % of cases",
+        100.0 * ceiling
+    );
 }
 
 /// The first seed's plot, and its trace with `--trace`, in the output
@@ -491,18 +496,7 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
             }
             continue;
         };
-        let key = LegKey {
-            seq: target.seq,
-            from: nav.leg_start(),
-            point: target.point,
-        };
-        let new_leg = progress.enter_leg(key, path);
-        if new_leg && keep_plot {
-            record.plot.add_leg(path);
-        }
-        if new_leg && target.stop && target.seq.is_some() {
-            progress.stop_leg = Some((target, path.clone(), SettleWatch::default()));
-        }
+        enter_leg(&mut progress, &mut record, nav, keep_plot);
         let (projection, on_arc) = progress.project(path, position);
         let error = projection.crosstrack_m;
         // Only while the vehicle drives the leg (not resting at a stop).
@@ -546,6 +540,26 @@ fn run_course(course: &Course, options: &RunOptions<'_>) -> RunRecord {
     }
     record.core_tick_overruns = sim.core().scheduler().tick_stats().overruns;
     record
+}
+
+/// Notes the leg being driven: a new one starts its piece count, its plot
+/// and, for a numbered stop, the stop's settling watch.
+fn enter_leg(progress: &mut CourseProgress, record: &mut RunRecord, nav: &Navigator, keep_plot: bool) {
+    let (Some(target), Some(path)) = (nav.target().copied(), nav.path()) else {
+        return;
+    };
+    let key = LegKey {
+        seq: target.seq,
+        from: nav.leg_start(),
+        point: target.point,
+    };
+    let new_leg = progress.enter_leg(key, path);
+    if new_leg && keep_plot {
+        record.plot.add_leg(path);
+    }
+    if new_leg && target.stop && target.seq.is_some() {
+        progress.stop_leg = Some((target, path.clone(), SettleWatch::default()));
+    }
 }
 
 /// The "Stop #n" reports among this tick's texts, each measured against the

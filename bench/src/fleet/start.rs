@@ -34,6 +34,7 @@
 use std::time::Duration;
 
 use autopilot::fleet::AgentConfig;
+use autopilot::geo::Ned;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 use autopilot::time::FrozenTimer;
 use autopilot::vehicle::FleetMessage;
@@ -236,6 +237,29 @@ struct Marks {
     false_claim: bool,
 }
 
+impl Marks {
+    const UNSEEN: Marks = Marks {
+        truth_ms: f64::NAN,
+        decision_ms: f64::NAN,
+        state_ms: f64::NAN,
+        distance_at_state_m: f64::NAN,
+        false_claim: false,
+    };
+}
+
+impl StopApproach {
+    /// The first tick each of the agent's two tests passes, `since_ms`
+    /// after the truth came within the stop's deviation.
+    fn note_tests(&mut self, check: &EstimateCheck, since_ms: f64) {
+        if check.position_test && self.position_test_ms.is_nan() {
+            self.position_test_ms = since_ms;
+        }
+        if check.heading_test && self.heading_test_ms.is_nan() {
+            self.heading_test_ms = since_ms;
+        }
+    }
+}
+
 /// Steps until the order is done and the vehicle at rest, timing each of
 /// `nodes` after the first (id, map x, map y: the map is the estimator's
 /// frame here), and the stop's `driving: false`.
@@ -247,16 +271,7 @@ fn follow_nodes(
 ) -> Option<(Vec<NodeReach>, Standing, Option<StopApproach>)> {
     let frame = sim.core().estimator().frame().copied()?;
     let stop_at = nodes.len() - 1;
-    let mut marks = vec![
-        Marks {
-            truth_ms: f64::NAN,
-            decision_ms: f64::NAN,
-            state_ms: f64::NAN,
-            distance_at_state_m: f64::NAN,
-            false_claim: false,
-        };
-        nodes.len()
-    ];
+    let mut marks = vec![Marks::UNSEEN; nodes.len()];
     let mut was_arrived = sim.core().navigator().arrived();
     let mut approach: Option<StopApproach> = None;
     let (mut drove, mut rest_ms, mut standing_ms, mut false_standing) = (false, f64::NAN, f64::NAN, 0);
@@ -287,28 +302,16 @@ fn follow_nodes(
             check.count(coverage);
         }
         if let Some(a) = approach.as_mut() {
-            let since_ms = now_ms - marks[stop_at].truth_ms;
-            if check.position_test && a.position_test_ms.is_nan() {
-                a.position_test_ms = since_ms;
-            }
-            if check.heading_test && a.heading_test_ms.is_nan() {
-                a.heading_test_ms = since_ms;
-            }
+            a.note_tests(&check, now_ms - marks[stop_at].truth_ms);
         }
-        for i in 1..nodes.len() {
-            let (_, x, y) = nodes[i];
-            let (dx, dy) = (at.east_m - x, at.north_m - y);
-            let within = dx.hypot(dy) <= super::ALLOWED_DEVIATION_M;
-            let truly = within && (i + 1 < nodes.len() || heading_fits);
-            if truly && marks[i].truth_ms.is_nan() {
-                marks[i].truth_ms = now_ms;
-                if i == stop_at {
-                    approach = Some(check.approach(truth.speed_mps.abs()));
-                }
-            }
-            if i == stop_at && within && resting && rest_ms.is_nan() {
-                rest_ms = now_ms;
-            }
+        let truth_now = TruthNow {
+            at,
+            heading_fits,
+            resting,
+            now_ms,
+        };
+        if mark_truth(&mut marks, nodes, &truth_now, &mut rest_ms) {
+            approach = Some(check.approach(truth.speed_mps.abs()));
         }
         for &(_, driving) in &states {
             drove |= driving;
@@ -319,20 +322,7 @@ fn follow_nodes(
                 }
             }
         }
-        // The leg being driven ends at the first node not yet named.
-        if let Some(i) = (1..nodes.len()).find(|&i| marks[i].state_ms.is_nan()) {
-            let (id, x, y) = nodes[i];
-            let m = &mut marks[i];
-            if arrived && !was_arrived && m.decision_ms.is_nan() {
-                m.decision_ms = now_ms;
-            }
-            if named.iter().any(|named| *named == id) {
-                m.state_ms = now_ms;
-                m.distance_at_state_m = (at.east_m - x).hypot(at.north_m - y);
-                let faces = i < stop_at || heading_fits;
-                m.false_claim = !(m.distance_at_state_m <= super::ALLOWED_DEVIATION_M && faces);
-            }
-        }
+        mark_named(&mut marks, nodes, &named, arrived && !was_arrived, &truth_now);
         was_arrived = arrived;
         let done = sim.core().fleet_agent().is_some_and(|a| !a.has_order());
         if done && truth.speed_mps.abs() < 1e-3 && !standing_ms.is_nan() {
@@ -357,6 +347,58 @@ fn follow_nodes(
         false_claims: false_standing,
     };
     Some((reached, standing, approach))
+}
+
+/// The truth on one tick, as the node marks need it.
+struct TruthNow {
+    at: Ned,
+    /// Facing the stop node's theta within its deviation.
+    heading_fits: bool,
+    resting: bool,
+    now_ms: f64,
+}
+
+/// Marks each node the truth comes within its deviation of (the last, the
+/// stop, also with the heading) and the truth's rest on the stop; true when
+/// the stop is first truly reached on this tick.
+fn mark_truth(marks: &mut [Marks], nodes: &[(&str, f64, f64)], truth: &TruthNow, rest_ms: &mut f64) -> bool {
+    let stop_at = nodes.len() - 1;
+    let mut stop_reached = false;
+    for i in 1..nodes.len() {
+        let (_, x, y) = nodes[i];
+        let (dx, dy) = (truth.at.east_m - x, truth.at.north_m - y);
+        let within = dx.hypot(dy) <= super::ALLOWED_DEVIATION_M;
+        let truly = within && (i < stop_at || truth.heading_fits);
+        if truly && marks[i].truth_ms.is_nan() {
+            marks[i].truth_ms = truth.now_ms;
+            stop_reached |= i == stop_at;
+        }
+        if i == stop_at && within && truth.resting && rest_ms.is_nan() {
+            *rest_ms = truth.now_ms;
+        }
+    }
+    stop_reached
+}
+
+/// Marks the node at the end of the leg being driven (the first not yet
+/// named): the navigator's arrival, and the state that names it with how
+/// far the truth was from it then.
+fn mark_named(marks: &mut [Marks], nodes: &[(&str, f64, f64)], named: &[&String], arrived_now: bool, truth: &TruthNow) {
+    let stop_at = nodes.len() - 1;
+    let Some(i) = (1..nodes.len()).find(|&i| marks[i].state_ms.is_nan()) else {
+        return;
+    };
+    let (id, x, y) = nodes[i];
+    let m = &mut marks[i];
+    if arrived_now && m.decision_ms.is_nan() {
+        m.decision_ms = truth.now_ms;
+    }
+    if named.iter().any(|named| *named == id) {
+        m.state_ms = truth.now_ms;
+        m.distance_at_state_m = (truth.at.east_m - x).hypot(truth.at.north_m - y);
+        let faces = i < stop_at || truth.heading_fits;
+        m.false_claim = !(m.distance_at_state_m <= super::ALLOWED_DEVIATION_M && faces);
+    }
 }
 
 /// The estimate against the truth this tick, and the agent's two tests of
