@@ -218,7 +218,6 @@ impl SweptPath {
             } => leg_pose(path, *along_m, *reverse),
             PathAhead::Curvature { .. } | PathAhead::Pivot { .. } => *now,
         };
-        let mut bounds = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
         let mut walker = match ahead {
             PathAhead::Leg { path, .. } => Some(LegWalker::new(path)),
             PathAhead::Curvature { .. } | PathAhead::Pivot { .. } => None,
@@ -226,15 +225,9 @@ impl SweptPath {
         for i in 0..count {
             let s = i as f64 * self.ds_m;
             let sample = Sample::of(&pose_at(ahead, walker.as_mut(), now, &start, s, self.reach_m));
-            bounds = (
-                bounds.0.min(sample.north_m),
-                bounds.1.max(sample.north_m),
-                bounds.2.min(sample.east_m),
-                bounds.3.max(sample.east_m),
-            );
             self.samples.push(sample);
         }
-        self.bounds = bounds;
+        self.bounds = bounds_of(&self.samples);
     }
 
     /// Whether `p` is further than `reach` from every sampled reference
@@ -788,19 +781,26 @@ impl SweptPath {
         };
         self.step_m = self.ds_m * self.spread;
         self.samples.clear();
-        let mut bounds = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
-        for pose in poses.into_iter().take(MAX_POSES) {
-            let sample = Sample::of(&pose);
-            bounds = (
-                bounds.0.min(sample.north_m),
-                bounds.1.max(sample.north_m),
-                bounds.2.min(sample.east_m),
-                bounds.3.max(sample.east_m),
-            );
-            self.samples.push(sample);
-        }
-        self.bounds = bounds;
+        self.samples
+            .extend(poses.into_iter().take(MAX_POSES).map(|pose| Sample::of(&pose)));
+        self.bounds = bounds_of(&self.samples);
     }
+}
+
+/// The north and east extent of the sampled references: (north min, north
+/// max, east min, east max).
+fn bounds_of(samples: &[Sample]) -> (f64, f64, f64, f64) {
+    samples.iter().fold(
+        (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY),
+        |b, s| {
+            (
+                b.0.min(s.north_m),
+                b.1.max(s.north_m),
+                b.2.min(s.east_m),
+                b.3.max(s.east_m),
+            )
+        },
+    )
 }
 
 #[cfg(test)]
