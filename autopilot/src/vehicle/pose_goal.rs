@@ -436,11 +436,7 @@ impl Core {
             return None;
         }
         let tolerance = self.nav_config().stop;
-        let sigma_m = self.estimator.estimate().horiz_sigma_m;
-        let yaw_sigma_rad = self
-            .estimator
-            .ekf_status()
-            .map_or(f64::INFINITY, |s| s.heading_sigma_rad);
+        let (sigma_m, yaw_sigma_rad) = self.stop_sigmas();
         let position_sure = report.position_error_m() - CONFIRM_POSITION_SIGMAS * sigma_m > tolerance.position_m;
         let yaw_sure = report.yaw_error_rad.abs() - CONFIRM_YAW_SIGMAS * yaw_sigma_rad > tolerance.yaw_rad;
         // NaN compares false: an estimate that cannot say is not sure.
@@ -453,17 +449,23 @@ impl Core {
         })
     }
 
+    /// The estimate's position σ (m) and heading σ (rad; infinite without an
+    /// EKF status) a stop is judged with.
+    fn stop_sigmas(&self) -> (f64, f64) {
+        let yaw_sigma_rad = self
+            .estimator
+            .ekf_status()
+            .map_or(f64::INFINITY, |s| s.heading_sigma_rad);
+        (self.estimator.estimate().horiz_sigma_m, yaw_sigma_rad)
+    }
+
     /// Why a stop `error_m`, `yaw_error_rad` from its pose by the estimate
     /// cannot be claimed within tolerance: the error is past it, or the
     /// estimate's uncertainty reaches past it (a GNSS whose wander is a good
     /// part of `WP_STOP_TOL_MM`). None: confirmed.
     pub(super) fn unconfirmed_because(&self, error_m: f64, yaw_error_rad: f64) -> Option<String> {
         let tolerance = self.nav_config().stop;
-        let sigma_m = self.estimator.estimate().horiz_sigma_m;
-        let yaw_sigma_rad = self
-            .estimator
-            .ekf_status()
-            .map_or(f64::INFINITY, |s| s.heading_sigma_rad);
+        let (sigma_m, yaw_sigma_rad) = self.stop_sigmas();
         let position_bound_m = error_m + CONFIRM_POSITION_SIGMAS * sigma_m;
         let yaw_bound_rad = yaw_error_rad.abs() + CONFIRM_YAW_SIGMAS * yaw_sigma_rad;
         // False for a NaN bound: an estimate that cannot say is not sure.
