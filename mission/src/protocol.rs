@@ -28,7 +28,9 @@
 //!   (past the end: MISSION_ACK(INVALID_SEQUENCE)). Stateless reads of the
 //!   plan in force, allowed during someone else's upload. Mission item 0 is
 //!   home (ArduPilot): the current home when [`MissionProtocol::set_home`]
-//!   gave one.
+//!   gave one. They are answered by [`crate::download::Downloads`], which
+//!   [`MissionProtocol::downloads`] shares so that the link layer can
+//!   answer them too.
 //! - MISSION_CLEAR_ALL → MISSION_ACK(ACCEPTED).
 //! - MISSION_TYPE_ALL (255) anywhere, MISSION_CLEAR_ALL included:
 //!   MISSION_ACK(UNSUPPORTED), as ArduPilot answers it (no plan changes);
@@ -53,14 +55,16 @@
 // MISSION_ITEM and MISSION_REQUEST are deprecated, and must still be served.
 #![allow(deprecated)]
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use mavlink::dialects::ardupilotmega::{
-    MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_DATA, MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, MavCmd,
-    MavFrame, MavMessage, MavMissionResult, MavMissionType,
+    MISSION_ACK_DATA, MISSION_ITEM_DATA, MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, MavCmd, MavFrame, MavMessage,
+    MavMissionResult, MavMissionType,
 };
 
 use crate::command::{cmd, frame};
+use crate::download::Downloads;
 use crate::item::{MissionItem, MissionType, Plan};
 use crate::validate::{check_item, mav_cmd, mav_frame, max_items, result_text, validate_plan, xy_from_float};
 
@@ -223,8 +227,10 @@ struct Saving<L> {
 /// The mission microservice.
 #[derive(Clone, Debug)]
 pub struct MissionProtocol<L> {
-    plans: Plans,
-    home: Option<HomeItem>,
+    /// The plans in force and home. Replaced, never changed in place, so a
+    /// holder of the old value keeps a consistent one and can tell it is
+    /// old (`Arc::ptr_eq`).
+    downloads: Arc<Downloads>,
     upload: Option<Upload<L>>,
     final_ack: Option<FinalAck<L>>,
     save_first: bool,
@@ -236,7 +242,12 @@ pub struct MissionProtocol<L> {
 /// dialect lacks).
 type Arrived = Result<MissionItem, MavMissionResult>;
 
-fn ack(sender: Sender, mission_type: MavMissionType, result: MavMissionResult, opaque_id: u32) -> MavMessage {
+pub(crate) fn ack(
+    sender: Sender,
+    mission_type: MavMissionType,
+    result: MavMissionResult,
+    opaque_id: u32,
+) -> MavMessage {
     MavMessage::MISSION_ACK(MISSION_ACK_DATA {
         target_system: sender.system_id,
         target_component: sender.component_id,
@@ -396,8 +407,7 @@ pub fn inspect_unknown_mission_type(message_id: u32, payload: &[u8]) -> Option<U
 impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
     pub fn new(plans: Plans) -> Self {
         MissionProtocol {
-            plans,
-            home: None,
+            downloads: Arc::new(Downloads::new(plans, None)),
             upload: None,
             final_ack: None,
             save_first: false,
@@ -438,7 +448,7 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
         let (result, opaque_id) = match result {
             Ok(()) => {
                 let id = plan.opaque_id();
-                self.plans.set(partner.mission_type, plan);
+                self.change_downloads(|d| d.set_plan(partner.mission_type, plan));
                 events.push(MissionEvent::PlanReplaced(partner.mission_type));
                 (MavMissionResult::MAV_MISSION_ACCEPTED, id)
             }
@@ -523,17 +533,32 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
 
     /// The plans in force.
     pub fn plans(&self) -> &Plans {
-        &self.plans
+        self.downloads.plans()
+    }
+
+    /// What downloads read, to answer them elsewhere exactly as
+    /// [`MissionProtocol::handle`] does; a new value after every change of
+    /// a plan in force or of home.
+    pub fn downloads(&self) -> &Arc<Downloads> {
+        &self.downloads
+    }
+
+    fn change_downloads(&mut self, change: impl FnOnce(&mut Downloads)) {
+        let mut next = Downloads::clone(&self.downloads);
+        change(&mut next);
+        self.downloads = Arc::new(next);
     }
 
     /// The current home, returned as mission item 0 by downloads (`None`:
     /// the stored item 0 is returned).
     pub fn set_home(&mut self, home: Option<HomeItem>) {
-        self.home = home;
+        if home != self.downloads.home() {
+            self.change_downloads(|d| d.set_home(home));
+        }
     }
 
     pub fn home(&self) -> Option<HomeItem> {
-        self.home
+        self.downloads.home()
     }
 
     /// Puts a plan in force directly (e.g. a file imported while running).
@@ -541,7 +566,7 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
     /// continues and, if it completes, replaces this plan in turn.
     pub fn replace(&mut self, mission_type: MissionType, plan: Plan) {
         debug_assert!(validate_plan(mission_type, plan.items().to_vec()).is_ok());
-        self.plans.set(mission_type, plan);
+        self.change_downloads(|d| d.set_plan(mission_type, plan));
     }
 
     pub fn is_uploading(&self) -> bool {
@@ -566,27 +591,6 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
         }
     }
 
-    /// How many items a download of `mission_type` has.
-    fn download_count(&self, mission_type: MissionType) -> u16 {
-        let len = self.plans.get(mission_type).len() as u16;
-        if mission_type == MissionType::Mission && self.home.is_some() {
-            len.max(1)
-        } else {
-            len
-        }
-    }
-
-    /// The item a download returns at `seq` (< the download count).
-    fn download_item(&self, mission_type: MissionType, seq: u16) -> Option<MissionItem> {
-        if mission_type == MissionType::Mission
-            && seq == 0
-            && let Some(home) = self.home
-        {
-            return Some(home.to_item());
-        }
-        self.plans.get(mission_type).items().get(usize::from(seq)).copied()
-    }
-
     /// Handles a mission-protocol message (already known to be addressed to
     /// us). Returns false for any other message.
     pub fn handle(
@@ -608,10 +612,16 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
                 let item = item_from_float(m);
                 self.on_item(now, link, sender, m.seq, m.mission_type as u8, item, out, events);
             }
-            MavMessage::MISSION_REQUEST_LIST(m) => self.on_request_list(link, sender, m.mission_type, out),
-            MavMessage::MISSION_REQUEST_INT(m) => self.on_request(link, sender, m.seq, m.mission_type, out),
-            // Deprecated: answered with MISSION_ITEM_INT, as the XML says.
-            MavMessage::MISSION_REQUEST(m) => self.on_request(link, sender, m.seq, m.mission_type, out),
+            MavMessage::MISSION_REQUEST_LIST(_)
+            | MavMessage::MISSION_REQUEST_INT(_)
+            | MavMessage::MISSION_REQUEST(_) => {
+                if let Some(message) = self.downloads.answer(sender, message) {
+                    out.push(Outgoing {
+                        dest: Reply::Link(link),
+                        message,
+                    });
+                }
+            }
             MavMessage::MISSION_ACK(m) => self.on_ack(link, sender, m, events),
             MavMessage::MISSION_CLEAR_ALL(m) => self.on_clear(now, link, sender, m.mission_type, out, events),
             MavMessage::MISSION_WRITE_PARTIAL_LIST(m) => out.push(Outgoing {
@@ -927,40 +937,6 @@ impl<L: Copy + Ord + Eq + std::fmt::Debug> MissionProtocol<L> {
                 self.acknowledge(now, partner, Some(last_seq), result, 0, out);
             }
         }
-    }
-
-    fn on_request_list(&mut self, link: L, sender: Sender, raw_type: MavMissionType, out: &mut Vec<Outgoing<L>>) {
-        let message = match MissionType::from_mavlink(raw_type) {
-            Some(mission_type) => MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
-                count: self.download_count(mission_type),
-                target_system: sender.system_id,
-                target_component: sender.component_id,
-                mission_type: raw_type,
-                opaque_id: self.plans.get(mission_type).opaque_id(),
-            }),
-            None => ack(sender, raw_type, MavMissionResult::MAV_MISSION_UNSUPPORTED, 0),
-        };
-        out.push(Outgoing {
-            dest: Reply::Link(link),
-            message,
-        });
-    }
-
-    fn on_request(&mut self, link: L, sender: Sender, seq: u16, raw_type: MavMissionType, out: &mut Vec<Outgoing<L>>) {
-        let message = match MissionType::from_mavlink(raw_type) {
-            None => ack(sender, raw_type, MavMissionResult::MAV_MISSION_UNSUPPORTED, 0),
-            Some(mission_type) if seq >= self.download_count(mission_type) => {
-                ack(sender, raw_type, MavMissionResult::MAV_MISSION_INVALID_SEQUENCE, 0)
-            }
-            Some(mission_type) => self
-                .download_item(mission_type, seq)
-                .and_then(|item| item_message(&item, mission_type, sender))
-                .unwrap_or_else(|| ack(sender, raw_type, MavMissionResult::MAV_MISSION_ERROR, 0)),
-        };
-        out.push(Outgoing {
-            dest: Reply::Link(link),
-            message,
-        });
     }
 
     fn on_ack(&mut self, link: L, sender: Sender, m: &MISSION_ACK_DATA, events: &mut Vec<MissionEvent>) {

@@ -3,6 +3,7 @@
 
 #![allow(deprecated)] // MISSION_ITEM and MISSION_REQUEST must still be served.
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use mavlink::dialects::ardupilotmega::{
@@ -1465,4 +1466,69 @@ fn unknown_mission_types_are_found_in_undecodable_payloads() {
     // Other messages, MISSION_ACK included, are not answered.
     assert_eq!(inspect_unknown_mission_type(47, &[1, 1, 0, 7]), None);
     assert_eq!(inspect_unknown_mission_type(73, &[0; 38]), None);
+}
+
+/// The value the link layer answers downloads from answers every download
+/// request as the protocol does, and is replaced (never changed in place)
+/// exactly when a plan in force or home changes.
+#[test]
+fn the_shared_downloads_answer_as_the_protocol_and_are_replaced_on_every_change() {
+    let mut b = Bench::new();
+    let first = b.p.downloads().clone();
+    download(&mut b, 1, GCS, MissionType::Mission);
+    b.send(1, GCS, count(MissionType::Mission, 3));
+    b.send(
+        1,
+        GCS,
+        gcs_ack(MissionType::Mission, MavMissionResult::MAV_MISSION_OPERATION_CANCELLED),
+    );
+    b.p.set_home(None);
+    assert!(
+        Arc::ptr_eq(&first, b.p.downloads()),
+        "a download, a cancelled upload, the same home"
+    );
+
+    let items = mission_items(5);
+    upload(&mut b, 1, GCS, MissionType::Mission, &items);
+    let uploaded = b.p.downloads().clone();
+    assert!(!Arc::ptr_eq(&first, &uploaded));
+    assert!(first.plans().mission.is_empty(), "the old value stays as it was");
+    let mission = mav_type(MissionType::Mission);
+    let mut requests = vec![
+        request_list(mission),
+        request_list(mav_type(MissionType::Fence)),
+        request_list(MavMissionType::MAV_MISSION_TYPE_ALL),
+        request_int(mav_type(MissionType::Rally), 0),
+        MavMessage::MISSION_REQUEST(MISSION_REQUEST_DATA {
+            seq: 2,
+            target_system: 1,
+            target_component: 1,
+            mission_type: mission,
+        }),
+    ];
+    requests.extend((0..7).map(|seq| request_int(mission, seq)));
+    // Compared as printed: items hold NaN parameters, which are not `==`.
+    for request in &requests {
+        let shared = uploaded.answer(OTHER_GCS, request).expect("a download request");
+        let from_protocol = b.send(2, OTHER_GCS, request.clone());
+        assert_eq!(format!("{from_protocol:?}"), format!("{:?}", [shared]));
+    }
+    assert!(uploaded.answer(OTHER_GCS, &count(MissionType::Mission, 1)).is_none());
+
+    let home = HomeItem {
+        lat_e7: 291_331_234,
+        lon_e7: 1_196_405_678,
+        alt_m: 41.5,
+    };
+    b.p.set_home(Some(home));
+    let homed = b.p.downloads().clone();
+    assert!(!Arc::ptr_eq(&uploaded, &homed));
+    let Some(MavMessage::MISSION_ITEM_INT(item_0)) = homed.answer(GCS, &request_int(mission, 0)) else {
+        panic!("no item 0");
+    };
+    assert_eq!((item_0.x, item_0.y), (home.lat_e7, home.lon_e7));
+    b.p.set_home(Some(home));
+    assert!(Arc::ptr_eq(&homed, b.p.downloads()), "the same home again");
+    b.send(1, GCS, clear_all(mission));
+    assert!(!Arc::ptr_eq(&homed, b.p.downloads()), "a clear");
 }
