@@ -182,6 +182,20 @@ fn auto_cannot_be_entered_once_the_mission_is_cleared() {
     assert_ne!(h.sim.core().mode(), Mode::Auto, "AUTO needs a mission to enter");
 }
 
+/// While SIM_LINK_DROP cuts the link, no mission download may be answered
+/// at the link either: the core withdraws what it published for that.
+#[test]
+fn a_link_drop_withdraws_the_plans_the_link_answers_downloads_from() {
+    let mut h = Harness::new(5, ModelKind::Ackermann);
+    h.run_for(1.0);
+    assert!(h.published_downloads.is_some());
+    set(&mut h, "SIM_LINK_DROP", 2.0);
+    h.run_for(1.0);
+    assert!(h.published_downloads.is_none(), "while the link is down");
+    h.run_for(1.5);
+    assert!(h.published_downloads.is_some(), "once it is back");
+}
+
 #[test]
 fn gcs_heartbeat_loss_holds_and_never_resumes_by_itself() {
     let mut h = driving(21);

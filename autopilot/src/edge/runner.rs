@@ -5,6 +5,7 @@
 //! finished saves to the core as they come.
 
 use std::future::Future;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -15,7 +16,7 @@ use super::clock::InstantTimer;
 use super::mqtt::{MqttConfig, MqttLink};
 use super::persistence::Persistence;
 use crate::ftp::service::{self as ftp_service, FtpService, FtpThread};
-use crate::link::hub::{self, CoreChannels, HubConfig, LinkRuntime, ToCore};
+use crate::link::hub::{self, CoreChannels, HubConfig, LinkRuntime, PublishedDownloads, ToCore};
 use crate::link::sockets::LinkSockets;
 use crate::logging::edge::{self as log_edge, LogThread, Logger};
 use crate::storage::signing_key::{self, KeyFileThread};
@@ -314,6 +315,9 @@ impl Edge {
     /// Hands the core's messages to the links; returns the saves it asked
     /// for.
     pub(super) fn send(&mut self, outputs: &mut Outputs) -> Vec<SaveRequest> {
+        // Before the messages: once a ground station hears of a new plan
+        // (its MISSION_ACK), its download reads that plan.
+        self.publish_downloads(&outputs.mission_downloads);
         for out in outputs.mavlink.drain(..) {
             if let MavMessage::STATUSTEXT(t) = &out.message {
                 tracing::info!("STATUSTEXT: {}", t.text.to_str().unwrap_or("?"));
@@ -326,6 +330,20 @@ impl Edge {
             None => outputs.vda5050.clear(),
         }
         std::mem::take(&mut outputs.saves)
+    }
+
+    /// What the links answer mission downloads from, when it changed.
+    fn publish_downloads(&self, downloads: &PublishedDownloads) {
+        self.channels.downloads.send_if_modified(|published| {
+            let same = match (published.as_ref(), downloads) {
+                (Some(old), Some(new)) => Arc::ptr_eq(old, new),
+                (old, new) => old.is_none() && new.is_none(),
+            };
+            if !same {
+                published.clone_from(downloads);
+            }
+            !same
+        });
     }
 
     /// Never waits: a full queue drops and counts.

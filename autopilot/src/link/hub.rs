@@ -13,6 +13,12 @@
 //! [`super::pacing`]) are never dropped: they wait in the link's backlog
 //! and enter its queue as fast as the link drains it.
 //!
+//! Mission download requests for us are answered here, from the plans the
+//! core published ([`mission::Downloads`], docs/architecture.md §Mission
+//! downloads at the link), as the core would answer them: an item-by-item
+//! download then costs one round trip through the hub per item, not one
+//! through the core's thread.
+//!
 //! Who a link answers is the hub's too ([`super::peers`]): a UDP link
 //! sends to every address that sent it an admitted frame, never to one that
 //! merely sent a datagram. Each new ground station (a TCP client, a new UDP
@@ -37,7 +43,7 @@ use mavlink::{MavHeader, Message};
 use tokio::io::{AsyncWrite, AsyncWriteExt};
 use tokio::net::{TcpListener, UdpSocket};
 use tokio::runtime::Handle;
-use tokio::sync::{mpsc, oneshot};
+use tokio::sync::{mpsc, oneshot, watch};
 
 use super::encode::{encode_raw_command_ack, encode_raw_mission_ack, encode_v2};
 use super::frame::{FrameStats, ReceivedFrame};
@@ -49,7 +55,9 @@ use super::signing::{KeyChange, SecretKey, SigningState, TimestampSaver, Verdict
 use super::sockets::{BoundAddresses, LinkSocket, LinkSockets};
 use super::tlog::TlogRecord;
 use crate::storage::signing_key::{self, KeyFileThread, KeyFileWriter, StoredSigning};
-use crate::vehicle::{COMPONENT_ID, Destination, Inbound, LinkEvent, LinkId, Outbound, PeerId, UndecodableItem};
+use crate::vehicle::{
+    COMPONENT_ID, Destination, Inbound, LinkEvent, LinkId, Outbound, PeerId, UndecodableItem, addressed_to,
+};
 
 /// Messages queued per link before new ones are dropped.
 pub(super) const LINK_QUEUE: usize = 512;
@@ -313,11 +321,18 @@ pub struct HubConfig {
     pub sign_require_mask: u8,
 }
 
+/// What mission downloads read, as the core last published it (`None`:
+/// the core answers download requests itself).
+pub type PublishedDownloads = Option<Arc<mission::Downloads>>;
+
 /// The core thread's end of the link layer.
 pub struct CoreChannels {
     pub inbound: mpsc::Receiver<ToCore>,
     pub outbound: mpsc::Sender<Outbound>,
     pub backlog: BulkBacklog,
+    /// Publish here, before the messages sent after a change of plan or
+    /// home, what download requests are answered from.
+    pub downloads: watch::Sender<PublishedDownloads>,
 }
 
 /// The running link layer. Dropping it saves the signing timestamp and
@@ -375,6 +390,7 @@ pub fn spawn(runtime: &Handle, sockets: LinkSockets, config: HubConfig) -> io::R
     let (hub_tx, hub_rx) = mpsc::channel::<HubEvent>(1024);
     let (core_tx, core_rx) = mpsc::channel::<ToCore>(CORE_QUEUE);
     let (out_tx, out_rx) = mpsc::channel::<Outbound>(CORE_QUEUE);
+    let (downloads_tx, downloads_rx) = watch::channel(None);
     let signing = load_signing(config.signing_dir.as_deref(), wall_clock());
     let key_writer = match (config.signing_dir.clone(), &config.key_files) {
         (Some(dir), Some(thread)) => Some(KeyFileWriter::on(thread, dir)),
@@ -399,7 +415,15 @@ pub fn spawn(runtime: &Handle, sockets: LinkSockets, config: HubConfig) -> io::R
 
     let (stop_tx, stop_rx) = oneshot::channel();
     let (stopped_tx, stopped_rx) = std::sync::mpsc::channel();
-    let hub = Hub::new(config.sysid, core_tx, tlog, signing, key_writer, sign_require.clone());
+    let hub = Hub::new(
+        config.sysid,
+        core_tx,
+        tlog,
+        signing,
+        key_writer,
+        sign_require.clone(),
+        downloads_rx,
+    );
     let backlog = hub.backlog.clone();
     runtime.spawn(async move {
         hub.run(hub_rx, out_rx, stop_rx).await;
@@ -416,6 +440,7 @@ pub fn spawn(runtime: &Handle, sockets: LinkSockets, config: HubConfig) -> io::R
             inbound: core_rx,
             outbound: out_tx,
             backlog,
+            downloads: downloads_tx,
         },
     ))
 }
@@ -535,6 +560,7 @@ struct Hub {
     /// The peers' clock (monotonic).
     started: Instant,
     backlog: BulkBacklog,
+    downloads: watch::Receiver<PublishedDownloads>,
 }
 
 impl Hub {
@@ -545,6 +571,7 @@ impl Hub {
         signing: SigningState,
         key_writer: Option<KeyFileWriter>,
         sign_require: Arc<AtomicU8>,
+        downloads: watch::Receiver<PublishedDownloads>,
     ) -> Self {
         // The start timestamp (stored + margin) counts as saved only once
         // written: a crash right after start must not reuse it.
@@ -564,6 +591,7 @@ impl Hub {
             sign_require,
             started: Instant::now(),
             backlog: BulkBacklog::default(),
+            downloads,
         }
     }
 
@@ -758,6 +786,9 @@ impl Hub {
     fn deliver_to_core(&mut self, link: LinkId, frame: ReceivedFrame) {
         match frame.message {
             Ok(message) => {
+                if self.answer_download(link, &frame.header, &message) {
+                    return;
+                }
                 if matches!(message, MavMessage::PARAM_REQUEST_LIST(_)) {
                     self.restart_param_list(link);
                 }
@@ -773,6 +804,31 @@ impl Hub {
             }
             Err(_) => self.answer_undecodable(link, &frame),
         }
+    }
+
+    /// A mission download request for us, answered from the plans the core
+    /// published, exactly as the core's protocol would: true when it was
+    /// one and is answered.
+    fn answer_download(&mut self, link: LinkId, header: &MavHeader, message: &MavMessage) -> bool {
+        if !mission::Downloads::is_request(message) || !addressed_to(self.sysid, message) {
+            return false;
+        }
+        let sender = mission::Sender {
+            system_id: header.system_id as u8,
+            component_id: header.component_id,
+        };
+        let reply = match self.downloads.borrow().as_deref() {
+            Some(downloads) => downloads.answer(sender, message),
+            None => None,
+        };
+        let Some(reply) = reply else {
+            return false;
+        };
+        self.on_outbound(Outbound {
+            dest: Destination::Link(link),
+            message: reply,
+        });
+        true
     }
 
     /// A new PARAM_REQUEST_LIST restarts the list rather than queueing a
@@ -1524,6 +1580,8 @@ mod tests {
         link_queue: mpsc::Receiver<LinkFrame>,
         /// What the link's writer would report written.
         queued: QueuedBytes,
+        /// The core's end of the published downloads.
+        downloads: watch::Sender<PublishedDownloads>,
     }
 
     const LINK: LinkId = LinkId(0);
@@ -1541,7 +1599,8 @@ mod tests {
         ) -> BareHub {
             let (core_tx, core) = mpsc::channel(core_queue);
             let sign_require = Arc::new(AtomicU8::new(sign_require_mask));
-            let mut hub = Hub::new(1, core_tx, None, signing, None, sign_require);
+            let (downloads, downloads_rx) = watch::channel(None);
+            let mut hub = Hub::new(1, core_tx, None, signing, None, sign_require, downloads_rx);
             let role = LinkRole { slot: 1, secure: false };
             let (opened, link_queue, queued) = open_link(LINK, role, PeerPolicy::FirstFrame, "test".to_string(), pace);
             hub.on_event(opened).await;
@@ -1550,6 +1609,7 @@ mod tests {
                 core,
                 link_queue,
                 queued,
+                downloads,
             };
             bare.core_items();
             bare
@@ -1788,5 +1848,121 @@ mod tests {
             (drops.unsigned, drops.bad_signature, drops.replayed, drops.out_of_window),
             (1, 1, 1, 0)
         );
+    }
+
+    fn mission_request(seq: u16, target_system: u8) -> MavMessage {
+        MavMessage::MISSION_REQUEST_INT(mavlink::dialects::ardupilotmega::MISSION_REQUEST_INT_DATA {
+            seq,
+            target_system,
+            target_component: 1,
+            mission_type: mavlink::dialects::ardupilotmega::MavMissionType::MAV_MISSION_TYPE_MISSION,
+        })
+    }
+
+    /// A three-waypoint mission, published as the core would.
+    fn publish_mission(bare: &BareHub) -> mission::Plan {
+        let items = (0..3)
+            .map(|seq| mission::MissionItem {
+                seq,
+                frame: mission::command::frame::GLOBAL_RELATIVE_ALT_INT,
+                command: mission::command::cmd::NAV_WAYPOINT,
+                current: false,
+                autocontinue: true,
+                params: [0.0; 4],
+                x: 291_330_000 + i32::from(seq),
+                y: 1_196_400_000,
+                z: 0.0,
+            })
+            .collect();
+        let plan = mission::validate_plan(mission::MissionType::Mission, items).expect("valid plan");
+        let plans = mission::Plans {
+            mission: plan.clone(),
+            ..mission::Plans::default()
+        };
+        bare.downloads
+            .send_replace(Some(Arc::new(mission::Downloads::new(plans, None))));
+        plan
+    }
+
+    /// The replies the link got, decoded.
+    fn replies(bare: &mut BareHub) -> Vec<MavMessage> {
+        write_out(bare).iter().map(decoded).collect()
+    }
+
+    #[tokio::test]
+    async fn download_requests_are_answered_from_the_published_plans_and_the_rest_goes_to_the_core() {
+        let mut bare = BareHub::open(64, SigningState::start(None, 0, wall_clock()), 0).await;
+        // Nothing published yet: the core answers.
+        bare.frame(&frame_of(&mission_request(0, 1), 0));
+        assert_eq!(bare.core_items(), 1);
+        assert!(replies(&mut bare).is_empty());
+
+        let plan = publish_mission(&bare);
+        let list = MavMessage::MISSION_REQUEST_LIST(mavlink::dialects::ardupilotmega::MISSION_REQUEST_LIST_DATA {
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        });
+        bare.frame(&frame_of(&list, 1));
+        for seq in 0..4 {
+            bare.frame(&frame_of(&mission_request(seq, 1), 2));
+        }
+        assert_eq!(bare.core_items(), 0, "the hub answered them all");
+        let got = replies(&mut bare);
+        assert_eq!(got.len(), 5);
+        let MavMessage::MISSION_COUNT(count) = &got[0] else {
+            panic!("not a count: {:?}", got[0]);
+        };
+        assert_eq!((count.count, count.opaque_id), (3, plan.opaque_id()));
+        assert_eq!((count.target_system, count.target_component), (255, 190));
+        for (seq, reply) in got[1..4].iter().enumerate() {
+            let MavMessage::MISSION_ITEM_INT(item) = reply else {
+                panic!("not an item: {reply:?}");
+            };
+            assert_eq!(mission::MissionItem::from_mavlink(item), plan.items()[seq]);
+            assert_eq!((item.target_system, item.target_component), (255, 190));
+        }
+        assert!(matches!(
+            &got[4],
+            MavMessage::MISSION_ACK(a) if a.mavtype == MavMissionResult::MAV_MISSION_INVALID_SEQUENCE
+        ));
+
+        // Another vehicle's request, an upload and a withdrawn plan: not the hub's.
+        bare.frame(&frame_of(&mission_request(0, 7), 3));
+        let upload = MavMessage::MISSION_COUNT(mavlink::dialects::ardupilotmega::MISSION_COUNT_DATA {
+            count: 1,
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        });
+        bare.frame(&frame_of(&upload, 4));
+        bare.downloads.send_replace(None);
+        bare.frame(&frame_of(&mission_request(0, 1), 5));
+        assert!(replies(&mut bare).is_empty());
+        assert_eq!(bare.core_items(), 2, "the upload and the request after the withdrawal");
+    }
+
+    #[tokio::test]
+    async fn a_download_request_the_signing_policy_drops_is_not_answered() {
+        const KEY: [u8; 32] = [7; 32];
+        let signing = SigningState::start(Some(SecretKey::new(KEY)), 0, wall_clock());
+        let mut bare = BareHub::open(64, signing, 0b10).await;
+        publish_mission(&bare);
+        bare.frame(&frame_of(&mission_request(1, 1), 0));
+        assert!(
+            replies(&mut bare).is_empty(),
+            "unsigned on a link that requires signing"
+        );
+        let mut ours = SigningState::start(Some(SecretKey::new(KEY)), 0, wall_clock());
+        let signed = ours
+            .sign(&frame_of(&mission_request(1, 1), 1), 0, wall_clock())
+            .expect("signed");
+        bare.frame(&signed);
+        let got = replies(&mut bare);
+        assert!(
+            matches!(&got[..], [MavMessage::MISSION_ITEM_INT(i)] if i.seq == 1),
+            "{got:?}"
+        );
+        assert_eq!(bare.core_items(), 0);
     }
 }

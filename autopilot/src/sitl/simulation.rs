@@ -320,7 +320,7 @@ impl Simulation {
         self.stage_times.core_ns += timer.now_ns().saturating_sub(core_started_ns);
         self.recycle_inputs();
         if self.faults.link_lost(now.boot) {
-            self.outputs.mavlink.truncate(sent_before);
+            self.cut_off_links(sent_before);
         }
 
         if self.core.params().generation() != self.param_generation {
@@ -415,6 +415,13 @@ impl Simulation {
         self.inputs.undecodable_items.clear();
     }
 
+    /// Nothing the core sent from `sent_before` on reaches the links, nor
+    /// does a download request get answered at the link from its plans.
+    fn cut_off_links(&mut self, sent_before: usize) {
+        self.outputs.mavlink.truncate(sent_before);
+        self.outputs.mission_downloads = None;
+    }
+
     /// Between steps: the core answers the link traffic queued in the inputs
     /// at once (link events and messages); sensors wait for the next step.
     pub fn service_links(&mut self, wall: Duration) -> &mut Outputs {
@@ -429,7 +436,7 @@ impl Simulation {
         let sent_before = self.outputs.mavlink.len();
         self.core.service_links(wall, &self.inputs, &mut self.outputs);
         if self.faults.link_lost(now) {
-            self.outputs.mavlink.truncate(sent_before);
+            self.cut_off_links(sent_before);
         }
         self.inputs.link_events.clear();
         self.inputs.messages.clear();

@@ -152,6 +152,10 @@ pub struct Outputs {
     pub log: Vec<crate::logging::LogCommand>,
     /// VDA 5050 messages for the master control.
     pub vda5050: Vec<super::FleetMessage>,
+    /// What mission downloads read, as of this step: the link layer answers
+    /// download requests from it (docs/architecture.md §Mission downloads at
+    /// the link). `None`: none published, the core answers them.
+    pub mission_downloads: Option<std::sync::Arc<mission::Downloads>>,
 }
 
 impl Default for Outputs {
@@ -166,6 +170,7 @@ impl Default for Outputs {
             saves: Vec::new(),
             log: Vec::new(),
             vda5050: Vec::new(),
+            mission_downloads: None,
         }
     }
 }

@@ -19,15 +19,20 @@ use crate::modes::Mode;
 const RC_RELEASE: u16 = 0;
 const RC_IGNORE: u16 = u16::MAX;
 
+/// Whether a message is for the vehicle `sysid`: broadcast or addressed
+/// to its system and (any or our) component.
+pub fn addressed_to(sysid: u8, message: &MavMessage) -> bool {
+    let system_ok = message.target_system_id().is_none_or(|s| s == 0 || s == sysid);
+    let component_ok = message
+        .target_component_id()
+        .is_none_or(|c| c == 0 || c == COMPONENT_ID);
+    system_ok && component_ok
+}
+
 impl Core {
-    /// Whether a message is for this vehicle: broadcast or addressed to our
-    /// system and (any or our) component.
+    /// Whether a message is for this vehicle (see [`addressed_to`]).
     pub fn is_for_us(&self, message: &MavMessage) -> bool {
-        let system_ok = message.target_system_id().is_none_or(|s| s == 0 || s == self.sysid);
-        let component_ok = message
-            .target_component_id()
-            .is_none_or(|c| c == 0 || c == COMPONENT_ID);
-        system_ok && component_ok
+        addressed_to(self.sysid, message)
     }
 
     pub(super) fn handle_message(&mut self, inbound: &Inbound) {

@@ -52,6 +52,7 @@ pub use fleet::FleetMessage;
 pub use io::{
     Destination, Inbound, Inputs, LinkEvent, LinkId, Outbound, Outputs, PeerId, ScanInput, SimTruth, UndecodableItem,
 };
+pub use messages::addressed_to;
 pub use obstacles::ObstacleStatus;
 pub use params::CoreParams;
 pub use persistence::{SaveDone, SaveRequest, SaveWhat, Storage};
@@ -234,6 +235,7 @@ impl Core {
         self.log_tick(inputs.gnss.len());
         self.request_param_save();
         out.saves.append(&mut self.persist.take_requests());
+        out.mission_downloads = Some(self.missions.protocol.downloads().clone());
         out.mavlink.append(&mut self.outbox);
         self.onboard_log.drain_commands_into(&mut out.log);
         self.sched.record_tick(timer.now_ns().saturating_sub(tick_start));
@@ -259,6 +261,7 @@ impl Core {
         self.stream_params();
         self.request_param_save();
         out.saves.append(&mut self.persist.take_requests());
+        out.mission_downloads = Some(self.missions.protocol.downloads().clone());
         out.mavlink.append(&mut self.outbox);
         self.onboard_log.drain_commands_into(&mut out.log);
     }

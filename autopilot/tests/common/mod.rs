@@ -15,6 +15,9 @@ use mission::{MissionItem, MissionType, Plan};
 pub struct Harness {
     pub sim: Simulation,
     pub received: Vec<Outbound>,
+    /// What the link layer would answer mission downloads from after the
+    /// last step.
+    pub published_downloads: Option<std::sync::Arc<mission::Downloads>>,
     timer: FrozenTimer,
 }
 
@@ -34,6 +37,7 @@ impl Harness {
         Harness {
             sim,
             received: Vec::new(),
+            published_downloads: None,
             timer: FrozenTimer,
         }
     }
@@ -43,6 +47,7 @@ impl Harness {
         let wall = self.sim.time();
         let out = self.sim.step(wall, &mut self.timer);
         self.received.append(&mut out.mavlink);
+        self.published_downloads.clone_from(&out.mission_downloads);
     }
 
     pub fn run_for(&mut self, seconds: f64) {
