@@ -197,24 +197,49 @@ def upload_mission(m, items, mission_type=0, timeout=30):
     return None
 
 
-def download_mission(m, mission_type=0, timeout=30):
-    """Downloads a plan; returns (items, opaque_id)."""
+def download_mission(m, mission_type=0, timeout=30, counts=None):
+    """Downloads a plan item by item, as QGroundControl does (an item not
+    there within a second is requested again); returns (items, opaque_id).
+    A dict `counts` gets how many requests were sent again ("resent") and
+    how many MISSION_ITEM_INT came that were not the one asked for
+    ("unexpected": duplicates, or items nobody asked for)."""
     m.mav.mission_request_list_send(m.target_system, m.target_component, mission_type)
     count_msg = recv(m, "MISSION_COUNT", 5, lambda c: c.mission_type == mission_type)
     assert count_msg is not None, "no MISSION_COUNT"
     opaque_id = count_opaque_id(count_msg)
     items = []
+    resent = unexpected = 0
     deadline = time.time() + timeout
     for seq in range(count_msg.count):
         while True:
             m.mav.mission_request_int_send(m.target_system, m.target_component, seq, mission_type)
-            it = recv(m, "MISSION_ITEM_INT", 1, lambda i: i.seq == seq and i.mission_type == mission_type)
+            it, others = mission_item_reply(m, seq, mission_type)
+            unexpected += others
             if it is not None:
                 items.append(it)
                 break
+            resent += 1
             assert time.time() < deadline, f"item {seq} never came"
     m.mav.mission_ack_send(m.target_system, m.target_component, mavlink.MAV_MISSION_ACCEPTED, mission_type)
+    if counts is not None:
+        counts["resent"] = counts.get("resent", 0) + resent
+        counts["unexpected"] = counts.get("unexpected", 0) + unexpected
     return items, opaque_id
+
+
+def mission_item_reply(m, seq, mission_type, timeout=1):
+    """The MISSION_ITEM_INT `seq` of `mission_type` (None if it does not
+    come within `timeout`), and how many other MISSION_ITEM_INT came first."""
+    others = 0
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        it = m.recv_match(type="MISSION_ITEM_INT", blocking=True, timeout=max(0.05, deadline - time.time()))
+        if it is None:
+            continue
+        if it.seq == seq and it.mission_type == mission_type:
+            return it, others
+        others += 1
+    return None, others
 
 
 def same_item(a, b):
