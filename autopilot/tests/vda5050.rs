@@ -367,6 +367,29 @@ fn a_ground_station_switching_to_hold_pauses_the_order_until_auto() {
     assert_eq!(f.last().operating_mode, OperatingMode::Automatic);
 }
 
+/// startPause mid-pick: the state says PAUSED (validated against the
+/// schema like every message) for longer than the pick takes, and after
+/// stopPause RUNNING again until it finishes.
+#[test]
+fn a_pick_paused_mid_run_reports_paused_and_finishes_after_the_resume() {
+    let mut f = Fleet::new();
+    let nodes = [
+        N("a", 0.0, 0.0, true, None),
+        N("b", 0.0, 6.0, true, Some(("pick1", "pick"))),
+    ];
+    f.send_order("job7", 0, 0, &nodes, &[]);
+    assert!(f.run_until(60.0, |f| f.pick_status() == Some(ActionStatus::Running)));
+    f.send(Topic::InstantActions, &instant("p", "startPause"));
+    assert!(f.run_until(1.0, |f| f.pick_status() == Some(ActionStatus::Paused)));
+    assert_eq!(f.last().paused, Some(true));
+    f.run_for_seconds(5.0);
+    assert_eq!(f.pick_status(), Some(ActionStatus::Paused), "the 3 s pick waits");
+    f.send(Topic::InstantActions, &instant("r", "stopPause"));
+    assert!(f.run_until(1.0, |f| f.pick_status() == Some(ActionStatus::Running)));
+    assert!(f.run_until(4.0, |f| f.pick_status() == Some(ActionStatus::Finished)));
+    assert!(f.schemas.checked.get("state").is_some_and(|n| *n > 0));
+}
+
 impl Fleet {
     /// Runs until the vehicle drives faster than `speed_mps`.
     fn get_moving(&mut self, speed_mps: f64) {
@@ -376,6 +399,12 @@ impl Fleet {
 
     fn run_for_seconds(&mut self, seconds: f64) {
         self.run_until(seconds, |_| false);
+    }
+
+    /// pick1's status in the last state.
+    fn pick_status(&self) -> Option<ActionStatus> {
+        let states = &self.states.last()?.action_states;
+        states.iter().find(|a| a.action_id == "pick1").map(|a| a.action_status)
     }
 }
 

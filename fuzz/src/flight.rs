@@ -156,6 +156,7 @@ fn vehicle(u: &mut Unstructured) -> Result<Vehicle> {
             heading: gains(2.0),
             min_mps: 0.1,
             approach_gain_per_s: in_range(u, 0.1, 2.0)?,
+            stop_slack_m: 0.0,
             wheelbase_m,
             steer_rate_rad_s,
         },

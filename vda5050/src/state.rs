@@ -127,6 +127,9 @@ pub enum ActionStatus {
     Waiting,
     Initializing,
     Running,
+    /// Stopped by a pause (startPause or the vehicle's own), resumed as
+    /// RUNNING.
+    Paused,
     Finished,
     Failed,
 }

@@ -10,6 +10,16 @@
 //! (triggered, preparing) until the vehicle is at rest, and only then sets
 //! its output and RUNS.
 //!
+//! A pause (startPause) stops the clock of every RUNNING timed action,
+//! which reports PAUSED until stopPause resumes it as RUNNING for the time
+//! it had left (§6.11, §6.12: "All actions will be paused", a paused pick
+//! "continues" after). The standard pauses the process, so an action's
+//! output stops what it drives where stopping is possible without moving
+//! anything: a relay it switched on goes off (what it powers stops) and is
+//! switched on again at the resume; a servo pulse is a position, and any
+//! other pulse would move the mechanism while the vehicle stands still, so
+//! it holds.
+//!
 //! Pure and stepped with time in seconds.
 
 use vda5050::common::{Action, BlockingType};
@@ -72,6 +82,8 @@ struct Tracked {
     /// Its node was reached or its edge entered.
     triggered: bool,
     started_s: Option<f64>,
+    /// When a pause stopped its clock.
+    paused_s: Option<f64>,
     result: Option<String>,
 }
 
@@ -81,7 +93,10 @@ impl Tracked {
     }
 
     fn active(&self) -> bool {
-        matches!(self.status, ActionStatus::Initializing | ActionStatus::Running)
+        matches!(
+            self.status,
+            ActionStatus::Initializing | ActionStatus::Running | ActionStatus::Paused
+        )
     }
 }
 
@@ -104,6 +119,7 @@ impl ActionRunner {
             status: ActionStatus::Waiting,
             triggered: false,
             started_s: None,
+            paused_s: None,
             result: None,
         });
         self.generation += 1;
@@ -117,6 +133,7 @@ impl ActionRunner {
             status,
             triggered: true,
             started_s: None,
+            paused_s: None,
             result: Some(result),
         });
         self.generation += 1;
@@ -190,9 +207,10 @@ impl ActionRunner {
     }
 
     /// Advances the actions to `now_s`: starts what the blocking rules let
-    /// start (not while `paused`), moves INITIALIZING to RUNNING (a blocking
-    /// one only once the vehicle is `at_rest`) and sets its output, finishes
-    /// what has run its duration. Returns the outputs to set.
+    /// start and moves INITIALIZING to RUNNING (a blocking one only once
+    /// the vehicle is `at_rest`), neither while `paused`, and sets its
+    /// output, finishes what has run its duration. Returns the outputs to
+    /// set.
     pub fn step(&mut self, now_s: f64, paused: bool, at_rest: bool, mappings: &[ActionMapping]) -> Vec<ActionOutput> {
         let mut outputs = Vec::new();
         for i in 0..self.actions.len() {
@@ -200,7 +218,7 @@ impl ActionRunner {
             let tracked = &mut self.actions[i];
             let blocking = tracked.action.blocking_type != BlockingType::None;
             match tracked.status {
-                ActionStatus::Initializing if at_rest || !blocking => {
+                ActionStatus::Initializing if !paused && (at_rest || !blocking) => {
                     outputs.extend(configured.map(|m| m.output));
                     tracked.status = ActionStatus::Running;
                     tracked.started_s = Some(now_s);
@@ -222,6 +240,43 @@ impl ActionRunner {
         }
         if !paused {
             self.start_ready(mappings);
+        }
+        outputs
+    }
+
+    /// startPause: every RUNNING timed action stops its clock and reports
+    /// PAUSED. Returns the outputs to set (a relay it switched on goes off).
+    pub fn pause(&mut self, now_s: f64, mappings: &[ActionMapping]) -> Vec<ActionOutput> {
+        let mut outputs = Vec::new();
+        for tracked in &mut self.actions {
+            if tracked.status != ActionStatus::Running || tracked.started_s.is_none() {
+                continue;
+            }
+            tracked.status = ActionStatus::Paused;
+            tracked.paused_s = Some(now_s);
+            self.generation += 1;
+            if let Some(ActionOutput::Relay { relay, on: true }) =
+                mapping(mappings, &tracked.action.action_type).map(|m| m.output)
+            {
+                outputs.push(ActionOutput::Relay { relay, on: false });
+            }
+        }
+        outputs
+    }
+
+    /// stopPause: every PAUSED action RUNS again for the time it had left.
+    /// Returns the outputs to set again.
+    pub fn resume(&mut self, now_s: f64, mappings: &[ActionMapping]) -> Vec<ActionOutput> {
+        let mut outputs = Vec::new();
+        for tracked in &mut self.actions {
+            if tracked.status != ActionStatus::Paused {
+                continue;
+            }
+            let paused_for_s = now_s - tracked.paused_s.take().unwrap_or(now_s);
+            tracked.started_s = tracked.started_s.map(|s| s + paused_for_s);
+            tracked.status = ActionStatus::Running;
+            self.generation += 1;
+            outputs.extend(mapping(mappings, &tracked.action.action_type).map(|m| m.output));
         }
         outputs
     }
@@ -381,6 +436,53 @@ mod tests {
         runner.step(6.2, false, true, &maps);
         assert_eq!(runner.status("h1"), Some(ActionStatus::Finished));
         assert_eq!(runner.status("n1"), Some(ActionStatus::Initializing));
+    }
+
+    /// A pause stops the clocks of what runs (PAUSED) and starts nothing,
+    /// not even what was INITIALIZING; the resume runs each for what it
+    /// had left. A relay switched on is off while paused, a servo holds.
+    #[test]
+    fn a_pause_stops_the_clocks_of_what_runs_and_the_resume_runs_what_was_left() {
+        let mut runner = ActionRunner::default();
+        let mut maps = default_mappings();
+        let pump_on = ActionOutput::Relay { relay: 2, on: true };
+        maps.push(ActionMapping {
+            action_type: "pump".into(),
+            output: pump_on,
+            duration_s: 2.0,
+        });
+        runner.add_waiting(&action("p1", "pick", BlockingType::Soft), Scope::Node(2));
+        runner.add_waiting(&action("w1", "pump", BlockingType::Soft), Scope::Node(2));
+        runner.trigger(Scope::Node(2));
+        runner.step(0.0, false, true, &maps);
+        assert_eq!(runner.step(1.0, false, true, &maps).len(), 2, "both run from 1 s");
+        runner.add_waiting(&action("d1", "drop", BlockingType::Soft), Scope::Node(4));
+        runner.trigger(Scope::Node(4));
+        runner.step(1.5, false, true, &maps);
+        assert_eq!(runner.status("d1"), Some(ActionStatus::Initializing));
+        let generation = runner.generation;
+        assert_eq!(
+            runner.pause(2.0, &maps),
+            vec![ActionOutput::Relay { relay: 2, on: false }]
+        );
+        assert!(runner.generation > generation, "the state is sent");
+        assert!(runner.step(10.0, true, true, &maps).is_empty());
+        for id in ["p1", "w1"] {
+            assert_eq!(runner.status(id), Some(ActionStatus::Paused), "{id}");
+        }
+        assert_eq!(runner.status("d1"), Some(ActionStatus::Initializing), "not started");
+        let resumed = runner.resume(10.0, &maps);
+        assert!(resumed.contains(&pump_on), "{resumed:?}");
+        assert_eq!(runner.status("p1"), Some(ActionStatus::Running));
+        runner.step(10.9, false, true, &maps);
+        assert_eq!(runner.status("w1"), Some(ActionStatus::Running), "1 s run of 2");
+        assert_eq!(runner.status("d1"), Some(ActionStatus::Running));
+        runner.step(11.0, false, true, &maps);
+        assert_eq!(runner.status("w1"), Some(ActionStatus::Finished));
+        runner.step(11.9, false, true, &maps);
+        assert_eq!(runner.status("p1"), Some(ActionStatus::Running), "1 s run of 3");
+        runner.step(12.0, false, true, &maps);
+        assert_eq!(runner.status("p1"), Some(ActionStatus::Finished));
     }
 
     #[test]

@@ -542,7 +542,7 @@ impl Agent {
             self.watch = Watch::default();
             self.held_leg = None;
             self.actions.forget_done();
-            self.paused = false;
+            self.set_paused(false, view.boot_s);
             self.add_order_actions(0);
             if let Some(first) = self.order.last_node.clone() {
                 self.add_actions_of(&first.actions, Scope::Node(first.sequence_id));
@@ -624,11 +624,11 @@ impl Agent {
         let done = |agent: &mut Agent, status, result: &str| agent.actions.add_done(action, status, result.into());
         match action.action_type.as_str() {
             "startPause" => {
-                self.paused = true;
+                self.set_paused(true, view.boot_s);
                 done(self, ActionStatus::Finished, "paused");
             }
             "stopPause" => {
-                self.paused = false;
+                self.set_paused(false, view.boot_s);
                 done(self, ActionStatus::Finished, "resumed");
             }
             "cancelOrder" => self.cancel_order(action),
@@ -650,6 +650,21 @@ impl Agent {
             }
         }
         self.order_generation += 1;
+    }
+
+    /// Pauses (startPause) or resumes (stopPause, a new order) the vehicle
+    /// and, with it, the running actions (§6.11: PAUSED).
+    fn set_paused(&mut self, paused: bool, now_s: f64) {
+        if paused == self.paused {
+            return;
+        }
+        self.paused = paused;
+        let outputs = if paused {
+            self.actions.pause(now_s, &self.config.mappings)
+        } else {
+            self.actions.resume(now_s, &self.config.mappings)
+        };
+        self.outputs.extend(outputs);
     }
 
     /// cancelOrder (§6.6.3): stop now, fail what is left, keep the ids.

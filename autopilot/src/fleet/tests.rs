@@ -292,6 +292,48 @@ fn a_hard_node_action_holds_the_vehicle_until_it_finishes_and_reverse_edges_say_
     assert!(leg(&command).reverse, "orientation π, tangential: backwards");
 }
 
+/// startPause pauses the running pick: PAUSED, its clock stopped (a pause
+/// longer than the pick does not finish it), its servo holding; stopPause
+/// resumes it as RUNNING for the 2 s it had left, its output set again.
+#[test]
+fn a_pause_pauses_a_running_pick_and_the_resume_runs_it_for_what_it_had_left() {
+    let mut a = agent();
+    let nodes = [
+        N("a", 0.0, 0.0, true, None),
+        N("b", 10.0, 0.0, true, Some(("pick1", "pick"))),
+    ];
+    send(&mut a, Topic::Order, &order("o1", 0, 0, &nodes, &[]));
+    a.step(&view(0.0));
+    let resting = |t: f64| {
+        let mut v = at(t, 10.0, 0.0);
+        v.arrived_at = Some(2);
+        v.at_rest = true;
+        v
+    };
+    a.step(&resting(10.0));
+    a.step(&resting(11.0));
+    assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Running), "from 11 s");
+    assert_eq!(a.take_outputs().len(), 1, "the pick's servo output");
+    send(&mut a, Topic::InstantActions, &instant("p", "startPause"));
+    a.step(&resting(12.0));
+    assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Paused));
+    assert!(a.take_outputs().is_empty(), "a servo holds its position");
+    assert_eq!(a.step(&resting(20.0)), Command::Hold);
+    assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Paused), "8 s paused");
+    send(&mut a, Topic::InstantActions, &instant("r", "stopPause"));
+    a.step(&resting(20.0));
+    assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Running));
+    assert_eq!(a.take_outputs().len(), 1, "its output set again");
+    a.step(&resting(21.9));
+    assert_eq!(
+        a.actions.status("pick1"),
+        Some(ActionStatus::Running),
+        "1 s run, 1.9 s more"
+    );
+    a.step(&resting(22.0));
+    assert_eq!(a.actions.status("pick1"), Some(ActionStatus::Finished));
+}
+
 #[test]
 fn cancel_stops_at_once_and_finishes_once_the_vehicle_stands() {
     let mut a = agent();

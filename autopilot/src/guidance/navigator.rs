@@ -1245,6 +1245,7 @@ mod tests {
                 },
                 min_mps: 0.1,
                 approach_gain_per_s: 0.6,
+                stop_slack_m: 0.0,
                 wheelbase_m: 2.9,
                 steer_rate_rad_s: 30f64.to_radians(),
             },

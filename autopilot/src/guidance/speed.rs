@@ -3,6 +3,10 @@
 //! arc), by the heading error (seed 002 §4.1: a PID on the angle deviation
 //! whose output is the speed), and by a stop at the leg's end, whose final
 //! approach is a position loop that ends on the point (docs/architecture.md §Path tracking).
+//! A stop that may end farther from its point than the loop's own precision
+//! (a VDA 5050 node's `allowedDeviationXY`) runs the loop as if the point
+//! were that much farther: the vehicle rolls in faster, and the braking
+//! profile, which ends on the point, takes over for the last centimetres.
 //!
 //! Sources: docs/references.md §Seed 002.
 
@@ -25,6 +29,12 @@ pub struct SpeedConfig {
     /// Final approach to a stop: speed = gain × distance to go
     /// (`WP_APPR_GAIN`), which also backs up after an overshoot.
     pub approach_gain_per_s: f64,
+    /// How much farther from its point a stop may end than the precision
+    /// the approach loop is tuned for (the stop's tolerance less
+    /// `WP_STOP_TOL_MM`; 0 for a precision stop): the loop's distance is
+    /// offset by it. Past the point by less than this the vehicle is not
+    /// backed up.
+    pub stop_slack_m: f64,
     /// With the steering rate (`VEH_STEER_RATE`, 0 for none): how long the
     /// wheels take to turn to an arc's angle, which the arc's speed covers.
     pub wheelbase_m: f64,
@@ -142,9 +152,11 @@ pub fn scheduled_speed(
         let remaining = stop_m - inputs.along_m;
         limit(braking_limit(0.0, remaining, decel), SpeedLimit::Braking, &mut status);
         // The position loop: never below it near the stop (the heading and
-        // curvature floors do not apply), signed so an overshoot backs up,
-        // no faster than the vehicle cruises.
-        let approach = (config.approach_gain_per_s * remaining).max(-cruise);
+        // curvature floors do not apply), signed so an overshoot beyond the
+        // slack backs up, no faster than the vehicle cruises. Within the
+        // slack the braking profile is the lower and ends on the point.
+        let slack = config.stop_slack_m.max(0.0);
+        let approach = (config.approach_gain_per_s * (remaining + slack)).max(-cruise);
         if approach < status.speed_mps {
             status.speed_mps = approach;
             status.limit = SpeedLimit::Approach;
@@ -169,6 +181,7 @@ mod tests {
         },
         min_mps: 0.1,
         approach_gain_per_s: 1.0,
+        stop_slack_m: 0.0,
         wheelbase_m: 2.0,
         steer_rate_rad_s: 0.0,
     };
@@ -217,6 +230,44 @@ mod tests {
             speed(60.0, Some(50.0), &[], 0.0).speed_mps,
             -2.0,
             "no faster than cruise"
+        );
+    }
+
+    /// A stop that may end 0.29 m farther than the loop's precision (with
+    /// the vehicle's gain and planned deceleration): the loop runs as if
+    /// the point were that much farther, twice as fast 0.3 m out, the
+    /// braking profile takes the last 2 cm and ends on the point, and an
+    /// overshoot within the slack is held, not backed up.
+    #[test]
+    fn a_wide_stop_is_approached_faster_and_still_ends_on_its_point() {
+        let precise = SpeedConfig {
+            approach_gain_per_s: 0.6,
+            decel_mps2: 0.8,
+            ..CONFIG
+        };
+        let wide = SpeedConfig {
+            stop_slack_m: 0.29,
+            ..precise
+        };
+        let st = speed_with(&wide, 49.7, Some(50.0), &[], 0.0);
+        assert_eq!(st.limit, SpeedLimit::Approach);
+        assert!((st.speed_mps - 0.6 * 0.59).abs() < 1e-12, "{st:?}");
+        let before = speed_with(&precise, 49.7, Some(50.0), &[], 0.0);
+        assert!((before.speed_mps - 0.6 * 0.3).abs() < 1e-12, "{before:?}");
+        let st = speed_with(&wide, 49.99, Some(50.0), &[], 0.0);
+        assert_eq!(st.limit, SpeedLimit::Braking);
+        assert!((st.speed_mps - 0.016f64.sqrt()).abs() < 1e-12, "{st:?}");
+        assert_eq!(
+            speed_with(&wide, 50.0, Some(50.0), &[], 0.0).speed_mps,
+            0.0,
+            "on the point"
+        );
+        let held = speed_with(&wide, 50.2, Some(50.0), &[], 0.0);
+        assert_eq!(held.speed_mps, 0.0, "past within the slack: held");
+        let st = speed_with(&wide, 50.5, Some(50.0), &[], 0.0);
+        assert!(
+            (st.speed_mps + 0.6 * 0.21).abs() < 1e-12,
+            "past by more: backs up {st:?}"
         );
     }
 

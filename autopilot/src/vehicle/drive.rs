@@ -79,6 +79,7 @@ impl Core {
         let wheelbase = f64::from(self.p.vehicle.wheelbase_m.get(t));
         let steer_max = f64::from(self.p.vehicle.steer_max_deg.get(t)).to_radians();
         let tightest_turn_m = wheelbase / steer_max.tan();
+        let stop = self.stop_tolerance();
         NavConfig {
             tracker: TrackerConfig {
                 lateral: gains(pv.lat_p.get(t), pv.lat_i.get(t), pv.lat_d.get(t), pv.lat_imax_m.get(t)),
@@ -110,6 +111,8 @@ impl Core {
                 ),
                 min_mps: 0.1,
                 approach_gain_per_s: f64::from(nav.approach_gain.get(t)),
+                // The loop is tuned to end within WP_STOP_TOL_MM.
+                stop_slack_m: (stop.position_m - f64::from(nav.stop_tol_mm.get(t)) / 1000.0).max(0.0),
                 wheelbase_m: wheelbase,
                 steer_rate_rad_s: f64::from(self.p.vehicle.steer_rate_deg_s.get(t)).to_radians(),
             },
@@ -130,11 +133,18 @@ impl Core {
                 .goals
                 .goal
                 .map(|_| self.p.manoeuvre.direction_changes_max.get(t).max(0) as usize),
-            stop: self.fleet_stop_tolerance().unwrap_or(StopTolerance {
-                position_m: f64::from(nav.stop_tol_mm.get(t)) / 1000.0,
-                yaw_rad: f64::from(nav.stop_tol_deg.get(t)).to_radians(),
-            }),
+            stop,
         }
+    }
+
+    /// How close the stop must end: a fleet node's allowed deviation on its
+    /// leg, else `WP_STOP_TOL_*`.
+    fn stop_tolerance(&self) -> StopTolerance {
+        let nav = &self.p.nav;
+        self.fleet_stop_tolerance().unwrap_or(StopTolerance {
+            position_m: f64::from(nav.stop_tol_mm.get(&self.params)) / 1000.0,
+            yaw_rad: f64::from(nav.stop_tol_deg.get(&self.params)).to_radians(),
+        })
     }
 
     pub(super) fn decel_limit_mps2(&self) -> f64 {

@@ -493,6 +493,17 @@ fn print_standing(standing: &[start::Standing]) {
         median_max(&from_rest)
     );
     println!("  states saying driving: false while the truth moved >= 1 cm/s: {false_claims}");
+    let column = |f: fn(&start::Standing) -> f64| standing.iter().map(f).collect::<Vec<f64>>();
+    println!(
+        "order's tick -> that state (the order end to end, 12 m, simulated ms; median / max): {}",
+        median_max(&column(|s| s.order_ms))
+    );
+    println!(
+        "  truth at rest: from the stop (cm) {}, heading off its theta (mrad) {}, fastest backwards (cm/s) {}",
+        median_max(&column(|s| 100.0 * s.rest_off_m)),
+        median_max(&column(|s| 1e3 * s.rest_yaw_rad)),
+        median_max(&column(|s| 100.0 * s.backwards_mps))
+    );
 }
 
 fn median(values: &[f64]) -> Option<f64> {

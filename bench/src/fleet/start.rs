@@ -18,14 +18,18 @@
 //! leaves the core. A state that names a node the truth has not reached is
 //! a false claim, counted apart. The stop is timed once more: from the
 //! truth at rest there to the first `state` saying `driving: false`; one
-//! saying so while the truth still moves is a false claim too.
+//! saying so while the truth still moves is a false claim too. The order
+//! is timed end to end, from its tick to that `state`, and where the truth
+//! came to rest is measured: its distance from the stop and its heading
+//! error, and whether it ever went backwards (a stop overshot and backed
+//! up to).
 //!
 //! Where a stop node's time goes is printed too: the true speed, the
 //! estimate's 95 % radius and its true error at the tick the truth comes
 //! within the deviation, and how often that radius held the truth while
 //! the vehicle moved. The agent names the node once the estimate is within
 //! the deviation less the radius, so at roll-in speed v it comes about
-//! radius / v after the truth (1.7 cm at 15 cm/s: ~114 ms); ≤ 50 ms with a
+//! radius / v after the truth (1.6 cm at 33 cm/s: ~49 ms); ≤ 50 ms with a
 //! true 95 % radius needs v ≥ radius / 50 ms there.
 //!
 //! A real order also waits for the next tick (up to one period) and its
@@ -47,6 +51,8 @@ const REST_S: f64 = 5.0;
 /// Slower than this the vehicle has come to rest on a stop (m/s): the
 /// tracking bench's line between driving and resting.
 const RESTING_MPS: f64 = 0.01;
+/// An order not done within this long (simulated s) fails the bench.
+const ORDER_S: f64 = 60.0;
 /// The stop node's `allowedDeviationTheta` (rad) about its `theta`, the
 /// way the order drives (north).
 const ALLOWED_DEVIATION_THETA_RAD: f64 = 0.1;
@@ -63,6 +69,8 @@ pub struct Start {
     pub driving_speed_ms: f64,
     /// The largest true speed during the rest before the order (m/s).
     pub rest_floor_mps: f64,
+    /// The order's tick, simulated ms since the simulation began.
+    pub tick_ms: f64,
 }
 
 /// One node of an order as the vehicle reached it: ms of simulated time
@@ -94,6 +102,16 @@ pub struct Standing {
     /// States that said `driving: false` while the truth moved at
     /// [`RESTING_MPS`] or more, once the order had been driving.
     pub false_claims: usize,
+    /// From the order's tick to that first `state` saying `driving:
+    /// false` at rest on the stop: the order end to end (ms).
+    pub order_ms: f64,
+    /// Where the truth rests at the end: its distance from the stop (m)…
+    pub rest_off_m: f64,
+    /// …and its heading's from the stop's theta (rad).
+    pub rest_yaw_rad: f64,
+    /// The fastest the truth went backwards during the order (m/s; 0: it
+    /// never backed up).
+    pub backwards_mps: f64,
 }
 
 /// Where a stop node's time goes: the truth and the estimate at the tick
@@ -178,8 +196,9 @@ pub fn measure(orders: usize, params: &[(String, f64)]) -> Result<Measured, Stri
         stop["allowedDeviationTheta"] = serde_json::json!(ALLOWED_DEVIATION_THETA_RAD);
         let payload = serde_json::to_vec(&order).map_err(|e| e.to_string())?;
         sim.inputs_mut().vda5050.push((vda5050::Topic::Order, payload));
-        measured.starts.push(time_start(&mut sim, rest_floor_mps)?);
-        let (reached, standing, approach) = follow_nodes(&mut sim, &nodes, 60.0, &mut measured.coverage)
+        let start = time_start(&mut sim, rest_floor_mps)?;
+        measured.starts.push(start);
+        let (reached, standing, approach) = follow_nodes(&mut sim, &nodes, start.tick_ms, &mut measured.coverage)
             .ok_or_else(|| format!("order start-{k} did not finish within 60 s"))?;
         measured.nodes.extend(reached);
         measured.standing.push(standing);
@@ -209,7 +228,8 @@ fn time_start(sim: &mut Simulation, rest_floor_mps: f64) -> Result<Start, String
             .any(|m| matches!(m, FleetMessage::State(state) if state.driving));
         // The order is in the first tick stepped: its time is 0.
         let now_ms = sim.time().as_secs_f64() * 1e3;
-        let since_ms = now_ms - *t0_ms.get_or_insert(now_ms);
+        start.tick_ms = *t0_ms.get_or_insert(now_ms);
+        let since_ms = now_ms - start.tick_ms;
         let speed_mps = sim.world().truth().speed_mps.abs();
         let first = |mark: &mut f64, now: bool| {
             if now && mark.is_nan() {
@@ -260,13 +280,14 @@ impl StopApproach {
     }
 }
 
-/// Steps until the order is done and the vehicle at rest, timing each of
-/// `nodes` after the first (id, map x, map y: the map is the estimator's
-/// frame here), and the stop's `driving: false`.
+/// Steps until the order (in the tick at `order_tick_ms`) is done and the
+/// vehicle at rest, at most [`ORDER_S`], timing each of `nodes` after the
+/// first (id, map x, map y: the map is the estimator's frame here), and the
+/// stop's `driving: false`.
 fn follow_nodes(
     sim: &mut Simulation,
     nodes: &[(&str, f64, f64)],
-    seconds: f64,
+    order_tick_ms: f64,
     coverage: &mut Coverage,
 ) -> Option<(Vec<NodeReach>, Standing, Option<StopApproach>)> {
     let frame = sim.core().estimator().frame().copied()?;
@@ -275,7 +296,8 @@ fn follow_nodes(
     let mut was_arrived = sim.core().navigator().arrived();
     let mut approach: Option<StopApproach> = None;
     let (mut drove, mut rest_ms, mut standing_ms, mut false_standing) = (false, f64::NAN, f64::NAN, 0);
-    let end = sim.time() + Duration::from_secs_f64(seconds);
+    let (mut rest_off_m, mut rest_yaw_rad, mut backwards_mps) = (f64::NAN, f64::NAN, 0f64);
+    let end = sim.time() + Duration::from_secs_f64(ORDER_S);
     while sim.time() < end {
         let wall = sim.time();
         let out = sim.step(wall, &mut FrozenTimer);
@@ -297,6 +319,9 @@ fn follow_nodes(
         let heading_fits = truth.yaw_rad.abs() <= ALLOWED_DEVIATION_THETA_RAD;
         let resting = truth.speed_mps.abs() < RESTING_MPS;
         let (_, stop_x, stop_y) = nodes[stop_at];
+        rest_off_m = (at.east_m - stop_x).hypot(at.north_m - stop_y);
+        rest_yaw_rad = truth.yaw_rad.abs();
+        backwards_mps = backwards_mps.max(-truth.speed_mps);
         let check = EstimateCheck::of(sim, at, truth.yaw_rad, (stop_x, stop_y));
         if rest_ms.is_nan() && !resting {
             check.count(coverage);
@@ -329,24 +354,34 @@ fn follow_nodes(
             break;
         }
     }
-    let reached = marks[1..]
+    let reached = reaches(&marks)?;
+    let standing = Standing {
+        from_rest_ms: standing_ms - rest_ms,
+        false_claims: false_standing,
+        order_ms: standing_ms - order_tick_ms,
+        rest_off_m,
+        rest_yaw_rad,
+        backwards_mps,
+    };
+    Some((reached, standing, approach))
+}
+
+/// Each node after the first as its marks time it (the last one stops);
+/// `None` if one was never named.
+fn reaches(marks: &[Marks]) -> Option<Vec<NodeReach>> {
+    marks[1..]
         .iter()
         .enumerate()
         .map(|(k, m)| {
             (!m.state_ms.is_nan()).then(|| NodeReach {
-                stops: k + 2 == nodes.len(),
+                stops: k + 2 == marks.len(),
                 from_decision_ms: m.state_ms - m.decision_ms,
                 from_truth_ms: m.state_ms - m.truth_ms,
                 distance_at_state_m: m.distance_at_state_m,
                 false_claim: m.false_claim,
             })
         })
-        .collect::<Option<Vec<_>>>()?;
-    let standing = Standing {
-        from_rest_ms: standing_ms - rest_ms,
-        false_claims: false_standing,
-    };
-    Some((reached, standing, approach))
+        .collect()
 }
 
 /// The truth on one tick, as the node marks need it.
