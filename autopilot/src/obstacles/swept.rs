@@ -51,6 +51,29 @@
 //! not stopped for. The first time the gap is within the margin is the
 //! collision time (seed 004 §III.C's t_c, for a turning vehicle).
 //!
+//! # Skipping a sweep
+//! A path given as poses from the vehicle's (the tracker's simulated way
+//! back onto its leg, `guidance::rejoin`) costs a hundred or more tracker
+//! steps to compute, every tick the vehicle is off its leg. Before they are
+//! computed, [`SweepReach`] bounds where its queries could find anything.
+//! Each step advances the reference point along a chord no longer than
+//! `ds`, so after ⌈length/ds⌉ steps every sample, and every pose
+//! interpolated between two, lies within `path` = ⌈length/ds⌉·ds of the
+//! first reference point `c`; every outline point lies within `reach` of
+//! its reference point. So a return `p` farther than path + reach +
+//! margin + step/2 from `c` is more than the threshold
+//! [`SweptPath::point_entry_m`] compares with (margin + step/2) from every
+//! sampled outline, and it finds nothing; a shape reaching `extent` from a
+//! centre moving at `v` is, at any time up to the horizon, more than the
+//! contact threshold (margin + [`CONTACT_TOLERANCE_M`] + the sagitta) from
+//! every outline [`SweptPath::first_contact_driving`] places, when its
+//! centre is farther than path + reach + extent + v·horizon + that
+//! threshold from `c`. When every return and every track is that far, the
+//! built path would answer every query with nothing, and an empty one
+//! ([`SweptPath::clear`]) answers the same without the poses being
+//! computed. Anything within the disc, or anything non-finite, and the
+//! path is built as before.
+//!
 //! Sources: docs/references.md §Seed 004.
 
 use super::outline::{Outline, least_length, segment_offset};
@@ -754,6 +777,13 @@ impl SweptPath {
         ideal_ds.max(length_m / (MAX_POSES - 1) as f64)
     }
 
+    /// Nothing swept: every query finds nothing (what a path built where
+    /// [`SweepReach`] rules out everything in the scene would find).
+    pub fn clear(&mut self) {
+        self.samples.clear();
+        self.bounds = bounds_of(&self.samples);
+    }
+
     /// Takes `poses` (the first the vehicle's own, then every `ds_m` along
     /// a path curving at most `curvature_max`; at most [`MAX_POSES`] used)
     /// as the samples. Reuses its buffers.
@@ -767,23 +797,119 @@ impl SweptPath {
         self.front_m = footprint.front_m.max(0.0);
         self.rear_m = footprint.rear_m.max(0.0);
         self.half_width_m = footprint.half_width_m.max(0.0);
-        self.reach_m = self.front_m.max(self.rear_m).hypot(self.half_width_m);
+        let sampling = PoseSampling::new(footprint, ds_m, curvature_max);
+        self.reach_m = sampling.reach_m;
+        self.spread = sampling.spread;
+        self.ds_m = sampling.ds_m;
+        self.step_m = sampling.step_m;
+        self.samples.clear();
+        self.samples
+            .extend(poses.into_iter().take(MAX_POSES).map(|pose| Sample::of(&pose)));
+        self.bounds = bounds_of(&self.samples);
+    }
+}
+
+/// The spacing of poses given to [`SweptPath::build_from_poses`] and what
+/// follows from it: the outline's reach from the reference point, how far
+/// an outline point moves per metre of path (`spread`), the spacing used
+/// and the largest motion of an outline point between two poses.
+struct PoseSampling {
+    reach_m: f64,
+    spread: f64,
+    ds_m: f64,
+    step_m: f64,
+}
+
+impl PoseSampling {
+    fn new(footprint: &Footprint, ds_m: f64, curvature_max: f64) -> Self {
+        let reach_m = footprint
+            .front_m
+            .max(0.0)
+            .max(footprint.rear_m.max(0.0))
+            .hypot(footprint.half_width_m.max(0.0));
         let curvature = if curvature_max.is_finite() {
             curvature_max.abs()
         } else {
             0.0
         };
-        self.spread = 1.0 + self.reach_m * curvature;
-        self.ds_m = if ds_m.is_finite() && ds_m > 0.0 {
+        let spread = 1.0 + reach_m * curvature;
+        let ds_m = if ds_m.is_finite() && ds_m > 0.0 {
             ds_m
         } else {
-            MAX_STEP_M / self.spread
+            MAX_STEP_M / spread
         };
-        self.step_m = self.ds_m * self.spread;
-        self.samples.clear();
-        self.samples
-            .extend(poses.into_iter().take(MAX_POSES).map(|pose| Sample::of(&pose)));
-        self.bounds = bounds_of(&self.samples);
+        PoseSampling {
+            reach_m,
+            spread,
+            ds_m,
+            step_m: ds_m * spread,
+        }
+    }
+}
+
+/// Where the queries of a path given as poses (built by
+/// [`SweptPath::build_from_poses`]) could find anything, known before the
+/// poses are computed (see the module header, §Skipping a sweep): a disc
+/// round the first pose's reference point.
+#[derive(Clone, Copy, Debug)]
+pub struct SweepReach {
+    centre: Ned,
+    /// How far any pose's reference point can be from `centre`.
+    path_m: f64,
+    reach_m: f64,
+    slack_m: f64,
+    sagitta_m: f64,
+}
+
+impl SweepReach {
+    /// For poses every `ds_m` from `start` over `length_m` (at most
+    /// ⌈`length_m`/`ds_m`⌉ steps of at most `ds_m` each), curving at most
+    /// `curvature_max`, with the spacing and slack `build_from_poses` would
+    /// use for them.
+    pub fn of_poses(start: Ned, ds_m: f64, curvature_max: f64, footprint: &Footprint, length_m: f64) -> Self {
+        let sampling = PoseSampling::new(footprint, ds_m, curvature_max);
+        let path_m = if length_m.is_finite() {
+            (length_m.max(0.0) / sampling.ds_m).ceil() * sampling.ds_m
+        } else {
+            f64::INFINITY
+        };
+        SweepReach {
+            centre: start,
+            path_m,
+            reach_m: sampling.reach_m,
+            slack_m: 0.5 * sampling.step_m,
+            sagitta_m: sampling.ds_m * sampling.step_m / 8.0,
+        }
+    }
+
+    /// Whether [`SweptPath::point_entry_m`] with `margin_m` could find `p`
+    /// (false only when it certainly finds nothing).
+    pub fn may_meet_point(&self, p: Ned, margin_m: f64) -> bool {
+        let within_m = self.path_m + self.reach_m + margin_m.max(0.0) + self.slack_m;
+        !self.beyond(p, within_m)
+    }
+
+    /// Whether [`SweptPath::first_contact_driving`] could find a contact
+    /// with `shape` moving at `speed_mps` (a magnitude) within `horizon_s`,
+    /// at `margin_m` (false only when it certainly finds none).
+    pub fn may_meet_shape(&self, shape: &Shape, speed_mps: f64, margin_m: f64, horizon_s: f64) -> bool {
+        let moved_m = if speed_mps == 0.0 {
+            0.0
+        } else {
+            speed_mps.abs() * horizon_s.max(0.0)
+        };
+        let threshold = margin_m.max(0.0) + CONTACT_TOLERANCE_M + self.sagitta_m;
+        let within_m = self.path_m + self.reach_m + shape.extent_m() + moved_m + threshold;
+        !self.beyond(shape.centre(), within_m)
+    }
+
+    /// Whether `p` is certainly more than `within_m` from the centre (not
+    /// for anything non-finite); a micrometre allowed for the rounding of
+    /// the poses and the gaps.
+    fn beyond(&self, p: Ned, within_m: f64) -> bool {
+        let within_m = within_m + 1e-6;
+        let d2 = (p.north_m - self.centre.north_m).powi(2) + (p.east_m - self.centre.east_m).powi(2);
+        within_m.is_finite() && d2 > within_m * within_m
     }
 }
 
@@ -1218,5 +1344,75 @@ mod tests {
             let entry = swept.point_entry_m(far_side, 0.3, swept.length_m());
             assert_eq!(entry, None, "reverse {reverse}: the rejoin sweep meets {far_side:?}");
         }
+    }
+
+    /// Whatever [`SweepReach`] rules out, the built rejoin path finds
+    /// nothing of: returns at the fields' margin, and discs and boxes
+    /// moving at up to 2 m/s over the horizon, resuming from rest. Enough of
+    /// them are ruled out, and some found, for both answers to be tested.
+    #[test]
+    fn what_the_reach_rules_out_the_built_rejoin_path_never_finds() {
+        use super::super::outline::{FitScratch, Outline};
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(14);
+        let square = [(-0.4, -0.4), (0.4, -0.4), (0.4, 0.4), (-0.4, 0.4)].map(|(n, e)| Ned::new(n, e));
+        let outline =
+            Outline::fit(&mut FitScratch::default(), Ned::default(), &square, (0.0, 0.0), |p| *p).expect("outline");
+        let (margin_m, horizon_s) = (0.3, 4.0);
+        let resume = Drive {
+            from_mps: 0.0,
+            speed_mps: 1.5,
+            accel_mps2: 0.5,
+        };
+        let (mut ruled_out, mut found) = (0, 0);
+        for reverse in [false, true] {
+            let (swept, poses) = rejoin_sweep(reverse);
+            let curvature_max =
+                crate::guidance::rejoin::max_curvature(&crate::guidance::rejoin::default_tracker_config());
+            let reach = SweepReach::of_poses(poses[0].position, swept.ds_m, curvature_max, &AGV, 10.0);
+            for k in 0..3000 {
+                // Every other one near the path (met), the rest over the
+                // whole square round it (mostly near the reach's edge or beyond).
+                let p = if k % 2 == 0 {
+                    let near = poses[rng.random_range(0..poses.len())].position;
+                    Ned::new(
+                        near.north_m + rng.random_range(-5.0..5.0),
+                        near.east_m + rng.random_range(-5.0..5.0),
+                    )
+                } else {
+                    Ned::new(rng.random_range(-30.0..30.0), rng.random_range(-30.0..30.0))
+                };
+                let entry = swept.point_entry_m(p, margin_m, f64::INFINITY);
+                found += usize::from(entry.is_some());
+                if !reach.may_meet_point(p, margin_m) {
+                    ruled_out += 1;
+                    assert_eq!(entry, None, "reverse {reverse}: {p:?} ruled out, found");
+                }
+                let velocity = (rng.random_range(-1.4..1.4), rng.random_range(-1.4..1.4));
+                let speed_mps = f64::hypot(velocity.0, velocity.1);
+                let shapes = [
+                    Shape::Disc {
+                        centre: p,
+                        radius_m: 0.3,
+                    },
+                    Shape::Polygon {
+                        centre: p,
+                        outline: &outline,
+                    },
+                ];
+                for shape in &shapes {
+                    let contact = swept.first_contact_driving(shape, velocity, &resume, margin_m, horizon_s);
+                    found += usize::from(contact.is_some());
+                    if !reach.may_meet_shape(shape, speed_mps, margin_m, horizon_s) {
+                        ruled_out += 1;
+                        assert_eq!(
+                            contact, None,
+                            "reverse {reverse}: {shape:?} at {velocity:?} ruled out, met"
+                        );
+                    }
+                }
+            }
+        }
+        assert!(ruled_out > 4000 && found > 2000, "{ruled_out} ruled out, {found} found");
     }
 }

@@ -28,7 +28,7 @@ use crate::obstacles::policy::{
     ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, PolicyStatus, StopCause, Verdict,
 };
 use crate::obstacles::prediction::CollisionPrediction;
-use crate::obstacles::swept::{Contact, Drive, PathAhead, Shape, SweptPath};
+use crate::obstacles::swept::{Contact, Drive, PathAhead, Shape, SweepReach, SweptPath};
 use crate::obstacles::tracking::{EXPECTED_TRACKS, ObstacleTracker, STILL_S, TrackingConfig};
 use crate::obstacles::{Footprint, Pose, ScannerMount, Track, TrackStatus};
 
@@ -869,7 +869,11 @@ impl Core {
     /// Sweeps the path the tracker drives from `pose` back onto the leg
     /// (`guidance::rejoin`): from the speed now towards the speed it would
     /// drive at, at `ATC_ACCEL_MAX`. False (nothing swept) without a leg's
-    /// path or a pose beyond the vehicle's own.
+    /// path or a pose beyond the vehicle's own. With no return and no track
+    /// within the path's reach the path is left empty instead of simulated
+    /// (obstacles::swept §Skipping a sweep): every query finds nothing on
+    /// it, as on the built one; a first step of the simulation still tells
+    /// whether there would be a pose beyond the vehicle's own.
     fn sweep_rejoin(
         &mut self,
         pose: &Pose,
@@ -891,6 +895,20 @@ impl Core {
         };
         let mut poses = std::mem::take(&mut self.obstacles.rejoin_poses);
         poses.clear();
+        let reach = SweepReach::of_poses(pose.position, ds_m, curvature_max, footprint, length_m);
+        // One step (none for a path of no length, as the whole would take).
+        let first_step_m = if length_m > ds_m { ds_m } else { length_m };
+        if !self.scene_within(&reach)
+            && self
+                .navigator
+                .rejoin_path(start, rejoin_speed, &nav_config, (ds_m, first_step_m), &mut poses)
+            && poses.len() > 1
+        {
+            self.obstacles.swept.clear();
+            self.obstacles.rejoin_poses = poses;
+            return true;
+        }
+        poses.clear();
         let built = self
             .navigator
             .rejoin_path(start, rejoin_speed, &nav_config, (ds_m, length_m), &mut poses)
@@ -906,6 +924,28 @@ impl Core {
         }
         self.obstacles.rejoin_poses = poses;
         built
+    }
+
+    /// Whether any scan return (fresh or not, at the larger of the fields'
+    /// side margins) or any track (tentative or not, as a disc and as its
+    /// outline, at its filter's speed) could be met on a path within
+    /// `reach`, with the margins and horizon the fields and the collision
+    /// predictions use. Hidden tracks are no query of the swept path.
+    fn scene_within(&self, reach: &SweepReach) -> bool {
+        let a = &self.p.obstacles.avoidance;
+        let margin_m = f64::from(a.margin_m.get(&self.params));
+        let horizon_s = f64::from(a.horizon_s.get(&self.params));
+        let point_margin_m = self.field_config().lateral_margin_m.max(margin_m);
+        let obs = &self.obstacles;
+        let mut points = obs.views.iter().flat_map(|v| v.local_points.iter());
+        if points.any(|p| reach.may_meet_point(*p, point_margin_m)) {
+            return true;
+        }
+        obs.tracker.tracks().iter().any(|track| {
+            [track_shape(track, true), track_shape(track, false)]
+                .iter()
+                .any(|shape| reach.may_meet_shape(shape, track.speed_mps(), margin_m, horizon_s))
+        })
     }
 
     /// One STATUSTEXT per wait at rest (the verdict is decided again every
