@@ -74,18 +74,24 @@ const PRESTEER_MAX_S: f64 = 4.0;
 /// seconds.
 const STOP_SPEED_FILTER_S: f64 = 0.5;
 /// A turn on the spot commands this yaw rate per radian still to turn (up
-/// to `pivot_rate_rad_s`): slow at the end so the wheels' lag does not
-/// carry it past.
-const PIVOT_GAIN_PER_S: f64 = 1.5;
+/// to `pivot_rate_rad_s`)…
+const PIVOT_GAIN_PER_S: f64 = 3.0;
+/// …less the turn the wheels will still make at their present rate, as if
+/// for this long (the wheels' lag): the yaw-rate feedback that ends the
+/// turn on its heading without overshoot. With the rate alone (gain 1.5)
+/// the heading passed its target by up to 0.04° and crept back at
+/// 0.05°/s; the final turn took 2–3 s of a stop's settling.
+const PIVOT_LEAD_S: f64 = 0.2;
 /// The turn is done once within a third of the heading tolerance for this
 /// long (the estimate's yaw rate at rest is too noisy to wait on)…
 const PIVOT_STEADY_S: f64 = 0.5;
 /// …or after the time the turn takes at the rate limit plus this.
 const PIVOT_EXTRA_S: f64 = 10.0;
 /// The last turn of a manoeuvre is its stop: it rests this long (the
-/// heading estimate settles after turning), and turns again, as a stop
-/// creeps again, when more than half the tolerance off…
-const PIVOT_REST_S: f64 = 2.0;
+/// heading estimate settles after turning; 2 s before the yaw-rate
+/// feedback ended the turn cleanly), and turns again, as a stop creeps
+/// again, when more than half the tolerance off…
+const PIVOT_REST_S: f64 = 1.0;
 /// …once: the heading estimate after a turn on the spot wanders by
 /// 0.01–0.03° for seconds while the truth stands still (bench seed 210: a
 /// second and third turn, 3 s each, chased that wander from 0.027° to
@@ -505,7 +511,7 @@ impl Navigator {
                 || pivot.elapsed_s > timeout_s;
             if !turned {
                 return NavDemand {
-                    pivot_rate_rad_s: (PIVOT_GAIN_PER_S * error_rad).clamp(-rate_max, rate_max),
+                    pivot_rate_rad_s: pivot_rate_demand(error_rad, est.yaw_rate_rad_s, rate_max),
                     ..NavDemand::default()
                 };
             }
@@ -1127,6 +1133,13 @@ impl Navigator {
     }
 }
 
+/// The yaw rate to command turning on the spot `error_rad` short of the
+/// heading while turning at `yaw_rate_rad_s`: proportional to where the
+/// heading will be once the wheels' present rate has run out.
+fn pivot_rate_demand(error_rad: f64, yaw_rate_rad_s: f64, rate_max: f64) -> f64 {
+    (PIVOT_GAIN_PER_S * (error_rad - PIVOT_LEAD_S * yaw_rate_rad_s)).clamp(-rate_max, rate_max)
+}
+
 /// Approaching a stop, the preview stretches to PVW_STOP_DIST over the
 /// last 2·PVW_STOP_DIST: slow there, a short preview would turn
 /// millimetres of estimate noise into heading wiggle, and the stop's
@@ -1486,6 +1499,48 @@ mod tests {
             assert!(m.pivots, "{goal:?}: {m:?}");
             check_stopped_on(&car, &report, goal, yaw);
             assert_eq!(changes, 0, "{goal:?}: a pivot plan never reverses mid-way");
+        }
+    }
+
+    /// A turn on the spot ends on its heading without passing it by more
+    /// than the zone a stop settles in (three heading tolerances, the
+    /// tracking bench's): the wheels' lag (0.3 s here) carried a 90° turn
+    /// 0.78° past its heading with the turn rate alone.
+    #[test]
+    fn a_turn_on_the_spot_does_not_swing_past_its_heading() {
+        use crate::guidance::manoeuvre::{ManoeuvreConfig, plan};
+        let cfg = config();
+        for yaw_deg in [90.0, -135.0, 20.0, 1.0] {
+            let mut car = Bicycle::new(0.0, 0.0, 0.0);
+            let start = Pose {
+                position: car.est.position,
+                yaw_rad: 0.0,
+            };
+            let mc = ManoeuvreConfig {
+                radius_m: 6.0,
+                approach_m: 12.0,
+                max_length_m: 60.0,
+                max_direction_changes: 3,
+                pivots: true,
+                arriving: None,
+            };
+            let goal_yaw = f64::to_radians(yaw_deg);
+            let m = plan(&start, Ned::new(0.0, 0.0), Some(goal_yaw), &mc).expect("a turn");
+            assert!(m.strokes.is_empty(), "{m:?}");
+            let mut nav = Navigator::default();
+            nav.set_manoeuvre(m, None, Some(7));
+            let dt = 0.02;
+            let mut past_deg: f64 = 0.0;
+            let report = (0..(60.0 / dt) as usize).find_map(|_| {
+                let d = nav.update(&car.est, &cfg, dt);
+                car.step(d, dt);
+                past_deg = past_deg.max(wrap_pi(car.est.yaw_rad - goal_yaw).to_degrees() * yaw_deg.signum());
+                nav.take_stop_report()
+            });
+            let report = report.expect("the turn ends in a stop report");
+            assert!(report.within_tolerance, "{yaw_deg}°: {report:?}");
+            let zone_deg = 3.0 * cfg.stop.yaw_rad.to_degrees();
+            assert!(past_deg < zone_deg, "{yaw_deg}°: passed its heading by {past_deg}°");
         }
     }
 
