@@ -384,14 +384,15 @@ impl Core {
     /// `Stop`, with the stop/resume announcements. `wants_to_move`: the mode
     /// has somewhere to go; `settling`: it wants no speed but is still
     /// settling onto a stop point; `direction`: the way it would drive;
-    /// `planned_mps`: the speed it would drive at.
+    /// `planned_mps`: the speed it would drive at; `stop_within_m`: how far
+    /// it drives at most before it rests on a stop point.
     pub(super) fn obstacle_verdict(
         &mut self,
         active: bool,
         wants_to_move: bool,
         settling: bool,
         direction: Direction,
-        planned_mps: f64,
+        (planned_mps, stop_within_m): (f64, Option<f64>),
     ) -> Verdict {
         let now_s = self.now.boot.as_secs_f64();
         let footprint = self.footprint();
@@ -410,7 +411,7 @@ impl Core {
             position: estimate.position,
             yaw_rad: estimate.yaw_rad,
         };
-        let checked = self.sweep_and_check_fields(&pose, &footprint, direction, speed, planned_mps);
+        let checked = self.sweep_and_check_fields(&pose, &footprint, direction, speed, (planned_mps, stop_within_m));
         let (predictions, predictions_at_resume) =
             self.predict_collisions(now_s, (&estimate, &pose), &footprint, (speed, planned_mps));
         let config = self.policy_config();
@@ -438,14 +439,18 @@ impl Core {
         verdict
     }
     /// Sweeps the path ahead and checks the protective and warning fields
-    /// (at the speed now and at the resume speed) along it.
+    /// (at the speed now and at the resume speed) along it. The sweep ends
+    /// at a stop point the vehicle will rest on first (`stop_within_m`):
+    /// the leg's own sweep ends there, and one off the leg (the way back
+    /// onto it, or the curvature driven at a stop leg's end) must not
+    /// reach past it either.
     fn sweep_and_check_fields(
         &mut self,
         pose: &Pose,
         footprint: &Footprint,
         direction: Direction,
         speed: f64,
-        planned_mps: f64,
+        (planned_mps, stop_within_m): (f64, Option<f64>),
     ) -> CheckedFields {
         let sign = direction.sign();
         let field_config = self.field_config();
@@ -460,7 +465,8 @@ impl Core {
         let sweep_m = here_fields
             .warning_length_m
             .max(resume_fields.warning_length_m)
-            .max(speed.abs().max(planned_mps.abs()) * horizon);
+            .max(speed.abs().max(planned_mps.abs()) * horizon)
+            .min(stop_within_m.map_or(f64::INFINITY, f64::abs));
         self.sweep_path_ahead(pose, footprint, sign < 0.0, sweep_m, (speed, planned_mps));
         let [field, field_at_resume] = self.check_fields(&here_fields, &resume_fields, &field_config);
         // At rest the fields that matter are those it would start with.
