@@ -62,3 +62,16 @@ fn a_stop_is_at_rest_before_someone_crossing_reaches_it() {
     let r = &o.result;
     assert_eq!(r.collisions, r.unavoidable, "seed {seed}: {:?}", r.events);
 }
+
+/// Seed 3202: two people stand 0.6 m apart beside the inner side of a
+/// right turn; the far one, seen past the near one, was tracked from a
+/// sliver of returns (radius 0.13 m, 0.4 m short of their centre) and
+/// dropped when it went out of view beside the body. Moving, only the
+/// protective field then stopped for them, at rest 0.15 m away, though
+/// they had been in view since the start. Now a standing track lost from
+/// view is still stopped for while moving, kept as wide as the person a
+/// sliver belongs to.
+#[test]
+fn a_person_standing_out_of_view_beside_a_turn_is_stopped_for_in_time() {
+    no_avoidable_collision_and_rests_clear(3202);
+}

@@ -85,7 +85,9 @@ pub struct SpeedInputs<'a> {
     pub heading_error_rad: f64,
 }
 
-fn braking_limit(speed_at_mps: f64, distance_m: f64, decel_mps2: f64) -> f64 {
+/// The fastest the vehicle may go `distance_m` before a point it must pass
+/// at `speed_at_mps`, braking at `decel_mps2`.
+pub fn braking_limit(speed_at_mps: f64, distance_m: f64, decel_mps2: f64) -> f64 {
     (speed_at_mps * speed_at_mps + 2.0 * decel_mps2 * distance_m.max(0.0)).sqrt()
 }
 

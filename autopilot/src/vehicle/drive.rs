@@ -9,7 +9,7 @@ use crate::control::mixer::{self, DriveTrain, WheelOutputs};
 use crate::control::pid::PidGains;
 use crate::control::speed::{BrakeLimits, SpeedControlConfig};
 use crate::guidance::navigator::{NavConfig, NavDemand, StopTolerance};
-use crate::guidance::speed::SpeedConfig;
+use crate::guidance::speed::{SpeedConfig, braking_limit};
 use crate::guidance::tracker::{Direction, TrackerConfig};
 use crate::modes::Mode;
 use crate::obstacles::policy::Verdict;
@@ -178,11 +178,12 @@ impl Core {
     /// The obstacle policy for this tick; true when it stops the vehicle.
     pub(super) fn obstacle_tick(&mut self) -> bool {
         let active = self.armed && self.mode.self_driving();
-        let (wants_to_move, direction, planned_mps) = match self.navigator.target() {
+        let (wants_to_move, direction, planned_mps, stop_within_m) = match self.navigator.target().copied() {
             _ if self.mode == Mode::Magnetic => (
                 active,
                 Direction::Forward,
                 f64::from(self.p.nav.wp_speed_mps.get(&self.params)),
+                None,
             ),
             Some(target) => {
                 // A manoeuvre's strokes are driven at its capped speed, not
@@ -192,13 +193,27 @@ impl Core {
                     .navigator
                     .leg_cruise_mps(&nav_config)
                     .unwrap_or(nav_config.speed.cruise_mps);
-                (active && !self.navigator.stopping(), target.direction, cruise)
+                // Towards a stop, no faster than the schedule allows from
+                // here (the path is built here if no update has yet).
+                let position = self.estimator.estimate().position;
+                let remaining_m = target
+                    .stop
+                    .then(|| self.navigator.path_ahead(position, &nav_config))
+                    .flatten()
+                    .map(|(path, along_m)| path.end_m() - along_m);
+                let planned_mps = remaining_m.map_or(cruise, |r| cruise.min(stop_approach_mps(r, &nav_config.speed)));
+                (
+                    active && !self.navigator.stopping(),
+                    target.direction,
+                    planned_mps,
+                    remaining_m,
+                )
             }
-            None => (false, Direction::Forward, 0.0),
+            None => (false, Direction::Forward, 0.0, None),
         };
         // Settling onto a precision stop: not driving, not parked either.
         let settling = active && self.mode != Mode::Magnetic && self.navigator.stopping();
-        let verdict = self.obstacle_verdict(active, wants_to_move, settling, direction, planned_mps);
+        let verdict = self.obstacle_verdict(active, wants_to_move, settling, direction, (planned_mps, stop_within_m));
         // A wait at rest brakes like a stop: the drive is held at 0, not
         // left to creep on a speed demand of 0.
         matches!(verdict, Verdict::Stop(_) | Verdict::Wait(_))
@@ -308,4 +323,17 @@ impl Core {
             }
         }
     }
+}
+
+/// The fastest the speed schedule drives with `remaining_m` left to a stop
+/// point (either way): braking to it, and the final approach's position
+/// loop. A vehicle settling onto its stop, or short of it, starts and
+/// resumes no faster. Judged at cruise instead, someone standing a metre
+/// or two ahead of a vehicle resting on the mission's last stop was in the
+/// protective field at resume (sized for cruise) or in the path of a
+/// cruise-speed resume, and the stop was never released (bench seeds 448,
+/// 604, 1156, 1323, 1440: stalls).
+fn stop_approach_mps(remaining_m: f64, speed: &SpeedConfig) -> f64 {
+    let remaining_m = remaining_m.abs();
+    braking_limit(0.0, remaining_m, speed.decel_mps2.max(0.01)).min(speed.approach_gain_per_s.max(0.0) * remaining_m)
 }

@@ -83,10 +83,10 @@ const HIDDEN_SEEN_M: f64 = 0.7;
 /// sliver of its side), and its last place says nothing about where it is
 /// a second later: it may be walking on into the body.
 const HIDDEN_SPREAD_MPS: f64 = 1.0;
-/// A track that leaves view is kept at least this wide (a person's radius,
-/// m): its last returns beside the body are often a sliver of its side
-/// (a radius of a few centimetres), and a sliver is passed closer than the
-/// person it belongs to.
+/// A track that leaves view is kept at least as wide as a person of this
+/// radius (m): its last returns beside the body are often a sliver of its
+/// side (a radius of a few centimetres), and a sliver is passed closer than
+/// the person it belongs to (see [`out_of_view_reach_m`]).
 const OUT_OF_VIEW_MIN_RADIUS_M: f64 = 0.25;
 
 /// One scanner's latest scan, reduced to what the tick needs.
@@ -155,6 +155,10 @@ struct HiddenTrack {
     radius_m: f64,
     lost_s: f64,
     spread_mps: f64,
+    /// Its returns had stood still on one outline (`STILL_S`): it is
+    /// where it was last seen, and a vehicle driving on is stopped by it
+    /// as by a standing track in view.
+    standing: bool,
     /// The largest id of the tracks acted on when it was lost: only a track
     /// with a larger one (born since, ids only grow) can be it seen again.
     /// Another object that was already tracked nearby, however near the
@@ -380,14 +384,15 @@ impl Core {
     /// `Stop`, with the stop/resume announcements. `wants_to_move`: the mode
     /// has somewhere to go; `settling`: it wants no speed but is still
     /// settling onto a stop point; `direction`: the way it would drive;
-    /// `planned_mps`: the speed it would drive at.
+    /// `planned_mps`: the speed it would drive at; `stop_within_m`: how far
+    /// it drives at most before it rests on a stop point.
     pub(super) fn obstacle_verdict(
         &mut self,
         active: bool,
         wants_to_move: bool,
         settling: bool,
         direction: Direction,
-        planned_mps: f64,
+        (planned_mps, stop_within_m): (f64, Option<f64>),
     ) -> Verdict {
         let now_s = self.now.boot.as_secs_f64();
         let footprint = self.footprint();
@@ -406,7 +411,7 @@ impl Core {
             position: estimate.position,
             yaw_rad: estimate.yaw_rad,
         };
-        let checked = self.sweep_and_check_fields(&pose, &footprint, direction, speed, planned_mps);
+        let checked = self.sweep_and_check_fields(&pose, &footprint, direction, speed, (planned_mps, stop_within_m));
         let (predictions, predictions_at_resume) =
             self.predict_collisions(now_s, (&estimate, &pose), &footprint, (speed, planned_mps));
         let config = self.policy_config();
@@ -434,14 +439,18 @@ impl Core {
         verdict
     }
     /// Sweeps the path ahead and checks the protective and warning fields
-    /// (at the speed now and at the resume speed) along it.
+    /// (at the speed now and at the resume speed) along it. The sweep ends
+    /// at a stop point the vehicle will rest on first (`stop_within_m`):
+    /// the leg's own sweep ends there, and one off the leg (the way back
+    /// onto it, or the curvature driven at a stop leg's end) must not
+    /// reach past it either.
     fn sweep_and_check_fields(
         &mut self,
         pose: &Pose,
         footprint: &Footprint,
         direction: Direction,
         speed: f64,
-        planned_mps: f64,
+        (planned_mps, stop_within_m): (f64, Option<f64>),
     ) -> CheckedFields {
         let sign = direction.sign();
         let field_config = self.field_config();
@@ -456,7 +465,8 @@ impl Core {
         let sweep_m = here_fields
             .warning_length_m
             .max(resume_fields.warning_length_m)
-            .max(speed.abs().max(planned_mps.abs()) * horizon);
+            .max(speed.abs().max(planned_mps.abs()) * horizon)
+            .min(stop_within_m.map_or(f64::INFINITY, f64::abs));
         self.sweep_path_ahead(pose, footprint, sign < 0.0, sweep_m, (speed, planned_mps));
         let [field, field_at_resume] = self.check_fields(&here_fields, &resume_fields, &field_config);
         // At rest the fields that matter are those it would start with.
@@ -497,6 +507,7 @@ impl Core {
         );
         self.remember_hidden_tracks(now_s, pose, footprint, margin, velocity_gate_mps);
         self.push_hidden_predictions(now_s, pose, footprint, &mut predictions_at_resume);
+        self.push_hidden_standing_contacts(speed, (margin, horizon), &mut predictions);
         (predictions, predictions_at_resume)
     }
 
@@ -722,6 +733,40 @@ impl Core {
         }
     }
 
+    /// The remembered tracks that stood still, as a moving vehicle's
+    /// predictions: the inner side of an arc or the swing of the body
+    /// sweeps into someone standing in the blind zone beside it (or behind
+    /// another person), whose track the tracker has dropped; without this
+    /// only the protective field, a few centimetres off, stopped it.
+    fn push_hidden_standing_contacts(
+        &self,
+        speed: f64,
+        (margin, horizon): (f64, f64),
+        predictions: &mut Vec<CollisionPrediction>,
+    ) {
+        for hidden in self.obstacles.hidden.iter().filter(|h| h.standing) {
+            let shape = Shape::Disc {
+                centre: hidden.position,
+                radius_m: hidden.radius_m,
+            };
+            if let Some(c) = self
+                .obstacles
+                .swept
+                .first_contact(&shape, (0.0, 0.0), speed, margin, horizon)
+            {
+                predictions.push(CollisionPrediction {
+                    track_id: hidden.id,
+                    time_s: c.time_s,
+                    place: c.place,
+                    distance_m: c.gap_now_m,
+                    relative_speed_mps: speed.abs(),
+                    obstacle_speed_mps: 0.0,
+                    closing: c.closing,
+                });
+            }
+        }
+    }
+
     /// A static obstacle that keeps the vehicle stopped: plan round it
     /// (notes since when it has blocked the way).
     fn note_static_block(&mut self, verdict: &Verdict, wants_to_move: bool, now_s: f64) {
@@ -763,15 +808,26 @@ impl Core {
         };
         let known_ids_to = obs.last_tracks.iter().map(|t| t.id).max().unwrap_or(0);
         for lost in obs.last_tracks.iter().filter(|l| tracks.iter().all(|t| t.id != l.id)) {
-            let radius_m = lost.radius_m.max(OUT_OF_VIEW_MIN_RADIUS_M);
+            let radius_m = out_of_view_reach_m(lost.radius_m);
             if gap_m(lost.position, radius_m) <= margin_m + HIDDEN_NEAR_M {
                 let walking = lost.velocity_sigma_mps <= gate_mps && moving(lost);
                 // Its returns were leaving their outline: it was moving, at
                 // a velocity not good enough to follow.
                 let wandering = !walking && lost.still_s < STILL_S;
+                let standing = !walking && !wandering;
+                // A standing object is where it was last seen: the
+                // filter's coasting moved the track by its velocity noise.
+                let position = if standing {
+                    Ned::new(
+                        lost.position.north_m - lost.vel_north_mps * lost.unseen_s,
+                        lost.position.east_m - lost.vel_east_mps * lost.unseen_s,
+                    )
+                } else {
+                    lost.position
+                };
                 obs.hidden.push(HiddenTrack {
                     id: lost.id,
-                    position: lost.position,
+                    position,
                     velocity: if walking {
                         (lost.vel_north_mps, lost.vel_east_mps)
                     } else {
@@ -780,6 +836,7 @@ impl Core {
                     radius_m,
                     lost_s: now_s,
                     spread_mps: if wandering { HIDDEN_SPREAD_MPS } else { 0.0 },
+                    standing,
                     known_ids_to,
                 });
             }
@@ -1290,6 +1347,19 @@ impl Core {
             self.next_detour_leg(here);
         }
     }
+}
+
+/// How far from the centroid of a lost track's returns the object may
+/// reach. Returns spanning less than a person (radius r < R, R =
+/// [`OUT_OF_VIEW_MIN_RADIUS_M`]) are part of its near face, and their
+/// centroid lies on that face, not at its centre: the far side is up to
+/// 2R − r away (2R for a sliver). Seed 3202: a person standing behind
+/// another was last seen as returns of radius 0.13 m, 0.4 m short of
+/// their centre; kept 0.25 m wide, the vehicle came to rest 0.26 m from
+/// them.
+fn out_of_view_reach_m(radius_m: f64) -> f64 {
+    let radius_m = radius_m.max(0.0);
+    radius_m.max(2.0 * OUT_OF_VIEW_MIN_RADIUS_M - radius_m)
 }
 
 /// Faster than a standing object's noise: above `STATIC_SPEED_MPS` and
