@@ -68,7 +68,8 @@
 //! contact threshold (margin + [`CONTACT_TOLERANCE_M`] + the sagitta) from
 //! every outline [`SweptPath::first_contact_driving`] places, when its
 //! centre is farther than path + reach + extent + v·horizon + that
-//! threshold from `c`. When every return and every track is that far, the
+//! threshold from `c`. When every return, every track and every standing
+//! person remembered out of view (a disc at rest) is that far, the
 //! built path would answer every query with nothing, and an empty one
 //! ([`SweptPath::clear`]) answers the same without the poses being
 //! computed. Anything within the disc, or anything non-finite, and the

@@ -987,7 +987,8 @@ impl Core {
     /// side margins) or any track (tentative or not, as a disc and as its
     /// outline, at its filter's speed) could be met on a path within
     /// `reach`, with the margins and horizon the fields and the collision
-    /// predictions use. Hidden tracks are no query of the swept path.
+    /// predictions use, or any standing person remembered out of view (a
+    /// moving vehicle still stops for them on the swept path).
     fn scene_within(&self, reach: &SweepReach) -> bool {
         let a = &self.p.obstacles.avoidance;
         let margin_m = f64::from(a.margin_m.get(&self.params));
@@ -998,11 +999,19 @@ impl Core {
         if points.any(|p| reach.may_meet_point(*p, point_margin_m)) {
             return true;
         }
-        obs.tracker.tracks().iter().any(|track| {
-            [track_shape(track, true), track_shape(track, false)]
-                .iter()
-                .any(|shape| reach.may_meet_shape(shape, track.speed_mps(), margin_m, horizon_s))
-        })
+        let hidden_standing = obs.hidden.iter().filter(|h| h.standing).any(|h| {
+            let shape = Shape::Disc {
+                centre: h.position,
+                radius_m: h.radius_m,
+            };
+            reach.may_meet_shape(&shape, 0.0, margin_m, horizon_s)
+        });
+        hidden_standing
+            || obs.tracker.tracks().iter().any(|track| {
+                [track_shape(track, true), track_shape(track, false)]
+                    .iter()
+                    .any(|shape| reach.may_meet_shape(shape, track.speed_mps(), margin_m, horizon_s))
+            })
     }
 
     /// One STATUSTEXT per wait at rest (the verdict is decided again every
