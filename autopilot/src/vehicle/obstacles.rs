@@ -1597,4 +1597,55 @@ mod tests {
             prop_assert_eq!(covered_sectors(&scan, mount_yaw_rad), expected);
         }
     }
+
+    /// Off its leg with no scan return and no track near, the vehicle
+    /// still sweeps its way back onto the leg when a standing person
+    /// remembered out of view is on it (`scene_within`), so the person
+    /// gets a collision prediction (`push_hidden_standing_contacts`);
+    /// skipped, the empty sweep would find nothing.
+    #[test]
+    fn off_the_leg_a_remembered_standing_person_on_the_rejoin_path_is_predicted() {
+        use crate::sitl::simulation::{Simulation, SimulationConfig, SimulationParams};
+
+        let config = SimulationConfig::default();
+        let mut sim = Simulation::new(&config, SimulationParams::new(config.model));
+        let core = sim.core_mut();
+        let footprint = core.footprint();
+        // A leg due north along east 0; the vehicle 1.5 m east of it, heading north.
+        core.navigator
+            .set_target(Ned::new(0.0, 0.0), NavTarget::stop_at(Ned::new(30.0, 0.0)));
+        let pose = Pose {
+            position: Ned::new(5.0, 1.5),
+            yaw_rad: 0.0,
+        };
+        // Someone who stood 1.5 m past the front bumper, lost from view.
+        let person = Ned::new(5.0 + footprint.front_m + 1.5, 1.2);
+        core.obstacles.hidden.push(HiddenTrack {
+            id: 7,
+            position: person,
+            velocity: (0.0, 0.0),
+            radius_m: 0.25,
+            lost_s: 0.0,
+            spread_mps: 0.0,
+            standing: true,
+            known_ids_to: 7,
+        });
+        assert!(core.obstacles.tracker.tracks().is_empty());
+        assert!(core.obstacles.views.iter().all(|v| v.local_points.is_empty()));
+        let (speed, planned_mps) = (1.0, 1.0);
+        core.sweep_path_ahead(&pose, &footprint, false, 5.0, (speed, planned_mps));
+        assert!(
+            !core.obstacles.rejoin_poses.is_empty(),
+            "off the leg: the rejoin branch"
+        );
+        let a = &core.p.obstacles.avoidance;
+        let margin = f64::from(a.margin_m.get(&core.params));
+        let horizon = f64::from(a.horizon_s.get(&core.params));
+        let mut predictions = Vec::new();
+        core.push_hidden_standing_contacts(speed, (margin, horizon), &mut predictions);
+        assert!(
+            predictions.iter().any(|p| p.track_id == 7),
+            "no collision prediction for the person on the rejoin path: {predictions:?}"
+        );
+    }
 }
