@@ -157,14 +157,19 @@ pub fn scheduled_speed(
         // curvature floors do not apply), signed so an overshoot beyond the
         // slack backs up, no faster than the vehicle cruises. Within the
         // slack the braking profile is the lower and ends on the point.
-        let slack = config.stop_slack_m.max(0.0);
-        let approach = (config.approach_gain_per_s * (remaining + slack)).max(-cruise);
+        let approach = approach_loop_mps(config, remaining).max(-cruise);
         if approach < status.speed_mps {
             status.speed_mps = approach;
             status.limit = SpeedLimit::Approach;
         }
     }
     status
+}
+
+/// The final approach's position loop with `remaining_m` to go to a stop
+/// (negative past it): run as if the point were the stop's slack farther.
+pub fn approach_loop_mps(config: &SpeedConfig, remaining_m: f64) -> f64 {
+    config.approach_gain_per_s * (remaining_m + config.stop_slack_m.max(0.0))
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@ use crate::control::mixer::{self, DriveTrain, WheelOutputs};
 use crate::control::pid::PidGains;
 use crate::control::speed::{BrakeLimits, SpeedControlConfig};
 use crate::guidance::navigator::{NavConfig, NavDemand, StopTolerance};
-use crate::guidance::speed::{SpeedConfig, braking_limit};
+use crate::guidance::speed::{SpeedConfig, approach_loop_mps, braking_limit};
 use crate::guidance::tracker::{Direction, TrackerConfig};
 use crate::modes::Mode;
 use crate::obstacles::policy::Verdict;
@@ -335,7 +335,5 @@ impl Core {
 /// 604, 1156, 1323, 1440: stalls).
 fn stop_approach_mps(remaining_m: f64, speed: &SpeedConfig) -> f64 {
     let remaining_m = remaining_m.abs();
-    // The approach loop runs as if the point were the stop's slack farther.
-    let loop_mps = speed.approach_gain_per_s.max(0.0) * (remaining_m + speed.stop_slack_m.max(0.0));
-    braking_limit(0.0, remaining_m, speed.decel_mps2.max(0.01)).min(loop_mps)
+    braking_limit(0.0, remaining_m, speed.decel_mps2.max(0.01)).min(approach_loop_mps(speed, remaining_m).max(0.0))
 }
