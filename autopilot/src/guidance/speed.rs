@@ -4,9 +4,14 @@
 //! whose output is the speed), and by a stop at the leg's end, whose final
 //! approach is a position loop that ends on the point (docs/architecture.md §Path tracking).
 //! A stop that may end farther from its point than the loop's own precision
-//! (a VDA 5050 node's `allowedDeviationXY`) runs the loop as if the point
-//! were that much farther: the vehicle rolls in faster, and the braking
-//! profile, which ends on the point, takes over for the last centimetres.
+//! (a VDA 5050 node's `allowedDeviationXY`) is driven in on the braking
+//! profile alone, which ends on the point. The speed loop and the drive
+//! lag behind that profile, so the vehicle reaches the point still rolling:
+//! from there, within the stop's slack, the schedule holds it
+//! ([`SpeedLimit::Hold`]: the drive lets go and the vehicle rolls to rest
+//! where its lag takes it, rather than chase a speed of 0 on a lagging
+//! measurement, which backed it up), and only an overshoot beyond the
+//! slack is driven back.
 //!
 //! Sources: docs/references.md §Seed 002.
 
@@ -31,9 +36,9 @@ pub struct SpeedConfig {
     pub approach_gain_per_s: f64,
     /// How much farther from its point a stop may end than the precision
     /// the approach loop is tuned for (the stop's tolerance less
-    /// `WP_STOP_TOL_MM`; 0 for a precision stop): the loop's distance is
-    /// offset by it. Past the point by less than this the vehicle is not
-    /// backed up.
+    /// `WP_STOP_TOL_MM`; 0 for a precision stop). More than 0: no loop
+    /// short of the point, a hold past it by up to this, and beyond, the
+    /// loop's distance offset by it.
     pub stop_slack_m: f64,
     /// With the steering rate (`VEH_STEER_RATE`, 0 for none): how long the
     /// wheels take to turn to an arc's angle, which the arc's speed covers.
@@ -50,6 +55,9 @@ pub enum SpeedLimit {
     Heading,
     Braking,
     Approach,
+    /// At or past a stop's point within its slack: the drive lets go, and
+    /// the vehicle rolls to rest (no speed is chased).
+    Hold,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -154,22 +162,33 @@ pub fn scheduled_speed(
         let remaining = stop_m - inputs.along_m;
         limit(braking_limit(0.0, remaining, decel), SpeedLimit::Braking, &mut status);
         // The position loop: never below it near the stop (the heading and
-        // curvature floors do not apply), signed so an overshoot beyond the
-        // slack backs up, no faster than the vehicle cruises. Within the
-        // slack the braking profile is the lower and ends on the point.
+        // curvature floors do not apply), signed so an overshoot backs up,
+        // no faster than the vehicle cruises.
         let approach = approach_loop_mps(config, remaining).max(-cruise);
         if approach < status.speed_mps {
             status.speed_mps = approach;
             status.limit = SpeedLimit::Approach;
+        }
+        let slack = config.stop_slack_m.max(0.0);
+        if slack > 0.0 && (-slack..=0.0).contains(&remaining) {
+            status.speed_mps = 0.0;
+            status.limit = SpeedLimit::Hold;
         }
     }
     status
 }
 
 /// The final approach's position loop with `remaining_m` to go to a stop
-/// (negative past it): run as if the point were the stop's slack farther.
+/// (negative past it). A stop with slack has none short of its point (the
+/// braking profile brings the vehicle in); past it the loop runs as if the
+/// point were the slack farther, so only an overshoot beyond the slack
+/// backs up.
 pub fn approach_loop_mps(config: &SpeedConfig, remaining_m: f64) -> f64 {
-    config.approach_gain_per_s * (remaining_m + config.stop_slack_m.max(0.0))
+    let slack = config.stop_slack_m.max(0.0);
+    if slack > 0.0 && remaining_m > 0.0 {
+        return f64::INFINITY;
+    }
+    config.approach_gain_per_s * (remaining_m + slack)
 }
 
 #[cfg(test)]
@@ -241,12 +260,12 @@ mod tests {
     }
 
     /// A stop that may end 0.29 m farther than the loop's precision (with
-    /// the vehicle's gain and planned deceleration): the loop runs as if
-    /// the point were that much farther, twice as fast 0.3 m out, the
-    /// braking profile takes the last 2 cm and ends on the point, and an
-    /// overshoot within the slack is held, not backed up.
+    /// the vehicle's gain and planned deceleration): no loop short of the
+    /// point, so 0.3 m out the braking profile's 0.69 m/s (the precision
+    /// loop's 0.18), ending on the point; at the point and past it within
+    /// the slack a hold; past by more, backed up.
     #[test]
-    fn a_wide_stop_is_approached_faster_and_still_ends_on_its_point() {
+    fn a_wide_stop_is_braked_into_and_held_past_its_point() {
         let precise = SpeedConfig {
             approach_gain_per_s: 0.6,
             decel_mps2: 0.8,
@@ -257,25 +276,30 @@ mod tests {
             ..precise
         };
         let st = speed_with(&wide, 49.7, Some(50.0), &[], 0.0);
-        assert_eq!(st.limit, SpeedLimit::Approach);
-        assert!((st.speed_mps - 0.6 * 0.59).abs() < 1e-12, "{st:?}");
+        assert_eq!(st.limit, SpeedLimit::Braking);
+        assert!((st.speed_mps - 0.48f64.sqrt()).abs() < 1e-12, "{st:?}");
         let before = speed_with(&precise, 49.7, Some(50.0), &[], 0.0);
         assert!((before.speed_mps - 0.6 * 0.3).abs() < 1e-12, "{before:?}");
         let st = speed_with(&wide, 49.99, Some(50.0), &[], 0.0);
         assert_eq!(st.limit, SpeedLimit::Braking);
         assert!((st.speed_mps - 0.016f64.sqrt()).abs() < 1e-12, "{st:?}");
-        assert_eq!(
-            speed_with(&wide, 50.0, Some(50.0), &[], 0.0).speed_mps,
-            0.0,
-            "on the point"
-        );
-        let held = speed_with(&wide, 50.2, Some(50.0), &[], 0.0);
-        assert_eq!(held.speed_mps, 0.0, "past within the slack: held");
+        for along_m in [50.0, 50.2, 50.29] {
+            let held = speed_with(&wide, along_m, Some(50.0), &[], 0.0);
+            assert_eq!((held.speed_mps, held.limit), (0.0, SpeedLimit::Hold), "{along_m}");
+        }
         let st = speed_with(&wide, 50.5, Some(50.0), &[], 0.0);
+        assert_eq!(st.limit, SpeedLimit::Approach);
         assert!(
             (st.speed_mps + 0.6 * 0.21).abs() < 1e-12,
             "past by more: backs up {st:?}"
         );
+        let precise_past = speed_with(&precise, 50.2, Some(50.0), &[], 0.0);
+        assert_eq!(
+            precise_past.limit,
+            SpeedLimit::Approach,
+            "a precision stop is never held"
+        );
+        assert!((precise_past.speed_mps + 0.6 * 0.2).abs() < 1e-12, "{precise_past:?}");
     }
 
     #[test]

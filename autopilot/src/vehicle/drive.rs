@@ -9,7 +9,7 @@ use crate::control::mixer::{self, DriveTrain, WheelOutputs};
 use crate::control::pid::PidGains;
 use crate::control::speed::{BrakeLimits, SpeedControlConfig};
 use crate::guidance::navigator::{NavConfig, NavDemand, StopTolerance};
-use crate::guidance::speed::{SpeedConfig, approach_loop_mps, braking_limit};
+use crate::guidance::speed::{SpeedConfig, SpeedLimit, approach_loop_mps, braking_limit};
 use crate::guidance::tracker::{Direction, TrackerConfig};
 use crate::modes::Mode;
 use crate::obstacles::policy::Verdict;
@@ -247,6 +247,15 @@ impl Core {
                 self.speed_control.reset(0.0);
                 (self.steering_for(nav, 0.0), 0.0)
             }
+            Demand::Navigate(nav) if nav.speed_mps == 0.0 && self.holding_at_stop() => {
+                // Rolling onto a wide stop: the drive let go (neutral, so
+                // the estimator may find it at rest), and the vehicle comes
+                // to rest where its lag takes it, centimetres on. A speed
+                // of 0 chased on the lagging speed estimate pushed on after
+                // the wheels had stopped and backed the vehicle up.
+                self.speed_control.reset(0.0);
+                (0.0, 0.0)
+            }
             Demand::Navigate(nav) => {
                 let config = self.speed_control_config();
                 let throttle = self.speed_control.update(&config, nav.speed_mps, measured, dt_s);
@@ -271,6 +280,12 @@ impl Core {
             actuators: mixer::mix(self.drive_train, steering, throttle),
             wheels,
         };
+    }
+
+    /// The speed schedule holds the vehicle at a stop it may end past (see
+    /// [`SpeedLimit::Hold`]).
+    fn holding_at_stop(&self) -> bool {
+        self.navigator.target().is_some_and(|t| t.stop) && self.navigator.status().speed.limit == SpeedLimit::Hold
     }
 
     /// The IMU's forward specific force, while it reports: on level ground

@@ -29,7 +29,7 @@
 //! within the deviation, and how often that radius held the truth while
 //! the vehicle moved. The agent names the node once the estimate is within
 //! the deviation less the radius, so at roll-in speed v it comes about
-//! radius / v after the truth (1.6 cm at 33 cm/s: ~49 ms); ≤ 50 ms with a
+//! radius / v after the truth (1.6 cm at 78 cm/s: ~21 ms); ≤ 50 ms with a
 //! true 95 % radius needs v ≥ radius / 50 ms there.
 //!
 //! A real order also waits for the next tick (up to one period) and its
