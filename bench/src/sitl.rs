@@ -101,6 +101,7 @@ fn in_process(seconds: f64, logging: bool) {
     let mut corner = 0;
     let start = Instant::now();
     let cpu_start_s = crate::fleet::process::cpu_s(std::process::id());
+    sim.time_stages(true);
     let stages_before = sim.stage_times();
     let mut driving = false;
     let mut odometer_m = 0.0;

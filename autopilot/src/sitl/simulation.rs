@@ -129,6 +129,9 @@ pub struct Simulation {
     /// Buffers of scans the core has read, for the next ones received.
     spare_scans: Vec<Scan>,
     stage_times: StageTimes,
+    /// Whether [`Self::stage_times`] are taken: each stage's clock reads
+    /// cost a simulation run that does not report them.
+    timing_stages: bool,
     scanner_links: Vec<ScannerLink>,
     param_generation: u64,
     faults: Faults,
@@ -137,8 +140,9 @@ pub struct Simulation {
 }
 
 /// Wall time spent in each stage of the simulation's steps, nanoseconds, as
-/// read from the timer each step is given (all zero with a frozen timer;
-/// the readings change nothing that is computed).
+/// read from the timer each step is given once [`Simulation::time_stages`]
+/// asked for them (all zero otherwise, or with a frozen timer; the
+/// readings change nothing that is computed).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct StageTimes {
     /// Physics, GNSS epochs out (NMEA formatting) and scan ray casting.
@@ -189,14 +193,14 @@ impl ScannerLink {
         scan: &Scan,
         rate_hz: f64,
         out: &mut Scan,
-        timer: &mut dyn TaskTimer,
+        clock: &mut StageClock<'_>,
         times: &mut StageTimes,
     ) -> bool {
-        let started_ns = timer.now_ns();
+        let started_ns = clock.now_ns();
         self.telegram_counter = self.telegram_counter.wrapping_add(1);
         self.sent.set_from_scan(scan, rate_hz, self.telegram_counter);
         encode_lmd_scandata_into(&self.sent, &mut self.bytes);
-        let encoded_ns = timer.now_ns();
+        let encoded_ns = clock.now_ns();
         times.scan_encode_ns += encoded_ns.saturating_sub(started_ns);
         self.framer.push(&self.bytes);
         let mut received = false;
@@ -209,8 +213,21 @@ impl ScannerLink {
                 Err(_) => self.malformed += 1,
             }
         }
-        times.scan_parse_ns += timer.now_ns().saturating_sub(encoded_ns);
+        times.scan_parse_ns += clock.now_ns().saturating_sub(encoded_ns);
         received
+    }
+}
+
+/// The step's timer as read for [`StageTimes`]: 0 without reading it when
+/// the stages are not being timed.
+struct StageClock<'a> {
+    timer: &'a mut dyn TaskTimer,
+    on: bool,
+}
+
+impl StageClock<'_> {
+    fn now_ns(&mut self) -> u64 {
+        if self.on { self.timer.now_ns() } else { 0 }
     }
 }
 
@@ -244,6 +261,7 @@ impl Simulation {
             scans: Vec::new(),
             spare_scans: Vec::new(),
             stage_times: StageTimes::default(),
+            timing_stages: false,
             scanner_links: Vec::new(),
             param_generation: generation,
             faults: Faults::default(),
@@ -273,21 +291,26 @@ impl Simulation {
         let period = self.core.loop_period();
         let actuators = self.faults.actuate(self.outputs.actuators, self.core.is_armed());
         let speed_before_mps = self.world.truth().speed_mps;
-        self.world.step_timed(period, &actuators, &mut || timer.now_ns());
+        let timing_stages = self.timing_stages;
+        let mut clock = StageClock {
+            timer: &mut *timer,
+            on: timing_stages,
+        };
+        self.world.step_timed(period, &actuators, &mut || clock.now_ns());
         self.applied = actuators;
         let now = Now {
             boot: self.world.time(),
             wall,
         };
 
-        let gnss_in_started_ns = timer.now_ns();
+        let gnss_in_started_ns = clock.now_ns();
         self.gnss_bytes.clear();
         self.world.take_gnss_bytes(&mut self.gnss_bytes);
         self.nmea.push(now.boot, &self.gnss_bytes, &mut self.inputs.gnss);
         self.imu_bytes.clear();
         self.world.take_imu_bytes(&mut self.imu_bytes);
         self.imu_reader.push(now.boot, &self.imu_bytes, &mut self.inputs.gnss);
-        self.stage_times.gnss_in_ns += timer.now_ns().saturating_sub(gnss_in_started_ns);
+        self.stage_times.gnss_in_ns += clock.now_ns().saturating_sub(gnss_in_started_ns);
         let mut battery = self.world.battery();
         let forced_v = f64::from(self.sim.battery_volt.get(self.core.params()));
         if forced_v > 0.0 {
@@ -304,7 +327,7 @@ impl Simulation {
                 rear_mask,
             });
 
-        self.carry_scans(timer);
+        self.carry_scans(&mut clock);
 
         // A stalled core reads nothing: its inputs wait in the queues (as
         // bytes in a serial buffer would) while the world drives on.
@@ -315,9 +338,13 @@ impl Simulation {
             self.lose_link_traffic();
         }
         let sent_before = self.outputs.mavlink.len();
-        let core_started_ns = timer.now_ns();
+        let core_started_ns = clock.now_ns();
         self.core.step(now, &self.inputs, &mut self.outputs, timer);
-        self.stage_times.core_ns += timer.now_ns().saturating_sub(core_started_ns);
+        let mut clock = StageClock {
+            timer,
+            on: timing_stages,
+        };
+        self.stage_times.core_ns += clock.now_ns().saturating_sub(core_started_ns);
         self.recycle_inputs();
         if self.faults.link_lost(now.boot) {
             self.cut_off_links(sent_before);
@@ -330,7 +357,7 @@ impl Simulation {
     }
 
     /// The scans the world took, over the simulated wires into the inputs.
-    fn carry_scans(&mut self, timer: &mut dyn TaskTimer) {
+    fn carry_scans(&mut self, clock: &mut StageClock<'_>) {
         self.world.take_scans(&mut self.scans);
         let rate_hz = f64::from(self.sim.scan_rate_hz.get(self.core.params()));
         for (scanner, scan) in &self.scans {
@@ -339,7 +366,7 @@ impl Simulation {
             }
             let mut received = self.spare_scans.pop().unwrap_or_else(|| scan.clone());
             let link = &mut self.scanner_links[*scanner];
-            if link.carry(scan, rate_hz, &mut received, timer, &mut self.stage_times) {
+            if link.carry(scan, rate_hz, &mut received, clock, &mut self.stage_times) {
                 self.inputs.scans.push(ScanInput {
                     scanner: *scanner,
                     scan: received,
@@ -451,7 +478,14 @@ impl Simulation {
         self.world.set_scanners(configs);
     }
 
-    /// Wall time spent so far in each stage of [`Self::step`].
+    /// Times each stage of [`Self::step`] from now on (or not): a
+    /// benchmark's breakdown; off by default.
+    pub fn time_stages(&mut self, on: bool) {
+        self.timing_stages = on;
+    }
+
+    /// Wall time spent so far in each stage of [`Self::step`] while
+    /// [`Self::time_stages`] was on.
     pub fn stage_times(&self) -> StageTimes {
         StageTimes {
             world: self.world.stage_times(),
@@ -515,5 +549,39 @@ impl Simulation {
     /// The demand the world received on the last step.
     pub fn last_demand(&self) -> ActuatorDemand {
         self.outputs.actuators
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::edge::clock::InstantTimer;
+
+    /// The clock is read for the stage times only once they are asked
+    /// for: a run that does not report them does not pay for them.
+    #[test]
+    fn stages_are_timed_only_when_asked() {
+        let config = SimulationConfig::default();
+        let mut sim = Simulation::new(&config, SimulationParams::new(config.model));
+        let mut timer = InstantTimer::default();
+        let mut wall = Duration::ZERO;
+        let mut run = |sim: &mut Simulation, ticks: usize| {
+            for _ in 0..ticks {
+                wall += sim.core().loop_period();
+                sim.step(wall, &mut timer);
+            }
+        };
+        run(&mut sim, 100);
+        assert_eq!(sim.stage_times(), StageTimes::default());
+        sim.time_stages(true);
+        run(&mut sim, 100);
+        let times = sim.stage_times();
+        assert!(times.core_ns > 0, "{times:?}");
+        assert!(
+            times.world.physics_ns > 0 && times.world.scan_render_ns > 0,
+            "{times:?}"
+        );
+        assert!(times.scan_encode_ns > 0 && times.scan_parse_ns > 0, "{times:?}");
+        assert!(times.gnss_in_ns > 0, "{times:?}");
     }
 }

@@ -331,12 +331,13 @@ fn quote(token: &[u8]) -> String {
 // ---------------------------------------------------------------------------
 // Tokens
 
-/// The tokens of one telegram, read in order without collecting them: the
-/// count is taken once up front so a count field can be checked against what
-/// is left before anything is sized from it.
+/// The tokens of one telegram, read in order without collecting them. How
+/// many are left is counted only when a count field needs it, and only as
+/// far as that count reaches, so a count is checked against what is left
+/// before anything is sized from it without a pass over the whole telegram.
+#[derive(Clone, Copy)]
 struct Tokens<'a> {
     rest: &'a [u8],
-    remaining: usize,
 }
 
 impl<'a> Tokens<'a> {
@@ -344,15 +345,20 @@ impl<'a> Tokens<'a> {
     fn new(telegram: &'a [u8]) -> Self {
         let body = telegram.strip_prefix(&[STX]).unwrap_or(telegram);
         let body = body.strip_suffix(&[ETX]).unwrap_or(body);
-        // A token starts at each non-space byte after a space (or at the
-        // start).
-        let starts_inside = token_starts_after_spaces(body);
-        let remaining = starts_inside + usize::from(body.first().is_some_and(|&b| b != b' '));
-        Self { rest: body, remaining }
+        Self { rest: body }
     }
 
     fn remaining(&self) -> usize {
-        self.remaining
+        self.remaining_up_to(usize::MAX)
+    }
+
+    /// The tokens left, counted until `needed` are found (the count is then
+    /// at least `needed`, not necessarily all of them).
+    fn remaining_up_to(&self, needed: usize) -> usize {
+        // A token starts at each non-space byte after a space (or at the
+        // start; the rest of a telegram always starts at a space or ends).
+        let first = usize::from(self.rest.first().is_some_and(|&b| b != b' '));
+        first + token_starts_after_spaces(self.rest, needed.saturating_sub(first))
     }
 
     /// The next token without taking it.
@@ -368,7 +374,6 @@ impl<'a> Tokens<'a> {
         let rest = &self.rest[start..];
         let len = rest.iter().position(|&b| b == b' ').unwrap_or(rest.len());
         self.rest = &rest[len..];
-        self.remaining -= 1;
         Some(&rest[..len])
     }
 
@@ -401,11 +406,10 @@ impl<'a> Tokens<'a> {
     ) -> Result<(), ColaError> {
         // The position is kept in a local, stored back once at the end.
         let mut rest = self.rest;
-        for taken in 0..count {
+        for _ in 0..count {
             let ((value, invalid), at) = next_hex(rest);
             if invalid || at.1 - at.0 > 8 || at.0 == at.1 || value > max {
                 self.rest = rest;
-                self.remaining -= taken;
                 let value = self.take_hex(field, (value, invalid), at)?;
                 return Err(ColaError::OutOfRange { field, value, max });
             }
@@ -416,7 +420,6 @@ impl<'a> Tokens<'a> {
             }
         }
         self.rest = rest;
-        self.remaining -= count;
         Ok(())
     }
 
@@ -434,7 +437,6 @@ impl<'a> Tokens<'a> {
         }
         let token = &self.rest[start..end];
         self.rest = &self.rest[end..];
-        self.remaining -= 1;
         if invalid || token.len() > 8 {
             return Err(ColaError::BadHex {
                 field,
@@ -464,32 +466,44 @@ impl<'a> Tokens<'a> {
     /// A count of items of `tokens_each` tokens that must all be present.
     fn count(&mut self, field: &'static str, tokens_each: usize) -> Result<usize, ColaError> {
         let count = usize::from(self.hex_u16(field)?);
-        let remaining = self.remaining();
-        if count.saturating_mul(tokens_each) > remaining {
+        self.check_count(field, count, tokens_each)?;
+        Ok(count)
+    }
+
+    /// Whether `count` items of `tokens_each` tokens are all present.
+    fn check_count(&self, field: &'static str, count: usize, tokens_each: usize) -> Result<(), ColaError> {
+        let needed = count.saturating_mul(tokens_each);
+        if self.remaining_up_to(needed) < needed {
             return Err(ColaError::CountExceedsTokens {
                 field,
                 count,
-                remaining,
+                remaining: self.remaining(),
             });
         }
-        Ok(count)
+        Ok(())
     }
 }
 
-/// How many bytes of `body` are a space followed by a non-space: eight
-/// pairs at a time (a scan telegram is kilobytes), the tail one by one.
-fn token_starts_after_spaces(body: &[u8]) -> usize {
+/// The high bit of each byte of `word` that is a space (exact, no carries
+/// between bytes).
+fn space_bytes(word: u64) -> u64 {
     const HIGH_BITS: u64 = 0x8080_8080_8080_8080;
-    // The high bit of each byte that is a space (exact, no carries between bytes).
-    let spaces = |word: u64| {
-        let x = word ^ 0x2020_2020_2020_2020;
-        !(((x & !HIGH_BITS) + !HIGH_BITS) | x) & HIGH_BITS
-    };
+    let x = word ^ 0x2020_2020_2020_2020;
+    !(((x & !HIGH_BITS) + !HIGH_BITS) | x) & HIGH_BITS
+}
+
+/// How many bytes of `body` are a space followed by a non-space, counted
+/// eight pairs at a time (a scan telegram is kilobytes), the tail one by
+/// one; the count stops once it reaches `needed` (then it is at least that).
+fn token_starts_after_spaces(body: &[u8], needed: usize) -> usize {
     let word_at = |i: usize| u64::from_le_bytes(body[i..i + 8].try_into().unwrap_or_default());
     let mut count = 0;
     let mut i = 0;
     while i + 9 <= body.len() {
-        let pairs = spaces(word_at(i)) & !spaces(word_at(i + 1)) & HIGH_BITS;
+        if count >= needed {
+            return count;
+        }
+        let pairs = space_bytes(word_at(i)) & !space_bytes(word_at(i + 1));
         count += pairs.count_ones() as usize;
         i += 8;
     }
@@ -601,13 +615,23 @@ fn parse_channel<'a>(
     // Two's complement: the bit pattern is the signed value.
     let start_angle_1e4deg = tokens.hex_u32("start angle")? as i32;
     let step_1e4deg = u32::from(tokens.hex_u16("angular step")?);
-    let count = tokens.count("number of data", 1)?;
+    let count = usize::from(tokens.hex_u16("number of data")?);
     let mut keep = keep;
     if let Some(data) = keep.as_deref_mut() {
         data.clear();
-        data.reserve(count);
+        // Each token but the last takes two bytes at least: the telegram
+        // bounds what is reserved, whatever the count says.
+        data.reserve(count.min(tokens.rest.len() / 2 + 1));
     }
-    tokens.hex_run("channel data", count, data_max, keep)?;
+    // The count is checked against the tokens left only if the data do not
+    // read (a pass over the data otherwise spent on every scan): a run that
+    // reads `count` tokens had them, and one that fails reports a short
+    // count first, as a check beforehand would.
+    let before = *tokens;
+    if let Err(error) = tokens.hex_run("channel data", count, data_max, keep) {
+        before.check_count("number of data", count, 1)?;
+        return Err(error);
+    }
     Ok(ChannelHeader {
         name,
         scale_factor,
@@ -1772,9 +1796,14 @@ mod tests {
         fn token_start_count_matches_the_pairwise_count(
             body in proptest::collection::vec(
                 prop_oneof![4 => Just(b' '), 1 => Just(0xA0u8), 1 => Just(0x21u8), 1 => Just(0x1Fu8), 3 => any::<u8>()], 0..80),
+            needed in 0usize..40,
         ) {
             let plain = body.windows(2).filter(|pair| pair[0] == b' ' && pair[1] != b' ').count();
-            prop_assert_eq!(token_starts_after_spaces(&body), plain);
+            prop_assert_eq!(token_starts_after_spaces(&body, usize::MAX), plain);
+            // Counted only as far as needed: at least that many when there
+            // are, never more than there are.
+            let limited = token_starts_after_spaces(&body, needed);
+            prop_assert!(limited >= needed.min(plain) && limited <= plain, "{} of {} needed {}", limited, plain, needed);
         }
 
         /// The table-driven hex writer writes what `{:X}` and `{:08X}` do.
