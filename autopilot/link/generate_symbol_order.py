@@ -7,8 +7,9 @@ in `.text` (fewer resident code pages; see docs/architecture.md).
 
 Runs the ground-station session of gcs_session.py under callgrind, once at
 speedup 1 and once at max, keeps the functions callgrind saw in the `furrow` binary, in order of instructions
-executed (self), as the linker's mangled names. A stale list only loses
-effect: the linker skips names it does not find."""
+executed (self), as the linker's mangled names. A session step that does
+not complete stops the script with its reason and leaves the list as it was.
+A stale list only loses effect: the linker skips names it does not find."""
 
 import collections
 import pathlib
@@ -65,9 +66,17 @@ def main():
     # At speedup 1 (as the README starts it) and at max (as `furrow-bench sitl` does).
     for number, sitl_args in enumerate([(), ("--speedup", "max")]):
         out_file = f"{out_dir}/callgrind.out.{number}"
-        wrap = ["valgrind", "--tool=callgrind", "--demangle=no", "--dump-instr=no", "--compress-pos=no",
-                f"--callgrind-out-file={out_file}"]
-        gcs_session.session(exe, wrap=wrap, slow=6.0, telemetry_s=3.0, sitl_args=sitl_args)
+        # Valgrind runs one thread at a time. At max the core's loop never
+        # waits, and valgrind's default lock need not hand over in turn: it
+        # can hold the link thread (the ground station's replies) off.
+        # Fair scheduling hands the lock round in turn.
+        wrap = ["valgrind", "--tool=callgrind", "--fair-sched=yes", "--demangle=no", "--dump-instr=no",
+                "--compress-pos=no", f"--callgrind-out-file={out_file}"]
+        try:
+            gcs_session.session(exe, wrap=wrap, slow=6.0, telemetry_s=3.0, sitl_args=sitl_args)
+        except (gcs_session.SessionIncomplete, AssertionError, RuntimeError, TimeoutError) as error:
+            sys.exit(f"the session at {' '.join(sitl_args) or 'speedup 1'} under callgrind did not complete: "
+                     f"{error}; {HERE / 'furrow.symbol-order'} left as it was")
         cost.update(executed_functions(out_file, pathlib.Path(exe).name))
     defined = set(subprocess.run(["nm", "--defined-only", "--format=just-symbols", exe], check=True,
                                  capture_output=True, text=True).stdout.split())
