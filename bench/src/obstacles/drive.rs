@@ -13,7 +13,6 @@ use super::situation::{Phase, PhaseWatch, Situation};
 use super::truth::{Judge, Limits, MOVING_MPS, Pose, STALL_S, TruthLog, rectangle};
 use super::unavoidable::{ObjectId, RunTruth, WorldHistory, nearest, touching};
 use autopilot::edge::clock::InstantTimer;
-use autopilot::geo::{LocalFrame, Ned};
 use autopilot::obstacles::TrackStatus;
 use autopilot::sitl::simulation::{ModelKind, Simulation, SimulationConfig, SimulationParams};
 
@@ -675,7 +674,7 @@ fn record_kf_errors(sim: &Simulation, world: &ObstacleWorld, t: f64, recorded: &
     let Some(frame) = sim.core().estimator().frame().copied() else {
         return;
     };
-    let offset = sim_to_core(sim, &frame, 0.0, 0.0);
+    let offset = crate::tracking::true_local(sim, &frame, 0.0, 0.0);
     for track in sim.core().obstacle_tracks() {
         if track.status != TrackStatus::Confirmed || track.age_s < 1.0 || recorded.contains(&track.id) {
             continue;
@@ -705,10 +704,4 @@ fn record_kf_errors(sim: &Simulation, world: &ObstacleWorld, t: f64, recorded: &
                 .push((track.vel_north_mps - v[0]).hypot(track.vel_east_mps - v[1]));
         }
     }
-}
-
-/// The simulator's point in the autopilot's frame, through WGS-84.
-fn sim_to_core(sim: &Simulation, frame: &LocalFrame, north_m: f64, east_m: f64) -> Ned {
-    let g = sim.world().local_to_geodetic(north_m, east_m);
-    frame.to_local(&g)
 }
