@@ -58,7 +58,11 @@ def defined_share(exe, listed):
 def code_resident_mb(exe):
     """The binary's code resident after the ground-station session, MB."""
     rss_kb = gcs_session.session(exe, on_done=measure_rss.rss_by_mapping, log=lambda _: None)
-    return sum(kb for group, kb in rss_kb.items() if group == "furrow r-xp") / 1024
+    if "furrow r-xp" not in rss_kb:
+        # measure_rss groups mappings by a file name with "furrow" in it: a
+        # binary named otherwise would read as 0 MB and pass unmeasured.
+        sys.exit(f"no code mapping of {exe} found (its file name must contain 'furrow')")
+    return rss_kb["furrow r-xp"] / 1024
 
 
 def main():
