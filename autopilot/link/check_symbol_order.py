@@ -26,7 +26,6 @@ Two figures, each with its limit:
   figures."""
 
 import pathlib
-import subprocess
 import sys
 
 import gcs_session
@@ -48,9 +47,7 @@ then commit autopilot/link/furrow.symbol-order with the figures (docs/architectu
 
 def defined_share(exe, listed):
     """Share of the listed functions (by stem) the binary defines, and how many are listed."""
-    names = subprocess.run(["nm", "--defined-only", "--format=just-symbols", exe], check=True,
-                           capture_output=True, text=True).stdout.split()
-    stems = {symbol_names.stem(name) for name in names}
+    stems = {symbol_names.stem(name) for name in symbol_names.code_symbols(exe)}
     listed_stems = {symbol_names.line_stem(line) for line in listed}
     return len(listed_stems & stems) / len(listed_stems), len(listed_stems)
 

@@ -15,7 +15,6 @@ A stale list only loses effect: a pattern no section matches is skipped
 import collections
 import pathlib
 import re
-import subprocess
 import sys
 import tempfile
 
@@ -62,17 +61,6 @@ def executed_functions(callgrind_out, binary_name):
     return cost
 
 
-def code_symbols(exe):
-    """Mangled name -> (address, bytes of code), for the functions the binary defines."""
-    out = subprocess.run(["nm", "--defined-only", "--print-size", exe], check=True, capture_output=True,
-                         text=True).stdout
-    symbols = {}
-    for fields in map(str.split, out.splitlines()):
-        if len(fields) == 4 and fields[2] in "tTwW":
-            symbols[fields[3]] = (int(fields[0], 16), int(fields[1], 16))
-    return symbols
-
-
 def order_patterns(cost, exe):
     """The list's lines (symbol_names.py), hottest first. A generic function's
     instances are told apart only by their hashes, which differ between
@@ -84,7 +72,7 @@ def order_patterns(cost, exe):
     instances; every stem in the hot order, 1.85 MB). A function LLVM found
     identical to another is an alias of it, in the section named after the
     other, so every name at a hot function's address is listed."""
-    symbols = code_symbols(exe)
+    symbols = symbol_names.code_symbols(exe)
     at_address = collections.defaultdict(list)
     stem_bytes = collections.Counter()
     for name, (address, size) in sorted(symbols.items()):
@@ -126,6 +114,7 @@ def main():
     ordered = order_patterns(cost, exe)
     (HERE / "furrow.symbol-order").write_text("".join(f"{line}\n" for line in ordered))
     print(f"{len(ordered)} patterns ({len(cost)} functions seen in the binary) -> {HERE / 'furrow.symbol-order'}")
+
 
 if __name__ == "__main__":
     main()

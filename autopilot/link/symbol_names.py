@@ -19,6 +19,7 @@ name that change when nothing in the function did:
   Patterns end in `*` there."""
 
 import re
+import subprocess
 
 LEGACY_HASH = re.compile(r"17h[0-9a-f]{16}E$")
 LLVM_SUFFIX = re.compile(r"\.llvm\.\d+$")
@@ -40,3 +41,14 @@ def pattern(mangled, whole_stem):
 def line_stem(line):
     """The stem of the function a line of the list names."""
     return stem(line.removesuffix("*").removesuffix(".llvm."))
+
+
+def code_symbols(exe):
+    """Mangled name -> (address, bytes of code), for the functions the binary defines."""
+    out = subprocess.run(["nm", "--defined-only", "--print-size", exe], check=True, capture_output=True,
+                         text=True).stdout
+    symbols = {}
+    for fields in map(str.split, out.splitlines()):
+        if len(fields) == 4 and fields[2] in "tTwW":
+            symbols[fields[3]] = (int(fields[0], 16), int(fields[1], 16))
+    return symbols
