@@ -10,9 +10,14 @@
 //! waits until its session has closed (what it held is written). The
 //! thread ends once every handle on it is gone; the last one dropped waits
 //! for it.
+//!
+//! A session that panics is dropped alone (its later jobs are discarded
+//! and its client's drop returns at once): one vehicle's broken FTP or log
+//! session must not end the thread for the rest of the fleet.
 
 use std::collections::BTreeMap;
 use std::io;
+use std::panic::{self, AssertUnwindSafe};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError};
@@ -150,28 +155,63 @@ fn serve<S: Session>(rx: &mpsc::Receiver<Message<S>>) {
             },
         };
         for message in first.into_iter().chain(rx.try_iter()) {
-            match message {
-                Message::Open(id, session) => {
-                    sessions.insert(id, session);
-                }
-                Message::Job(id, job) => {
-                    if let Some(session) = sessions.get_mut(&id) {
-                        session.handle(job);
-                    }
-                }
-                Message::Close(id, ack) => {
-                    if let Some(mut session) = sessions.remove(&id) {
-                        session.close();
-                    }
-                    let _ = ack.send(());
-                }
+            dispatch(&mut sessions, message);
+        }
+        wait = pass_all(&mut sessions);
+    }
+    for (id, mut session) in std::mem::take(&mut sessions) {
+        guarded(id, "close", || session.close());
+    }
+}
+
+fn dispatch<S: Session>(sessions: &mut BTreeMap<u64, S>, message: Message<S>) {
+    match message {
+        Message::Open(id, session) => {
+            sessions.insert(id, session);
+        }
+        Message::Job(id, job) => {
+            if let Some(session) = sessions.get_mut(&id)
+                && !guarded(id, "job", || session.handle(job))
+            {
+                sessions.remove(&id);
             }
         }
-        wait = sessions.values_mut().filter_map(Session::pass).min();
+        Message::Close(id, ack) => {
+            if let Some(mut session) = sessions.remove(&id) {
+                guarded(id, "close", || session.close());
+            }
+            let _ = ack.send(());
+        }
     }
-    for session in sessions.values_mut() {
-        session.close();
+}
+
+/// Every session's own pass; the soonest next pass any of them wants.
+fn pass_all<S: Session>(sessions: &mut BTreeMap<u64, S>) -> Option<Duration> {
+    let mut soonest: Option<Duration> = None;
+    let mut failed = Vec::new();
+    for (&id, session) in sessions.iter_mut() {
+        let mut wanted = None;
+        if guarded(id, "pass", || wanted = session.pass()) {
+            soonest = soonest.into_iter().chain(wanted).min();
+        } else {
+            failed.push(id);
+        }
     }
+    for id in failed {
+        sessions.remove(&id);
+    }
+    soonest
+}
+
+/// Runs one session call; false (logged) when it panicked.
+fn guarded(id: u64, what: &str, call: impl FnOnce()) -> bool {
+    let survived = panic::catch_unwind(AssertUnwindSafe(call)).is_ok();
+    if !survived {
+        let thread = std::thread::current();
+        let name = thread.name().unwrap_or("shared");
+        tracing::error!("{name} thread: session {id} panicked in its {what}; it is dropped, the others go on");
+    }
+    survived
 }
 
 #[cfg(test)]
@@ -187,9 +227,13 @@ mod tests {
         passes_wanted: u32,
     }
 
+    /// A job that makes a [`Recorder`] panic, as a session with a bug would.
+    const PANICKING_JOB: u32 = u32::MAX;
+
     impl Session for Recorder {
         type Job = u32;
         fn handle(&mut self, job: u32) {
+            assert_ne!(job, PANICKING_JOB, "a session with a bug");
             let _ = self.seen.send(format!("{} {job}", self.name));
         }
         fn pass(&mut self) -> Option<Duration> {
@@ -272,5 +316,24 @@ mod tests {
         drop(a);
         let got: Vec<String> = log.try_iter().collect();
         assert_eq!(got, ["a 1", "a closed"]);
+    }
+
+    #[test]
+    fn a_session_that_panics_is_dropped_alone_and_the_others_go_on() {
+        let (seen, log) = mpsc::channel();
+        let thread = SharedThread::start("test").expect("thread");
+        let broken = thread.client(recorder("broken", &seen, 0));
+        let healthy = thread.client(recorder("healthy", &seen, 0));
+        assert!(broken.send(1));
+        assert!(broken.send(PANICKING_JOB));
+        assert!(broken.send(2));
+        assert!(healthy.send(3));
+        // Its drop returns although its session is gone.
+        drop(broken);
+        assert!(healthy.send(4));
+        drop(healthy);
+        drop(thread);
+        let got: Vec<String> = log.try_iter().collect();
+        assert_eq!(got, ["broken 1", "healthy 3", "healthy 4", "healthy closed"]);
     }
 }
