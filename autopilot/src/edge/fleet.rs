@@ -2,6 +2,14 @@
 //! tokio runtime, stepped together on one clock, each with its own links,
 //! data directory, onboard log and VDA 5050 client. Link traffic of every
 //! vehicle is answered between ticks as it comes, as for one vehicle.
+//!
+//! The loop keeps its own timer (a current-thread runtime on the calling
+//! thread, time only) rather than the edge worker's: at each round's due
+//! time the kernel wakes the loop's thread alone, where the worker's timer
+//! woke the worker only for it to wake the loop. And what a round's ticks
+//! say to the links and the broker is handed over in bursts
+//! ([`RELEASE_EVERY`]), not vehicle by vehicle: each hand-over to a parked
+//! worker is a wake-up, and one burst wakes it once for many vehicles.
 
 use std::future::Future;
 use std::time::Duration;
@@ -18,6 +26,11 @@ use crate::vehicle::Outputs;
 
 /// Link traffic of all the vehicles waiting for the loop.
 const MERGED_QUEUE: usize = 1024;
+
+/// The longest a tick's messages wait in a round before they go to the
+/// links and the broker: a round of many vehicles hands them over in a
+/// few bursts, a round of one at once.
+const RELEASE_EVERY: Duration = Duration::from_millis(2);
 
 /// Vehicles stepped together: a simulated fleet sharing one world.
 pub trait FleetPlatform {
@@ -67,7 +80,11 @@ impl EdgeRunner {
         }
         let mut inbound = self.merge_inbound(&mut edges);
         let stop = self.stop_on(shutdown);
-        self.runtime.block_on(drive(fleet, &mut edges, &mut inbound, stop));
+        let clock = tokio::runtime::Builder::new_current_thread()
+            .enable_time()
+            .build()
+            .map_err(|e| format!("the fleet's clock: {e}"))?;
+        clock.block_on(drive(fleet, &mut edges, &mut inbound, stop));
         let wall = edges.first().map_or(Duration::ZERO, Edge::wall);
         fleet.stop(wall, edges.iter().map(|e| e.dropped_to_links).sum());
         // OFFLINE from every vehicle at once, not one after another.
@@ -123,15 +140,7 @@ async fn drive<F: FleetPlatform>(
         while let Ok((index, item)) = inbound.try_recv() {
             edges[index].take_link_traffic(&mut fleet.vehicles_mut()[index], Some(item));
         }
-        for (edge, vehicle) in edges.iter_mut().zip(fleet.vehicles_mut()) {
-            edge.gather(vehicle);
-        }
-        let wall = edges[0].wall();
-        fleet.before_ticks(wall);
-        for (index, edge) in edges.iter_mut().enumerate() {
-            let saves = edge.send(fleet.tick(index, edge.wall(), &mut timer));
-            edge.store(fleet.vehicles_mut()[index].core(), saves);
-        }
+        round(fleet, edges, &mut timer);
         let Some(delay) = fleet.until_next_tick(edges[0].wall()) else {
             tokio::task::yield_now().await;
             continue;
@@ -152,4 +161,26 @@ async fn drive<F: FleetPlatform>(
             edges[index].serve(&mut fleet.vehicles_mut()[index], Some(item));
         }
     }
+}
+
+/// One tick of every vehicle; their messages leave in bursts at most
+/// [`RELEASE_EVERY`] apart, the last at the round's end.
+fn round<F: FleetPlatform>(fleet: &mut F, edges: &mut [Edge], timer: &mut InstantTimer) {
+    for (edge, vehicle) in edges.iter_mut().zip(fleet.vehicles_mut()) {
+        edge.gather(vehicle);
+    }
+    let mut released_at = edges[0].wall();
+    fleet.before_ticks(released_at);
+    let mut held_from = 0;
+    for index in 0..edges.len() {
+        let wall = edges[index].wall();
+        if wall >= released_at + RELEASE_EVERY {
+            edges[held_from..index].iter_mut().for_each(Edge::release);
+            (held_from, released_at) = (index, wall);
+        }
+        let edge = &mut edges[index];
+        let saves = edge.hold(fleet.tick(index, wall, timer));
+        edge.store(fleet.vehicles_mut()[index].core(), saves);
+    }
+    edges[held_from..].iter_mut().for_each(Edge::release);
 }

@@ -20,7 +20,7 @@ use crate::link::hub::{self, CoreChannels, HubConfig, LinkRuntime, PublishedDown
 use crate::link::sockets::LinkSockets;
 use crate::logging::edge::{self as log_edge, LogThread, Logger};
 use crate::storage::signing_key::{self, KeyFileThread};
-use crate::vehicle::{Core, Inbound, Inputs, Outbound, Outputs, SaveRequest};
+use crate::vehicle::{Core, FleetMessage, Inbound, Inputs, Outbound, Outputs, SaveRequest};
 
 /// The core with the devices around it: a simulated world, or a real
 /// vehicle's drivers and outputs. Times are wall time since the runner's
@@ -163,6 +163,10 @@ pub(super) struct Edge {
     /// False once the hub has gone (its channel closed).
     links_open: bool,
     replies: Vec<Outbound>,
+    /// A tick's messages for the links and the broker, held until
+    /// [`Edge::release`].
+    held_mavlink: Vec<Outbound>,
+    held_vda5050: Vec<FleetMessage>,
     pub(super) dropped_to_links: u64,
 }
 
@@ -201,6 +205,8 @@ impl Edge {
             persistence,
             links_open: true,
             replies: Vec::new(),
+            held_mavlink: Vec::new(),
+            held_vda5050: Vec::new(),
             dropped_to_links: 0,
         })
     }
@@ -315,21 +321,42 @@ impl Edge {
     /// Hands the core's messages to the links; returns the saves it asked
     /// for.
     pub(super) fn send(&mut self, outputs: &mut Outputs) -> Vec<SaveRequest> {
+        let saves = self.hold(outputs);
+        self.release();
+        saves
+    }
+
+    /// Takes the core's messages for the links and the broker, to hand
+    /// over at [`Edge::release`]; returns the saves it asked for.
+    pub(super) fn hold(&mut self, outputs: &mut Outputs) -> Vec<SaveRequest> {
         // Before the messages: once a ground station hears of a new plan
         // (its MISSION_ACK), its download reads that plan.
         self.publish_downloads(&outputs.mission_downloads);
-        for out in outputs.mavlink.drain(..) {
+        for out in &outputs.mavlink {
             if let MavMessage::STATUSTEXT(t) = &out.message {
                 tracing::info!("STATUSTEXT: {}", t.text.to_str().unwrap_or("?"));
             }
-            self.send_to_links(out);
         }
+        self.held_mavlink.append(&mut outputs.mavlink);
         self.logger.send(&mut outputs.log);
-        match &mut self.mqtt {
-            Some(mqtt) => mqtt.publish(&mut outputs.vda5050),
-            None => outputs.vda5050.clear(),
+        if self.mqtt.is_some() {
+            self.held_vda5050.append(&mut outputs.vda5050);
+        } else {
+            outputs.vda5050.clear();
         }
         std::mem::take(&mut outputs.saves)
+    }
+
+    /// What [`Edge::hold`] took, to the links and the broker (never waits).
+    pub(super) fn release(&mut self) {
+        let mut held = std::mem::take(&mut self.held_mavlink);
+        for out in held.drain(..) {
+            self.send_to_links(out);
+        }
+        self.held_mavlink = held;
+        if let Some(mqtt) = &mut self.mqtt {
+            mqtt.publish(&mut self.held_vda5050);
+        }
     }
 
     /// What the links answer mission downloads from, when it changed.
