@@ -13,6 +13,14 @@ from pymavlink import mavutil
 from sitl import FURROW, FURROW_BENCH, READY, REPO, Sitl  # noqa: F401 (the tests import them from here)
 
 
+def pytest_configure(config):
+    config.addinivalue_line(
+        "markers",
+        "serial: passes only if this test's own Python keeps real time to a fraction of a second (a "
+        "thread feeding a vehicle's devices, rates or gaps timed on arrival); tests/run runs these "
+        "alone, after the others, which run several at a time")
+
+
 @pytest.fixture
 def start_sitl(tmp_path):
     started = []
