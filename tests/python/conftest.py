@@ -10,7 +10,25 @@ os.environ.setdefault("MAVLINK20", "1")
 
 import pytest
 from pymavlink import mavutil
+import sitl
 from sitl import FURROW, FURROW_BENCH, READY, REPO, Sitl  # noqa: F401 (the tests import them from here)
+
+
+def pytest_configure(config):
+    config.addinivalue_line(
+        "markers",
+        "serial: passes only if this test's own Python keeps real time to a fraction of a second (a "
+        "thread feeding a vehicle's devices, rates or gaps timed on arrival); tests/run runs these "
+        "alone, after the others, which run several at a time")
+
+
+@pytest.fixture(autouse=True)
+def stop_leftover_furrows():
+    """After each test, stops the `furrow` processes it started and left
+    running (an assertion failed before its own stop)."""
+    yield
+    for process in list(sitl.RUNNING):
+        process.stop()
 
 
 @pytest.fixture

@@ -23,6 +23,11 @@ FURROW_BENCH = os.environ.get("FURROW_BENCH_BIN") or str(pathlib.Path(FURROW).wi
 READY = re.compile(r"furrow sitl ready: tcp (\S+):(\d+)")
 
 
+# Every FurrowProcess not yet stopped: conftest stops what a failed test left
+# (a `--speedup max` simulator left running takes a core until killed).
+RUNNING = []
+
+
 class FurrowProcess:
     """A `furrow` process whose first stdout line says it is ready ("furrow
     sitl ready: tcp HOST:PORT ..." or "furrow run ready: ..."); its stderr
@@ -34,6 +39,7 @@ class FurrowProcess:
         self.connections = []
         self.stderr = open(self.stderr_path, "w")
         self.proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=self.stderr, text=True)
+        RUNNING.append(self)
         line = self.proc.stdout.readline()
         match = ready.search(line)
         if not match:
@@ -73,6 +79,8 @@ class FurrowProcess:
                 self.proc.kill()
                 self.proc.wait()
         self.stderr.close()
+        if self in RUNNING:
+            RUNNING.remove(self)
         return self.proc.returncode
 
 

@@ -10,11 +10,15 @@ os.environ.setdefault("MAVLINK20", "1")
 
 import time
 
+import pytest
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs import command, goto, param_set, recv, wait_mode
 from test_vehicle_run import Player, Receiver, Vehicle, gga_position
+
+# A Python thread feeds the vehicle's GNSS in real time (stale after 500 ms).
+pytestmark = pytest.mark.serial
 
 SILENT_S = 3.0
 HOLD = 4

@@ -2,18 +2,13 @@
 parameter table as @PARAM/param.pck) and pymavlink's MAVFTP client on the
 data directory."""
 
-import os
-import re
-import subprocess
-import sys
-import threading
 import time
 import zlib
 
+import pytest
 from gcs import mavlink
+from mavproxy import MavProxy
 from pymavlink import mavftp, mavutil
-
-MAVPROXY = os.path.join(os.path.dirname(sys.executable), "mavproxy.py")
 
 
 def param_count(m):
@@ -23,34 +18,19 @@ def param_count(m):
     return msg.param_count
 
 
+# Timed on MAVProxy's output as it comes, and on its tlog's timestamps.
+@pytest.mark.serial
 def test_mavproxy_default_start_loads_every_parameter_over_ftp_within_a_second(start_sitl, tmp_path):
     sitl = start_sitl(speedup="1")
     expected = param_count(sitl.tcp())
-    proc = subprocess.Popen(
-        [MAVPROXY, "--master", f"tcp:127.0.0.1:{sitl.tcp_port}", "--non-interactive"],
-        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=tmp_path)
-    lines = []
-
-    def read():
-        for line in proc.stdout:
-            lines.append((time.monotonic(), line.rstrip()))
-
-    reader = threading.Thread(target=read, daemon=True)
-    reader.start()
-    deadline = time.monotonic() + 30
-    received = None
-    while time.monotonic() < deadline and received is None:
-        received = next(((t, l) for t, l in lines if re.search(r"Received \d+ parameters", l)), None)
-        time.sleep(0.05)
-    proc.terminate()
+    mavproxy = MavProxy(sitl.tcp_port, tmp_path, ["--non-interactive"])
     try:
-        proc.wait(timeout=10)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-    text = "\n".join(l for _, l in lines)
-    assert received is not None, text
-    connected = next(t for t, l in lines if "online system" in l or "Detected vehicle" in l)
-    elapsed_s = received[0] - connected
+        received = mavproxy.wait_for(r"Received \d+ parameters", timeout=30)
+    finally:
+        text = mavproxy.close(terminate=True)
+    connected = mavproxy.find("online system|Detected vehicle")
+    assert connected is not None, text
+    elapsed_s = received[0] - connected[0]
     transfer_s = ftp_exchange_s(tmp_path / "mav.tlog")
     print(f"MAVProxy: {received[1]!r} {elapsed_s:.3f} s after the vehicle was seen; "
           f"FTP exchange {transfer_s:.3f} s (tlog)")

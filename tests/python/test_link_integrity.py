@@ -9,6 +9,7 @@ import threading
 import time
 import tty
 
+import pytest
 from pymavlink import mavutil
 
 from conftest import Sitl, udp_port
@@ -94,6 +95,8 @@ def heartbeat_gaps(m, seconds):
     return max(largest, time.monotonic() - last), count
 
 
+# The gaps are timed as heartbeats arrive in this process.
+@pytest.mark.serial
 def test_a_strangers_garbage_leaves_the_gcs_heartbeat_gaps_under_1_1_s(tmp_path, udp_gcs):
     s = Sitl(tmp_path, udp_port=udp_port(udp_gcs), speedup="1")
     stranger = None

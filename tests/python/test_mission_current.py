@@ -1,16 +1,13 @@
 """MISSION_CURRENT as ground stations read it: never past the last item, and
 the mission state fields (mavlink.io: "on last item, sequence == total")."""
 
-import os
 import pathlib
-import subprocess
-import sys
 import time
 
 from gcs import command, load_waypoints, mavlink, recv, upload_mission
+from mavproxy import MavProxy
 
 BENCH = pathlib.Path(__file__).resolve().parents[1] / "data" / "bench"
-MAVPROXY = os.path.join(os.path.dirname(sys.executable), "mavproxy.py")
 
 
 def test_completion_keeps_the_last_item_and_reports_complete(start_sitl):
@@ -45,19 +42,18 @@ def test_completion_keeps_the_last_item_and_reports_complete(start_sitl):
 def test_mavproxy_never_announces_a_waypoint_past_the_last(start_sitl, tmp_path):
     sitl = start_sitl(speedup="25")
     course = BENCH / "square_40m.waypoints"
-    proc = subprocess.Popen(
-        [MAVPROXY, "--master", f"tcp:127.0.0.1:{sitl.tcp_port}", "--cmd", "set param_ftp 0"],
-        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=tmp_path)
-    time.sleep(8)
-    for line, wait_s in [(f"wp load {course}", 4), ("arm throttle", 2), ("mode auto", 15), ("exit", 0)]:
-        proc.stdin.write(line + "\n")
-        proc.stdin.flush()
-        time.sleep(wait_s)
+    mavproxy = MavProxy(sitl.tcp_port, tmp_path, ["--cmd", "set param_ftp 0"])
     try:
-        out, _ = proc.communicate(timeout=20)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        out, _ = proc.communicate()
-    assert "Mission Complete" in out, out
+        mavproxy.wait_for(r"Received \d+ parameters")
+        # Until the vehicle acknowledges the plan, the old one is in force.
+        mavproxy.wait_for(r"MISSION_ACK: TYPE_MISSION: ACCEPTED", start=mavproxy.send(f"wp load {course}"))
+        mavproxy.wait_for(r"\bARMED", start=mavproxy.send("arm throttle"))
+        mavproxy.send("mode auto")
+        mavproxy.wait_for("Mission Complete", timeout=60)
+        # MAVProxy says "waypoint N" when MISSION_CURRENT's seq changes: the
+        # change at the end, then three of the 1 Hz stream's, are watched.
+        time.sleep(3)
+    finally:
+        out = mavproxy.close()
     assert "waypoint 5" in out, out
     assert "waypoint 6" not in out, out

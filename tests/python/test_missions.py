@@ -2,14 +2,12 @@
 bench course."""
 
 import math
-import os
 import pathlib
-import subprocess
-import sys
 import time
 
 import pytest
 from conftest import Sitl, udp_port
+from mavproxy import MavProxy
 from gcs import (ack_opaque_id, command, current_ids, download_mission, load_waypoints, mavlink, mission_item, recv,
                  same_item, upload_mission)
 
@@ -226,22 +224,14 @@ def test_do_jump_loop_runs_the_right_number_of_times(start_sitl):
 def test_mavproxy_wp_load_and_list(start_sitl, tmp_path):
     sitl = start_sitl()
     course = BENCH / "square_40m.waypoints"
-    script = [f"wp load {course}", "wp list", "exit"]
-    proc = subprocess.Popen(
-        [os.path.join(os.path.dirname(sys.executable), "mavproxy.py"), "--master", f"tcp:127.0.0.1:{sitl.tcp_port}",
-         "--cmd", "set param_ftp 0"],
-        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=tmp_path)
-    time.sleep(8)
-    for line in script:
-        proc.stdin.write(line + "\n")
-        proc.stdin.flush()
-        time.sleep(4)
+    mavproxy = MavProxy(sitl.tcp_port, tmp_path, ["--cmd", "set param_ftp 0"])
     try:
-        out, _ = proc.communicate(timeout=20)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        out, _ = proc.communicate()
-    assert "Loaded 6 waypoints" in out or "Sent all 6 waypoints" in out or "Sent waypoint" in out, out
-    assert "Requesting 6 waypoints" in out or "Saved 6 waypoints" in out, out
+        # Typed once MAVProxy has the parameters, as a user would.
+        mavproxy.wait_for(r"Received \d+ parameters")
+        # Until the vehicle acknowledges the plan, the old one is in force.
+        mavproxy.wait_for(r"MISSION_ACK: TYPE_MISSION: ACCEPTED", start=mavproxy.send(f"wp load {course}"))
+        mavproxy.wait_for(r"Saved 6 waypoints", start=mavproxy.send("wp list"))
+    finally:
+        mavproxy.close()
     back, _ = download_mission(sitl.tcp())
     assert len(back) == 6

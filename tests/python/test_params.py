@@ -2,7 +2,6 @@
 the offline tool with .param files."""
 
 import math
-import os
 import random
 import signal
 import struct
@@ -13,6 +12,7 @@ import zlib
 import pytest
 from conftest import FURROW, Sitl, udp_port
 from gcs import fetch_all_params, mavlink, param_read, param_set, recv
+from mavproxy import MavProxy
 
 
 @pytest.mark.parametrize("link", ["udp", "tcp"])
@@ -219,25 +219,27 @@ def test_hash_check_matches_the_values_a_gcs_received(start_sitl):
     assert hash_now() != h0
 
 
+# A line `param show` prints, after any prompts ("HOLD> ") before it.
+SHOWN = r"^(\w+> )*"
+
+
 def test_mavproxy_param_show_and_set(start_sitl, tmp_path):
     sitl = start_sitl()
-    script = "\n".join(["param show WP_SPEED", "param set WP_SPEED 2.7", "param show WP_RADIUS", "exit"])
-    proc = subprocess.Popen(
-        [os.path.join(os.path.dirname(os.sys.executable), "mavproxy.py"), "--master", f"tcp:127.0.0.1:{sitl.tcp_port}",
-         "--cmd", "set param_ftp 0"],
-        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=tmp_path)
-    # MAVProxy downloads the parameters first; give it time, then type.
-    time.sleep(8)
-    for line in script.splitlines():
-        proc.stdin.write(line + "\n")
-        proc.stdin.flush()
-        time.sleep(2)
+    mavproxy = MavProxy(sitl.tcp_port, tmp_path, ["--cmd", "set param_ftp 0"])
     try:
-        out, _ = proc.communicate(timeout=20)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        out, _ = proc.communicate()
-    assert "Received" in out and "parameters" in out, out
+        # MAVProxy downloads the parameters first; type once it has them.
+        mavproxy.wait_for(r"Received \d+ parameters")
+        mavproxy.wait_for(rf"{SHOWN}WP_SPEED\s", start=mavproxy.send("param show WP_SPEED"))
+        mavproxy.send("param set WP_SPEED 2.7")
+        # MAVProxy sends the set from its idle loop, and its table takes
+        # the vehicle's echo: shown, 2.7 means the vehicle has it.
+        deadline = time.monotonic() + 10
+        while mavproxy.find(rf"{SHOWN}WP_SPEED\s+2\.7(0{{4,}}\d*)?\s*$") is None:
+            assert time.monotonic() < deadline, mavproxy.output()
+            mavproxy.wait_for(rf"{SHOWN}WP_SPEED\s", start=mavproxy.send("param show WP_SPEED"))
+        mavproxy.wait_for(rf"{SHOWN}WP_RADIUS\s", start=mavproxy.send("param show WP_RADIUS"))
+    finally:
+        out = mavproxy.close()
     assert "WP_SPEED         2.0" in out, out
     assert "WP_RADIUS        2.0" in out, out
     m = sitl.tcp()

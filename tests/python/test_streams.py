@@ -1,6 +1,10 @@
 """Stream rates follow SRn_* defaults and change on request, in wall time."""
 
+import pytest
 from gcs import command, mavlink, message_rate, message_rates
+
+# Rates are counted as messages arrive in this process.
+pytestmark = pytest.mark.serial
 
 
 def test_request_data_stream_and_message_interval(start_sitl):

@@ -16,12 +16,16 @@ import threading
 import time
 import tty
 
+import pytest
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from conftest import FURROW, REPO
 from sitl import FurrowProcess
 from gcs import command, distance, goto, param_set, recv
+
+# Python threads feed the vehicle's GNSS and magnetic sensor in real time.
+pytestmark = pytest.mark.serial
 
 READY = re.compile(r"furrow run ready: tcp (\S+):(\d+)")
 NMEA_LOG = REPO / "tests" / "data" / "nmea" / "agv_rtk.nmea"
