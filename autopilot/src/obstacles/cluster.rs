@@ -206,10 +206,6 @@ pub struct Cluster {
     /// Index of its first return in the points it was grouped from (its
     /// returns are the `points` from there on).
     pub first_point: usize,
-    /// Range and bearing (local frame, clockwise from north) of the centroid
-    /// from the scanner.
-    pub range_m: f64,
-    pub bearing_rad: f64,
     pub is_structure: bool,
     /// The object's shape fitted to its returns about `centroid` (not for
     /// structure, which is not tracked).
@@ -339,22 +335,26 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig, fit: &mut FitScrat
         0.0
     };
     let radius_m = 0.5 * (extent_m + beam_spacing_m);
+    // Once per cluster, for every test and fit below: an atan2 and a sin_cos
+    // per use were a good share of the scan's cost.
+    let chord_m = first.position.distance_to(&last.position);
+    let towards_mean = sensor.bearing_to(&mean).sin_cos();
     // A straight run of returns is a piece of wall or a box's face, not a
     // person or a post (a body seen by a scanner shows a curved near side):
     // tracking it would turn the pieces a moving scanner sees of one wall
     // into objects that seem to move with the vehicle.
-    let straight = is_straight(points, extent_m, config);
+    let straight = is_straight(points, (extent_m, chord_m), config);
     // A surface seen edge-on (a car's rear face or a wall end as the
     // scanner passes its plane) returns points strung out along the beam;
     // a body's near side faces the scanner, its returns spread across the
     // beam. Such slivers change with every metre the vehicle drives and
     // would look like objects sliding sideways.
-    let edge_on = is_edge_on(points, extent_m, sensor, mean);
+    let edge_on = is_edge_on(points, (extent_m, chord_m), towards_mean);
     let is_structure = extent_m > config.max_track_extent_m || straight || edge_on;
     let centroid = if is_structure {
         mean
     } else {
-        body_centre(sensor, mean, radius_m)
+        body_centre(mean, towards_mean, radius_m)
     };
     Some(Cluster {
         centroid,
@@ -365,13 +365,11 @@ fn make_cluster(points: &[ScanPoint], config: &ClusterConfig, fit: &mut FitScrat
         radius_m,
         points: points.len(),
         first_point: 0,
-        range_m: sensor.distance_to(&centroid),
-        bearing_rad: sensor.bearing_to(&centroid),
         is_structure,
         outline: if is_structure {
             None
         } else {
-            let (sin_m, cos_m) = sensor.bearing_to(&mean).sin_cos();
+            let (sin_m, cos_m) = towards_mean;
             Outline::fit(fit, centroid, points, (extent_m * cos_m, extent_m * sin_m), |p| {
                 p.position
             })
@@ -421,16 +419,18 @@ fn summarise<'a>(points: &'a [ScanPoint], first: &'a ScanPoint, last: &'a ScanPo
 }
 
 /// A body's centre lies behind its visible near side: the returns' mean
-/// pushed away from the scanner by π/4 of the radius.
-fn body_centre(sensor: Ned, mean: Ned, radius_m: f64) -> Ned {
+/// pushed away from the scanner by π/4 of the radius (`towards_mean`: the
+/// sine and cosine of the bearing from the scanner to the mean).
+fn body_centre(mean: Ned, towards_mean: (f64, f64), radius_m: f64) -> Ned {
     let push_m = FRAC_PI_4 * radius_m;
-    let (sin_m, cos_m) = sensor.bearing_to(&mean).sin_cos();
+    let (sin_m, cos_m) = towards_mean;
     Ned::new(mean.north_m + push_m * cos_m, mean.east_m + push_m * sin_m)
 }
 
 /// Whether the returns lie on a straight line (within the tolerance) over
-/// at least the straight run's minimum extent.
-fn is_straight(points: &[ScanPoint], extent_m: f64, config: &ClusterConfig) -> bool {
+/// at least the straight run's minimum extent (`chord_m`: the distance
+/// between the first and the last return).
+fn is_straight(points: &[ScanPoint], (extent_m, chord_m): (f64, f64), config: &ClusterConfig) -> bool {
     let (Some(first), Some(last)) = (points.first(), points.last()) else {
         return false;
     };
@@ -439,21 +439,21 @@ fn is_straight(points: &[ScanPoint], extent_m: f64, config: &ClusterConfig) -> b
             last.position.north_m - first.position.north_m,
             last.position.east_m - first.position.east_m,
         );
-        let chord = dn.hypot(de);
-        chord > 0.0
+        chord_m > 0.0
             && points.iter().all(|p| {
                 let (pn, pe) = (
                     p.position.north_m - first.position.north_m,
                     p.position.east_m - first.position.east_m,
                 );
-                ((pn * de - pe * dn) / chord).abs() <= config.straight_tolerance_m
+                ((pn * de - pe * dn) / chord_m).abs() <= config.straight_tolerance_m
             })
     }
 }
 
-/// Whether the returns are strung out along the beam from `sensor` to their
-/// `mean` rather than across it.
-fn is_edge_on(points: &[ScanPoint], extent_m: f64, sensor: Ned, mean: Ned) -> bool {
+/// Whether the returns are strung out along the beam from the scanner to
+/// their mean (`towards_mean`: the sine and cosine of its bearing) rather
+/// than across it.
+fn is_edge_on(points: &[ScanPoint], (extent_m, chord_m): (f64, f64), towards_mean: (f64, f64)) -> bool {
     let (Some(first), Some(last)) = (points.first(), points.last()) else {
         return false;
     };
@@ -462,9 +462,8 @@ fn is_edge_on(points: &[ScanPoint], extent_m: f64, sensor: Ned, mean: Ned) -> bo
             last.position.north_m - first.position.north_m,
             last.position.east_m - first.position.east_m,
         );
-        let chord = dn.hypot(de);
-        let (sin_b, cos_b) = sensor.bearing_to(&mean).sin_cos();
-        chord > 0.0 && ((dn * cos_b + de * sin_b) / chord).abs() > EDGE_ON_COS
+        let (sin_b, cos_b) = towards_mean;
+        chord_m > 0.0 && ((dn * cos_b + de * sin_b) / chord_m).abs() > EDGE_ON_COS
     }
 }
 
@@ -700,7 +699,9 @@ mod tests {
         // The near one hides the right half of the far one.
         let clusters = clusters_of(&ray_cast(&[(3.0, 0.0, 0.25), (5.0, 0.3, 0.25)], None));
         assert_eq!(clusters.len(), 2, "{clusters:?}");
-        let (near, far) = if clusters[0].range_m < clusters[1].range_m {
+        // The scanner is at the origin.
+        let range_m = |c: &Cluster| c.centroid.distance_to(&Ned::default());
+        let (near, far) = if range_m(&clusters[0]) < range_m(&clusters[1]) {
             (clusters[0], clusters[1])
         } else {
             (clusters[1], clusters[0])

@@ -27,6 +27,7 @@ const MAX_POINTS: usize = 64;
 #[derive(Clone, Debug)]
 pub struct FitScratch {
     points: Vec<(f64, f64)>,
+    sorted: Vec<(f64, f64)>,
     hull: Vec<(f64, f64)>,
 }
 
@@ -34,6 +35,7 @@ impl Default for FitScratch {
     fn default() -> Self {
         FitScratch {
             points: Vec::with_capacity(2 * MAX_POINTS + 2),
+            sorted: Vec::with_capacity(2 * MAX_POINTS + 2),
             hull: Vec::with_capacity(2 * MAX_POINTS + 4),
         }
     }
@@ -62,7 +64,11 @@ impl Outline {
             return None;
         }
         let stride = points.len().div_ceil(MAX_POINTS);
-        let FitScratch { points: buffer, hull } = scratch;
+        let FitScratch {
+            points: buffer,
+            sorted,
+            hull,
+        } = scratch;
         buffer.clear();
         let last = points.len() - 1;
         for (i, p) in points.iter().enumerate() {
@@ -75,12 +81,12 @@ impl Outline {
                 return None;
             }
             buffer.push(offset);
-            buffer.push((offset.0 + away.0, offset.1 + away.1));
         }
+        sort_with_moved(buffer, away, sorted);
         // The monotone chain writes at most one more corner than it is given.
         hull.clear();
-        hull.resize(buffer.len() + 2, (0.0, 0.0));
-        let hull_len = convex_hull(buffer, hull);
+        hull.resize(sorted.len() + 2, (0.0, 0.0));
+        let hull_len = convex_hull_of_sorted(sorted, hull);
         let simplified = hull_len > MAX_VERTICES;
         let mut outline = simplify(&mut hull[..hull_len]);
         if stride > 1 || simplified {
@@ -156,9 +162,24 @@ impl Outline {
         }
     }
 
-    /// Largest distance of a corner from the centre.
+    /// Largest distance of a corner from the centre: the `hypot` of the
+    /// corners whose squared length is within 1e-9 of the largest only
+    /// (the same value, as in [`least_length`]; every prediction asks it of
+    /// every track's outline).
     pub fn radius_m(&self) -> f64 {
-        self.vertices().iter().map(|v| v.0.hypot(v.1)).fold(0.0, f64::max)
+        let squared = |v: &(f64, f64)| v.0 * v.0 + v.1 * v.1;
+        let vertices = self.vertices();
+        let most_sq = vertices.iter().map(squared).fold(0.0, f64::max);
+        let near_sq = most_sq * (1.0 - 1e-9);
+        vertices
+            .iter()
+            // A NaN length is kept, as the plain fold would see it.
+            .filter(|v| {
+                let sq = squared(v);
+                sq >= near_sq || sq.is_nan()
+            })
+            .map(|v| v.0.hypot(v.1))
+            .fold(0.0, f64::max)
     }
 }
 
@@ -189,11 +210,15 @@ pub(crate) fn segment_offset(a: (f64, f64), b: (f64, f64), p: (f64, f64)) -> (f6
 /// 1e-9 of the least: the same value as the least `hypot` of them all,
 /// since a squared length is within a few ulp of the true one.
 pub(crate) fn least_length(vectors: &[(f64, f64)]) -> f64 {
+    least_length_of(vectors.iter().copied())
+}
+
+/// [`least_length`] of vectors an iterator gives (walked twice).
+pub(crate) fn least_length_of(vectors: impl Iterator<Item = (f64, f64)> + Clone) -> f64 {
     let squared = |v: &(f64, f64)| v.0 * v.0 + v.1 * v.1;
-    let least_sq = vectors.iter().map(squared).fold(f64::INFINITY, f64::min);
+    let least_sq = vectors.clone().map(|v| squared(&v)).fold(f64::INFINITY, f64::min);
     let near_sq = least_sq * (1.0 + 1e-9) + f64::MIN_POSITIVE;
     vectors
-        .iter()
         // A NaN length is kept, as the plain fold would see it.
         .filter(|v| {
             let sq = squared(v);
@@ -203,10 +228,47 @@ pub(crate) fn least_length(vectors: &[(f64, f64)]) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// Andrew's monotone chain: the hull of `points` (sorted in place) into
-/// `out`, counter-clockwise (north as x, east as y), no repeated point.
-fn convex_hull(points: &mut [(f64, f64)], out: &mut [(f64, f64)]) -> usize {
-    points.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+/// The order the monotone chain takes its points in: by north, then east.
+fn lexicographic(a: &(f64, f64), b: &(f64, f64)) -> std::cmp::Ordering {
+    a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1))
+}
+
+/// The returns' offsets (`returns`, sorted in place) and the same moved by
+/// `away`, all sorted into `out`. The moved copies keep the returns' order
+/// (unless rounding ties two of them: then they are sorted again), so two
+/// sorted halves are merged instead of twice the points sorted: that sort
+/// was most of a fit. Any sort gives the one order (points equal in it are
+/// equal to the bit).
+fn sort_with_moved(returns: &mut Vec<(f64, f64)>, away: (f64, f64), out: &mut Vec<(f64, f64)>) {
+    returns.sort_unstable_by(lexicographic);
+    let n = returns.len();
+    for i in 0..n {
+        let o = returns[i];
+        returns.push((o.0 + away.0, o.1 + away.1));
+    }
+    let (own, moved) = returns.split_at_mut(n);
+    if moved.windows(2).any(|w| lexicographic(&w[0], &w[1]).is_gt()) {
+        moved.sort_unstable_by(lexicographic);
+    }
+    out.clear();
+    let (mut i, mut j) = (0, 0);
+    while i < own.len() && j < moved.len() {
+        if lexicographic(&own[i], &moved[j]).is_gt() {
+            out.push(moved[j]);
+            j += 1;
+        } else {
+            out.push(own[i]);
+            i += 1;
+        }
+    }
+    out.extend_from_slice(&own[i..]);
+    out.extend_from_slice(&moved[j..]);
+}
+
+/// Andrew's monotone chain: the hull of `points` (sorted by
+/// [`lexicographic`]) into `out`, counter-clockwise (north as x, east as
+/// y), no repeated point.
+fn convex_hull_of_sorted(points: &[(f64, f64)], out: &mut [(f64, f64)]) -> usize {
     if points.len() < 3 {
         out[..points.len()].copy_from_slice(points);
         return points.len();
@@ -258,6 +320,61 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn the_merged_sort_is_the_whole_sort() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for case in 0..5000 {
+            let n = rng.random_range(1..=40);
+            // A grid, so that ties and equal coordinates happen.
+            let step = if rng.random_bool(0.5) { 0.01 } else { 0.1 };
+            let returns: Vec<(f64, f64)> = (0..n)
+                .map(|_| {
+                    (
+                        step * f64::from(rng.random_range(-20..20)),
+                        step * f64::from(rng.random_range(-20..20)),
+                    )
+                })
+                .collect();
+            let away = (rng.random_range(-0.6..0.6), rng.random_range(-0.6..0.6));
+            let mut whole: Vec<(f64, f64)> = returns
+                .iter()
+                .flat_map(|&o| [o, (o.0 + away.0, o.1 + away.1)])
+                .collect();
+            whole.sort_unstable_by(lexicographic);
+            let (mut buffer, mut merged) = (returns.clone(), Vec::new());
+            sort_with_moved(&mut buffer, away, &mut merged);
+            let bits = |v: &[(f64, f64)]| v.iter().map(|p| (p.0.to_bits(), p.1.to_bits())).collect::<Vec<_>>();
+            assert_eq!(bits(&merged), bits(&whole), "case {case}");
+        }
+    }
+
+    #[test]
+    fn radius_is_the_greatest_hypot_to_the_bit() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        for case in 0..2000 {
+            let n = rng.random_range(1..=MAX_VERTICES);
+            let mut vertices = [(0.0, 0.0); MAX_VERTICES];
+            for v in vertices.iter_mut().take(n) {
+                // Near-ties too: equal lengths in other directions.
+                let r: f64 = if rng.random_bool(0.3) {
+                    0.5
+                } else {
+                    rng.random_range(0.0..2.0)
+                };
+                let a: f64 = rng.random_range(-3.2..3.2);
+                *v = (r * a.cos(), r * a.sin());
+            }
+            let outline = Outline { vertices, len: n };
+            let every = outline.vertices().iter().map(|v| v.0.hypot(v.1)).fold(0.0, f64::max);
+            assert_eq!(outline.radius_m().to_bits(), every.to_bits(), "case {case}");
+        }
+        let empty = Outline {
+            vertices: [(0.0, 0.0); MAX_VERTICES],
+            len: 0,
+        };
+        assert_eq!(empty.radius_m(), 0.0);
+    }
 
     #[test]
     fn least_length_is_the_least_hypot_to_the_bit() {

@@ -24,6 +24,7 @@ use std::time::Duration;
 use nalgebra::Matrix2;
 
 use super::cluster::Cluster;
+use super::kalman::state::{EAST, NORTH};
 use super::kalman::{CvKalman, chi2_gate_2dof, polar_measurement_covariance};
 #[cfg(test)]
 use super::outline::FitScratch;
@@ -129,9 +130,6 @@ pub struct TrackingStatus {
     /// Tracks born and deleted in this call.
     pub births: u32,
     pub deaths: u32,
-    /// The confirmed or coasting track whose edge (centre distance minus its
-    /// radius, at least 0) is nearest the calling scanner: (id, metres).
-    pub nearest: Option<(u32, f64)>,
 }
 
 /// A track and what only the tracker needs to know about it.
@@ -204,6 +202,10 @@ struct UpdateScratch {
     pieces: Vec<bool>,
     /// Per-track flags: a refused filter step, or a track to delete.
     flags: Vec<bool>,
+    /// (north, measurement) sorted by north.
+    by_north: Vec<(f64, usize)>,
+    /// The measurements no track took.
+    untaken: Vec<usize>,
 }
 
 impl PartialEq for UpdateScratch {
@@ -237,6 +239,39 @@ fn gather_measurements(
                 r: measurement_covariance(sensor, c.centroid, config),
             }),
     );
+}
+
+/// The measurements' (centroid north, index), sorted by north, into `out`.
+fn sort_by_north(out: &mut Vec<(f64, usize)>, measurements: &[Measurement], clusters: &[Cluster]) {
+    out.clear();
+    out.extend(
+        measurements
+            .iter()
+            .enumerate()
+            .map(|(m, meas)| (clusters[meas.cluster].centroid.north_m, m)),
+    );
+    out.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+}
+
+/// The measurements (of `by_north`) north or south of `entry`'s track by
+/// no more than its widest gate allows: any further one is surely outside
+/// it ([`CvKalman::surely_outside_gate`], with the largest trace of a
+/// measurement's `R`, `widest_r`, plus what a partial view adds, and a
+/// thousandth more against rounding). All of them when that bound is not
+/// finite. Each track then looks at the few measurements near it, not at
+/// every one.
+fn within_north<'a>(by_north: &'a [(f64, usize)], entry: &Entry, widest_r: f64, gate: f64) -> &'a [(f64, usize)] {
+    let p = entry.kf.covariance();
+    let radius_sq = entry.track.radius_m * entry.track.radius_m;
+    let trace = p[(NORTH, NORTH)] + p[(EAST, EAST)] + widest_r + 2.0 * radius_sq;
+    let half_width_m = (2.0 * gate * trace).sqrt() * 1.001;
+    let north_m = entry.kf.position().north_m;
+    if !(half_width_m.is_finite() && north_m.is_finite()) {
+        return by_north;
+    }
+    let from = by_north.partition_point(|&(n, _)| n < north_m - half_width_m);
+    let to = by_north.partition_point(|&(n, _)| n <= north_m + half_width_m);
+    &by_north[from..to.max(from)]
 }
 
 /// A partial view's centroid — a partly hidden cluster, or one piece of an
@@ -306,7 +341,7 @@ impl ObstacleTracker {
         self.scratch = scratch;
         self.tracks.clear();
         self.tracks.extend(self.entries.iter().map(|e| e.track));
-        self.count_tracks(sensor, &mut status);
+        self.count_tracks(&mut status);
         status
     }
 
@@ -320,12 +355,19 @@ impl ObstacleTracker {
             assigned,
             taken,
             gated,
+            by_north,
             ..
         } = scratch;
         let gate = chi2_gate_2dof(config.gate_probability);
         pairs.clear();
+        sort_by_north(by_north, measurements, clusters);
+        let widest_r = measurements
+            .iter()
+            .map(|meas| meas.r[(0, 0)] + meas.r[(1, 1)])
+            .fold(0.0, f64::max);
         for (i, entry) in self.entries.iter().enumerate() {
-            for (m, meas) in measurements.iter().enumerate() {
+            for &(_, m) in within_north(by_north, entry, widest_r, gate) {
+                let meas = &measurements[m];
                 let centroid = clusters[meas.cluster].centroid;
                 let r = measurement_r(entry, meas, false, clusters);
                 // Most pairs are far apart: skip them before the inverse.
@@ -338,7 +380,9 @@ impl ObstacleTracker {
                 }
             }
         }
-        pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        // No two pairs are equal (track and measurement differ), so an
+        // unstable sort gives the one order.
+        pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
 
         refill(assigned, self.entries.len(), None);
         refill(taken, measurements.len(), false);
@@ -403,15 +447,18 @@ impl ObstacleTracker {
             assigned,
             taken,
             pieces,
+            untaken,
             ..
         } = scratch;
+        // Few measurements are left over once the tracks have theirs.
+        untaken.clear();
+        untaken.extend((0..measurements.len()).filter(|&m| !taken[m]));
         pieces.clear();
         pieces.extend(assigned.iter().zip(&self.entries).map(|(slot, entry)| {
             slot.is_some_and(|m| {
-                measurements
+                untaken
                     .iter()
-                    .enumerate()
-                    .any(|(other, meas)| other != m && !taken[other] && part_of(&entry.track, &clusters[meas.cluster]))
+                    .any(|&other| other != m && part_of(&entry.track, &clusters[measurements[other].cluster]))
             })
         }));
     }
@@ -533,18 +580,27 @@ impl ObstacleTracker {
 
     /// Counts the tentative and confirmed tracks and finds the confirmed one
     /// whose edge is nearest `sensor`.
-    fn count_tracks(&self, sensor: Ned, status: &mut TrackingStatus) {
-        for track in &self.tracks {
-            if track.status == TrackStatus::Tentative {
-                status.tentative += 1;
-                continue;
-            }
-            status.confirmed += 1;
+    fn count_tracks(&self, status: &mut TrackingStatus) {
+        status.tentative = self
+            .tracks
+            .iter()
+            .filter(|t| t.status == TrackStatus::Tentative)
+            .count();
+        status.confirmed = self.tracks.len() - status.tentative;
+    }
+
+    /// The confirmed or coasting track whose edge (centre distance minus
+    /// its radius, at least 0) is nearest `sensor`: (id, metres). Asked
+    /// for, not worked out at every update: the core never needs it.
+    pub fn nearest_edge(&self, sensor: Ned) -> Option<(u32, f64)> {
+        let mut nearest: Option<(u32, f64)> = None;
+        for track in self.tracks.iter().filter(|t| t.status != TrackStatus::Tentative) {
             let edge_m = (sensor.distance_to(&track.position) - track.radius_m).max(0.0);
-            if status.nearest.is_none_or(|(_, d)| edge_m < d) {
-                status.nearest = Some((track.id, edge_m));
+            if nearest.is_none_or(|(_, d)| edge_m < d) {
+                nearest = Some((track.id, edge_m));
             }
         }
+        nearest
     }
 
     /// Every filter to `now`; a refused step deletes the track. Returns the
@@ -828,8 +884,6 @@ mod tests {
             radius_m: 0.25,
             points: 20,
             first_point: 0,
-            range_m: Ned::default().distance_to(&c),
-            bearing_rad: Ned::default().bearing_to(&c),
             is_structure: false,
             outline: None,
             occluded: false,
@@ -861,9 +915,10 @@ mod tests {
         }
         assert_eq!(tracker.tracks()[0].status, TrackStatus::Confirmed);
         assert_eq!(tracker.tracks()[0].id, id);
-        let s = tracker.update(at_ms(60), Ned::default(), &c, &config);
-        assert_eq!(s.nearest.map(|n| n.0), Some(id));
-        let edge = s.nearest.map_or(0.0, |n| n.1);
+        tracker.update(at_ms(60), Ned::default(), &c, &config);
+        let nearest = tracker.nearest_edge(Ned::default());
+        assert_eq!(nearest.map(|n| n.0), Some(id));
+        let edge = nearest.map_or(0.0, |n| n.1);
         assert!(
             (edge - (Ned::new(4.0, 1.0).distance_to(&Ned::default()) - 0.25)).abs() < 0.01,
             "{edge}"
@@ -1197,8 +1252,6 @@ mod tests {
             radius_m: extent_m / 2.0,
             points: points.len(),
             first_point: 0,
-            range_m: sensor.distance_to(&centroid),
-            bearing_rad: sensor.bearing_to(&centroid),
             is_structure: false,
             outline,
             occluded: false,
@@ -1289,7 +1342,7 @@ mod tests {
                 break;
             }
             let mut cluster = seen(sensor, &faces(sensor));
-            cluster.radius_m = 0.5 * (cluster.extent_m + cluster.range_m * 0.5_f64.to_radians());
+            cluster.radius_m = 0.5 * (cluster.extent_m + sensor.distance_to(&cluster.centroid) * 0.5_f64.to_radians());
             tracker.update(at_ms(20 * k), sensor, &[cluster], &config);
             assert_eq!(tracker.tracks().len(), 1);
             let track = tracker.tracks()[0];

@@ -23,7 +23,7 @@ use crate::obstacles::cluster::{
 };
 use crate::obstacles::detour::{DetourConfig, DetourRefusal, plan_detour};
 use crate::obstacles::field::{FieldConfig, FieldStatus, Fields, check_swept_fields, fields, warning_speed_limit};
-use crate::obstacles::outline::FitScratch;
+use crate::obstacles::outline::{FitScratch, least_length_of};
 use crate::obstacles::policy::{
     ObstaclePolicy, PolicyConfig, PolicyEvent, PolicyInputs, PolicyStatus, StopCause, Verdict,
 };
@@ -1104,15 +1104,18 @@ impl Core {
         self.obstacles.static_stop_since = None;
     }
 
-    /// Distance from the outline to the nearest fresh return.
+    /// Distance from the outline to the nearest fresh return (one square
+    /// root for the nearest, not one per return: `least_length_of`).
     fn nearest_return_m(&self, footprint: &Footprint) -> Option<f64> {
-        self.obstacles
+        let gaps = self
+            .obstacles
             .views
             .iter()
             .filter(|v| v.t.is_some_and(|t| self.now.boot.saturating_sub(t) <= VIEW_TIMEOUT))
             .flat_map(|v| v.body_points.iter())
-            .map(|&(x, y)| outline_distance(footprint, x, y))
-            .min_by(f64::total_cmp)
+            .map(|&(x, y)| outline_gap(footprint, x, y));
+        gaps.clone().next()?;
+        Some(least_length_of(gaps))
     }
 
     /// OBSTACLE_DISTANCE in the body frame: 72 sectors of 5° from the centre
@@ -1384,7 +1387,11 @@ fn moving(track: &Track) -> bool {
 /// Faster than a standing object's noise and than `sigmas` of its filter's
 /// velocity σ, its returns not shown to be still.
 fn shows_speed(track: &Track, sigmas: f64) -> bool {
-    let speed = track.speed_mps();
+    shows_speed_at(track, track.speed_mps(), sigmas)
+}
+
+/// [`shows_speed`] with the track's speed already worked out.
+fn shows_speed_at(track: &Track, speed: f64, sigmas: f64) -> bool {
     speed >= STATIC_SPEED_MPS && speed > sigmas * track.velocity_sigma_mps && track.still_s < STILL_S
 }
 
@@ -1400,7 +1407,8 @@ fn shows_speed(track: &Track, sigmas: f64) -> bool {
 /// field's edge for 0.2 s: 0.5 m/s at σ 0.6), so it still needs two.
 fn walking(track: &Track, view: &ViewChange) -> bool {
     let sigmas = if track.age_s >= SETTLED_S { 1.0 } else { 2.0 };
-    shows_speed(track, sigmas) && track.speed_mps() > view.centroid_speed_mps(track)
+    let speed = track.speed_mps();
+    shows_speed_at(track, speed, sigmas) && view.outpaced_by(track, speed)
 }
 
 /// How fast the vehicle's own motion can walk a standing object's centroid:
@@ -1412,8 +1420,17 @@ fn walking(track: &Track, view: &ViewChange) -> bool {
 /// at 0.66 rad/s); the bound is [`VIEW_WALK_PER_RAD`] extents per radian.
 /// It is small for what is far or ahead, where the view hardly changes.
 struct ViewChange {
-    /// Each fitted scanner's position and velocity in the local frame.
-    scanners: [Option<(Ned, (f64, f64))>; SCANNERS],
+    /// Each fitted scanner's motion.
+    scanners: [Option<ScannerMotion>; SCANNERS],
+}
+
+/// A scanner's position, velocity (north, east) and speed in the local
+/// frame.
+#[derive(Clone, Copy)]
+struct ScannerMotion {
+    at: Ned,
+    velocity: (f64, f64),
+    speed_mps: f64,
 }
 
 impl ViewChange {
@@ -1437,9 +1454,39 @@ impl ViewChange {
                 vehicle_velocity.0 + yaw_rate_rad_s * swing.0,
                 vehicle_velocity.1 + yaw_rate_rad_s * swing.1,
             );
-            *slot = Some((at, velocity));
+            *slot = Some(ScannerMotion {
+                at,
+                velocity,
+                speed_mps: velocity.0.hypot(velocity.1),
+            });
         }
         ViewChange { scanners }
+    }
+
+    /// Whether `speed_mps` is above [`Self::centroid_speed_mps`]. The view
+    /// walks the centroid at most `VIEW_WALK_PER_RAD`·extent·|v|/range for
+    /// a scanner at speed |v| (what crosses the line of sight is no more
+    /// than |v|), and the range is at least the larger of the offsets north
+    /// and east: a speed above that bound (a part in a billion more, for
+    /// rounding) is above the exact figure too, found without a square
+    /// root per scanner and track.
+    fn outpaced_by(&self, track: &Track, speed_mps: f64) -> bool {
+        let extent_m = 2.0 * track.radius_m.max(0.0);
+        let bound = self
+            .scanners
+            .iter()
+            .flatten()
+            .map(|scanner| {
+                let at = scanner.at;
+                let (dn, de) = (track.position.north_m - at.north_m, track.position.east_m - at.east_m);
+                let range_at_least_m = dn.abs().max(de.abs()).max(track.radius_m).max(0.1);
+                VIEW_WALK_PER_RAD * extent_m * scanner.speed_mps / range_at_least_m
+            })
+            .fold(0.0, f64::max);
+        if speed_mps > bound * (1.0 + 1e-9) && bound.is_finite() {
+            return true;
+        }
+        speed_mps > self.centroid_speed_mps(track)
     }
 
     /// The largest speed the view change alone gives `track`'s centroid.
@@ -1448,7 +1495,8 @@ impl ViewChange {
         self.scanners
             .iter()
             .flatten()
-            .map(|(at, (vn, ve))| {
+            .map(|scanner| {
+                let (at, (vn, ve)) = (scanner.at, scanner.velocity);
                 let (dn, de) = (track.position.north_m - at.north_m, track.position.east_m - at.east_m);
                 let range_m = dn.hypot(de).max(track.radius_m).max(0.1);
                 let across_mps = (dn * ve - de * vn).abs() / range_m;
@@ -1523,6 +1571,13 @@ fn sector_of(body_deg: f64) -> usize {
 
 /// Distance from a body-frame point to the outline (0 inside).
 fn outline_distance(f: &Footprint, x: f64, y: f64) -> f64 {
+    let (dx, dy) = outline_gap(f, x, y);
+    dx.hypot(dy)
+}
+
+/// The vector from the outline's nearest point to a body-frame point
+/// outside it ((0, 0) inside).
+fn outline_gap(f: &Footprint, x: f64, y: f64) -> (f64, f64) {
     let dx = if x > f.front_m {
         x - f.front_m
     } else if x < -f.rear_m {
@@ -1531,7 +1586,7 @@ fn outline_distance(f: &Footprint, x: f64, y: f64) -> f64 {
         0.0
     };
     let dy = (y.abs() - f.half_width_m).max(0.0);
-    dx.hypot(dy)
+    (dx, dy)
 }
 
 /// Signed distance of `p` right of the line from `a` to `b`.
