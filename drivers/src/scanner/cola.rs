@@ -870,13 +870,7 @@ impl ScanTelegram {
         } else {
             (scan.start_angle_rad, scan.step_rad)
         };
-        let ranges = &scan.ranges_m[..n];
-        self.dist_raw.clear();
-        if clockwise {
-            self.dist_raw.extend(ranges.iter().rev().map(|&r| range_to_mm(r)));
-        } else {
-            self.dist_raw.extend(ranges.iter().map(|&r| range_to_mm(r)));
-        }
+        self.set_ranges(&scan.ranges_m[..n], clockwise);
         // `as` saturates (NaN → 0), which is the clamping wanted here.
         let start_angle_sick_1e4deg = (SICK_FORWARD_1E4DEG - start_rad.to_degrees() * 1e4).round() as i32;
         let step_1e4deg = ((-step_rad.to_degrees() * 1e4).round() as u32).min(u32::from(u16::MAX));
@@ -908,6 +902,30 @@ impl ScanTelegram {
         self.scale_offset = 0.0;
     }
 }
+
+impl ScanTelegram {
+    /// `dist_raw` for `ranges_m`, last beam first if `clockwise`. A block
+    /// of beams without an echo is left at 0 at once (most of a scan in
+    /// open space).
+    fn set_ranges(&mut self, ranges_m: &[f32], clockwise: bool) {
+        let n = ranges_m.len();
+        self.dist_raw.clear();
+        self.dist_raw.resize(n, 0);
+        for (block, block_ranges_m) in ranges_m.chunks(NO_ECHO_BLOCK).enumerate() {
+            if block_ranges_m.iter().all(|r| r.is_nan()) {
+                continue;
+            }
+            for (i, &range_m) in block_ranges_m.iter().enumerate() {
+                let beam = block * NO_ECHO_BLOCK + i;
+                let slot = if clockwise { n - 1 - beam } else { beam };
+                self.dist_raw[slot] = range_to_mm(range_m);
+            }
+        }
+    }
+}
+
+/// Beams looked at together for an echo when a scan is converted.
+const NO_ECHO_BLOCK: usize = 8;
 
 /// A complete `STX sSN LMDscandata … ETX` telegram for `scan`: one DIST1
 /// 16-bit channel, no 8-bit channels, every optional block absent. Fields
@@ -1742,6 +1760,23 @@ mod tests {
                 prop_assert_eq!(scan.ranges_m.len(), t.dist_raw.len());
             }
             let _ = parse_telegram(body.as_bytes());
+        }
+
+        /// Each beam's millimetres are what `range_to_mm` makes of it, in
+        /// the order sent (a clockwise scan last beam first), whatever runs
+        /// of no echo lie between.
+        #[test]
+        fn ranges_convert_beam_by_beam(
+            ranges in proptest::collection::vec(prop_oneof![6 => Just(f32::NAN), 1 => -1.0f32..70.0], 0..100),
+            clockwise in any::<bool>(),
+        ) {
+            let mut telegram = ScanTelegram::default();
+            telegram.set_ranges(&ranges, clockwise);
+            let mut plain: Vec<u16> = ranges.iter().map(|&r| range_to_mm(r)).collect();
+            if clockwise {
+                plain.reverse();
+            }
+            prop_assert_eq!(telegram.dist_raw, plain);
         }
 
         #[test]
