@@ -46,6 +46,8 @@ pub const MAX_BEAMS: usize = 4096;
 const MAX_RATE_HZ: f64 = 100.0;
 /// The rates an LMS1xx offers.
 const LMS1XX_RATES_HZ: [f64; 2] = [25.0, 50.0];
+/// Beams looked at together for an echo when a scan is measured.
+const BEAM_BLOCK: usize = 8;
 
 /// One simulated scanner.
 #[derive(Clone, Debug, PartialEq)]
@@ -241,24 +243,30 @@ pub fn render_scan_into(
         config.dropout_probability.clamp(0.0, 1.0)
     };
     let max_range_m = config.max_range_m;
-    // Draws are made only for beams with an echo: an empty yard costs none.
+    // Draws are made only for beams with an echo, in beam order: an empty
+    // yard costs none, and a block of beams without one is passed over at
+    // once (most of a scan in open space).
     let mut rng = ChaCha8Rng::seed_from_u64(stamp.noise_seed);
     out.ranges_m.clear();
-    out.ranges_m.extend(true_range_m.iter().map(|&range_m| {
-        let echo = range_m <= max_range_m;
-        if !echo {
-            return f32::NAN;
+    out.ranges_m.resize(true_range_m.len(), f32::NAN);
+    let blocks = out.ranges_m.chunks_mut(BEAM_BLOCK).zip(true_range_m.chunks(BEAM_BLOCK));
+    for (ranges_m, true_ranges_m) in blocks {
+        if !true_ranges_m.iter().any(|&range_m| range_m <= max_range_m) {
+            continue;
         }
-        if dropout > 0.0 && rng.random::<f64>() < dropout {
-            return f32::NAN;
+        for (measured_m, &range_m) in ranges_m.iter_mut().zip(true_ranges_m) {
+            let echo = range_m <= max_range_m;
+            if !echo || (dropout > 0.0 && rng.random::<f64>() < dropout) {
+                continue;
+            }
+            let noise_m = if sigma_m > 0.0 {
+                sigma_m * rng.sample::<f64, _>(StandardNormal)
+            } else {
+                0.0
+            };
+            *measured_m = (range_m + noise_m).max(0.0) as f32;
         }
-        let noise_m = if sigma_m > 0.0 {
-            sigma_m * rng.sample::<f64, _>(StandardNormal)
-        } else {
-            0.0
-        };
-        (range_m + noise_m).max(0.0) as f32
-    }));
+    }
     out.t = stamp.t;
     out.scan_counter = stamp.scan_counter;
     out.start_angle_rad = start_angle_rad;
@@ -676,6 +684,60 @@ mod tests {
                 (fresh.t, fresh.scan_counter, fresh.start_angle_rad, fresh.step_rad)
             );
         }
+    }
+
+    /// Each beam with an echo draws its dropout and noise in beam order, as
+    /// a plain beam-by-beam pass does, though blocks without one are passed
+    /// over: the same seed gives the same scan.
+    #[test]
+    fn measured_ranges_are_the_plain_beam_by_beam_draws() {
+        let config = SimScannerConfig {
+            dropout_probability: 0.2,
+            ..SimScannerConfig::default()
+        };
+        let stamp = ScanStamp {
+            t: Duration::from_millis(20),
+            scan_counter: 1,
+            noise_seed: 7,
+        };
+        let mut scratch = RenderScratch::default();
+        let mut scan = render_scan(
+            &config,
+            &ObstacleWorld::default(),
+            &VehicleTruth::default(),
+            stamp.t,
+            0,
+            0,
+        );
+        render_scan_into(
+            &config,
+            &cluttered(),
+            &VehicleTruth::default(),
+            stamp,
+            &mut scratch,
+            &mut scan,
+        );
+        let mut rng = ChaCha8Rng::seed_from_u64(stamp.noise_seed);
+        let plain: Vec<f32> = (scratch.true_range_m.iter())
+            .map(|&range_m| {
+                let echo = range_m <= config.max_range_m;
+                if !echo || rng.random::<f64>() < config.dropout_probability {
+                    return f32::NAN;
+                }
+                (range_m + config.range_sigma_m * rng.sample::<f64, _>(StandardNormal)).max(0.0) as f32
+            })
+            .collect();
+        let bits = |ranges: &[f32]| ranges.iter().map(|r| r.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&scan.ranges_m), bits(&plain));
+        // Echoes, dropouts and whole blocks without an echo all occur.
+        let echoes = scan.ranges_m.iter().filter(|r| r.is_finite()).count();
+        let reached = scratch
+            .true_range_m
+            .iter()
+            .filter(|&&r| r <= config.max_range_m)
+            .count();
+        assert!(echoes > 20 && echoes < reached, "{echoes} of {reached}");
+        assert!((scratch.true_range_m.chunks(BEAM_BLOCK)).any(|b| b.iter().all(|r| r.is_infinite())));
     }
 
     #[test]

@@ -406,7 +406,17 @@ impl<'a> Tokens<'a> {
     ) -> Result<(), ColaError> {
         // The position is kept in a local, stored back once at the end.
         let mut rest = self.rest;
-        for _ in 0..count {
+        let mut left = count;
+        while left > 0 {
+            if left >= NO_ECHO_RUN_BEAMS && starts_with_no_echo_run(rest) {
+                if let Some(out) = out.as_deref_mut() {
+                    out.extend_from_slice(&[0; NO_ECHO_RUN_BEAMS]);
+                }
+                rest = &rest[NO_ECHO_RUN.len()..];
+                left -= NO_ECHO_RUN_BEAMS;
+                continue;
+            }
+            left -= 1;
             let ((value, invalid), at) = next_hex(rest);
             if invalid || at.1 - at.0 > 8 || at.0 == at.1 || value > max {
                 self.rest = rest;
@@ -534,6 +544,18 @@ fn next_hex(rest: &[u8]) -> ((u32, bool), (usize, usize)) {
         at += 1;
     }
     ((value, invalid & 0x80 != 0), (start, at))
+}
+
+/// Four no-echo beams as sent: a scan often has long runs of them (open
+/// space beyond the scanner's reach), read and written a word at a time.
+const NO_ECHO_RUN: &[u8; 8] = b" 0 0 0 0";
+const NO_ECHO_RUN_BEAMS: usize = NO_ECHO_RUN.len() / 2;
+
+/// Whether `rest` starts with [`NO_ECHO_RUN`] as four whole tokens (the
+/// last one ends there: a space or the end follows).
+#[inline(always)]
+fn starts_with_no_echo_run(rest: &[u8]) -> bool {
+    rest.starts_with(NO_ECHO_RUN) && rest.get(NO_ECHO_RUN.len()).is_none_or(|&b| b == b' ')
 }
 
 /// Each byte's value as a hex digit (either case), 0xFF for any other byte.
@@ -780,13 +802,25 @@ impl ScanTelegram {
         let scale = f64::from(self.scale_factor);
         let offset = f64::from(self.scale_offset);
         scan.ranges_m.clear();
-        scan.ranges_m.extend(self.dist_raw.iter().map(|&raw| {
-            if raw == 0 {
-                f32::NAN
-            } else {
-                ((f64::from(raw) * scale + offset) / 1000.0) as f32
-            }
-        }));
+        if scale == 1.0 && offset == 0.0 {
+            // Millimetres as sent (what the LMS1xx sends): the f32 quotient
+            // is the f64 one rounded to f32 (a double holds more than twice
+            // a float's digits, so rounding twice changes nothing), and
+            // twice as many fit a vector.
+            scan.ranges_m.extend(
+                self.dist_raw
+                    .iter()
+                    .map(|&raw| if raw == 0 { f32::NAN } else { f32::from(raw) / 1000.0 }),
+            );
+        } else {
+            scan.ranges_m.extend(self.dist_raw.iter().map(|&raw| {
+                if raw == 0 {
+                    f32::NAN
+                } else {
+                    ((f64::from(raw) * scale + offset) / 1000.0) as f32
+                }
+            }));
+        }
         scan.t = t;
         scan.scan_counter = self.scan_counter;
         scan.start_angle_rad = start_deg.to_radians();
@@ -836,13 +870,7 @@ impl ScanTelegram {
         } else {
             (scan.start_angle_rad, scan.step_rad)
         };
-        let ranges = &scan.ranges_m[..n];
-        self.dist_raw.clear();
-        if clockwise {
-            self.dist_raw.extend(ranges.iter().rev().map(|&r| range_to_mm(r)));
-        } else {
-            self.dist_raw.extend(ranges.iter().map(|&r| range_to_mm(r)));
-        }
+        self.set_ranges(&scan.ranges_m[..n], clockwise);
         // `as` saturates (NaN → 0), which is the clamping wanted here.
         let start_angle_sick_1e4deg = (SICK_FORWARD_1E4DEG - start_rad.to_degrees() * 1e4).round() as i32;
         let step_1e4deg = ((-step_rad.to_degrees() * 1e4).round() as u32).min(u32::from(u16::MAX));
@@ -874,6 +902,30 @@ impl ScanTelegram {
         self.scale_offset = 0.0;
     }
 }
+
+impl ScanTelegram {
+    /// `dist_raw` for `ranges_m`, last beam first if `clockwise`. A block
+    /// of beams without an echo is left at 0 at once (most of a scan in
+    /// open space).
+    fn set_ranges(&mut self, ranges_m: &[f32], clockwise: bool) {
+        let n = ranges_m.len();
+        self.dist_raw.clear();
+        self.dist_raw.resize(n, 0);
+        for (block, block_ranges_m) in ranges_m.chunks(NO_ECHO_BLOCK).enumerate() {
+            if block_ranges_m.iter().all(|r| r.is_nan()) {
+                continue;
+            }
+            for (i, &range_m) in block_ranges_m.iter().enumerate() {
+                let beam = block * NO_ECHO_BLOCK + i;
+                let slot = if clockwise { n - 1 - beam } else { beam };
+                self.dist_raw[slot] = range_to_mm(range_m);
+            }
+        }
+    }
+}
+
+/// Beams looked at together for an echo when a scan is converted.
+const NO_ECHO_BLOCK: usize = 8;
 
 /// A complete `STX sSN LMDscandata … ETX` telegram for `scan`: one DIST1
 /// 16-bit channel, no 8-bit channels, every optional block absent. Fields
@@ -948,24 +1000,42 @@ fn push_hex(out: &mut Vec<u8>, value: u32) {
 
 /// Appends ` {:X}` of each value: the buffer is grown once for the longest
 /// text, and each value's space and digits are written as one 8-byte word
-/// (a scan is hundreds of values).
+/// (a scan is hundreds of values), four no-echo beams as one.
 fn push_hex_u16s(out: &mut Vec<u8>, values: &[u16]) {
     let start = out.len();
     // 5 bytes at most per value, and room for the last word's 3 spare bytes.
     out.resize(start + 5 * values.len() + 3, 0);
     let mut end = start;
-    for &value in values {
-        let digits = (19 - (value | 1).leading_zeros() as usize) / 4;
-        let [high, low] = value.to_be_bytes();
-        let [a, b] = HEX_PAIRS[usize::from(high)];
-        let [c, d] = HEX_PAIRS[usize::from(low)];
-        // The four digits, the leading zeros shifted out, a space in front.
-        let four = u64::from_le_bytes([a, b, c, d, 0, 0, 0, 0]) >> (8 * (4 - digits));
-        let word = (four << 8) | u64::from(b' ');
-        out[end..end + 8].copy_from_slice(&word.to_le_bytes());
-        end += 1 + digits;
+    let mut fours = values.chunks_exact(NO_ECHO_RUN_BEAMS);
+    for four in &mut fours {
+        if four.iter().any(|&v| v != 0) {
+            for &value in four {
+                end = write_hex_u16(out, end, value);
+            }
+        } else {
+            out[end..end + NO_ECHO_RUN.len()].copy_from_slice(NO_ECHO_RUN);
+            end += NO_ECHO_RUN.len();
+        }
+    }
+    for &value in fours.remainder() {
+        end = write_hex_u16(out, end, value);
     }
     out.truncate(end);
+}
+
+/// Writes ` {:X}` of `value` at `at` as one 8-byte word (the bytes after
+/// its text are scratch); returns where its text ends.
+#[inline(always)]
+fn write_hex_u16(out: &mut [u8], at: usize, value: u16) -> usize {
+    let digits = (19 - (value | 1).leading_zeros() as usize) / 4;
+    let [high, low] = value.to_be_bytes();
+    let [a, b] = HEX_PAIRS[usize::from(high)];
+    let [c, d] = HEX_PAIRS[usize::from(low)];
+    // The four digits, the leading zeros shifted out, a space in front.
+    let four = u64::from_le_bytes([a, b, c, d, 0, 0, 0, 0]) >> (8 * (4 - digits));
+    let word = (four << 8) | u64::from(b' ');
+    out[at..at + 8].copy_from_slice(&word.to_le_bytes());
+    at + 1 + digits
 }
 
 /// Each byte as two upper-case hex digits.
@@ -1479,6 +1549,25 @@ mod tests {
         }
     }
 
+    /// Millimetres as an LMS1xx sends them (scale 1, offset 0) become the
+    /// ranges the general scaling gives, bit for bit, for every raw value.
+    #[test]
+    fn unscaled_millimetres_convert_as_the_general_scaling_does() {
+        let telegram = ScanTelegram {
+            dist_raw: (0..=u16::MAX).collect(),
+            step_1e4deg: 1,
+            scale_factor: 1.0,
+            scale_offset: 0.0,
+            ..ScanTelegram::default()
+        };
+        let scan = telegram.to_scan(Duration::ZERO);
+        assert!(scan.ranges_m[0].is_nan());
+        for (raw, range_m) in (1..=u16::MAX).zip(&scan.ranges_m[1..]) {
+            let general = ((f64::from(raw) * 1.0 + 0.0) / 1000.0) as f32;
+            assert_eq!(range_m.to_bits(), general.to_bits(), "raw {raw}");
+        }
+    }
+
     #[test]
     fn simulated_telegram_carries_counters_and_frequencies() {
         let scan = Scan {
@@ -1585,6 +1674,47 @@ mod tests {
         (out, f.stats())
     }
 
+    /// Reads `count` tokens of `tokens` (each after its gap of spaces) with
+    /// [`Tokens::hex_run`] and with a plain token-by-token reader: the same
+    /// values or error, and the same tokens left after.
+    fn check_hex_run(tokens: &[String], gaps: &[usize], count: usize, max: u32) -> Result<(), TestCaseError> {
+        let body: String = tokens.iter().zip(gaps).map(|(t, &gap)| " ".repeat(gap) + t).collect();
+        let mut run = Tokens::new(body.as_bytes());
+        let mut got = Vec::new();
+        let got = run.hex_run("data", count, max, Some(&mut got)).map(|()| got);
+        let field = "data";
+        let mut plain = body.split(' ').filter(|t| !t.is_empty());
+        let expected = (0..count)
+            .map(|_| {
+                let token = plain.next().ok_or(ColaError::MissingField { field })?;
+                let hex = token.len() <= 8 && token.bytes().all(|b| b.is_ascii_hexdigit());
+                let bad = || ColaError::BadHex {
+                    field,
+                    token: quote(token.as_bytes()),
+                };
+                let value = if hex {
+                    u32::from_str_radix(token, 16).map_err(|_| bad())?
+                } else {
+                    Err(bad())?
+                };
+                if value > max {
+                    return Err(ColaError::OutOfRange { field, value, max });
+                }
+                Ok(value as u16)
+            })
+            .collect::<Result<Vec<u16>, ColaError>>();
+        prop_assert_eq!(&got, &expected);
+        if got.is_ok() {
+            let rest: Vec<&str> = plain.collect();
+            prop_assert_eq!(run.remaining(), rest.len());
+            prop_assert_eq!(
+                run.next_token().map(|t| t.to_vec()),
+                rest.first().map(|t| t.as_bytes().to_vec())
+            );
+        }
+        Ok(())
+    }
+
     proptest! {
         #[test]
         // Chunks of ≤ 64 bytes hold ≤ 32 telegrams, so nothing overruns.
@@ -1630,6 +1760,23 @@ mod tests {
                 prop_assert_eq!(scan.ranges_m.len(), t.dist_raw.len());
             }
             let _ = parse_telegram(body.as_bytes());
+        }
+
+        /// Each beam's millimetres are what `range_to_mm` makes of it, in
+        /// the order sent (a clockwise scan last beam first), whatever runs
+        /// of no echo lie between.
+        #[test]
+        fn ranges_convert_beam_by_beam(
+            ranges in proptest::collection::vec(prop_oneof![6 => Just(f32::NAN), 1 => -1.0f32..70.0], 0..100),
+            clockwise in any::<bool>(),
+        ) {
+            let mut telegram = ScanTelegram::default();
+            telegram.set_ranges(&ranges, clockwise);
+            let mut plain: Vec<u16> = ranges.iter().map(|&r| range_to_mm(r)).collect();
+            if clockwise {
+                plain.reverse();
+            }
+            prop_assert_eq!(telegram.dist_raw, plain);
         }
 
         #[test]
@@ -1754,9 +1901,9 @@ mod tests {
             prop_assert_eq!(echoes_in_range(&channel, &data), plain);
         }
 
-        /// The word-at-a-time run reader gives what reading the tokens one
-        /// by one does: the same values, or the same error at the same token,
-        /// whatever the spacing and the digits.
+        /// The run reader gives what reading the tokens one by one does: the
+        /// same values, or the same error at the same token, whatever the
+        /// spacing and the digits.
         #[test]
         fn hex_run_matches_reading_token_by_token(
             tokens in proptest::collection::vec(
@@ -1765,30 +1912,23 @@ mod tests {
             count in 0usize..44,
             max in prop_oneof![Just(0xFFu32), Just(0xFFFFu32)],
         ) {
-            let body: String = tokens.iter().zip(&gaps).map(|(t, &gap)| " ".repeat(gap) + t).collect();
-            let mut run = Tokens::new(body.as_bytes());
-            let mut got = Vec::new();
-            let got = run.hex_run("data", count, max, Some(&mut got)).map(|()| got);
-            let field = "data";
-            let mut plain = body.split(' ').filter(|t| !t.is_empty());
-            let expected = (0..count)
-                .map(|_| {
-                    let token = plain.next().ok_or(ColaError::MissingField { field })?;
-                    let hex = token.len() <= 8 && token.bytes().all(|b| b.is_ascii_hexdigit());
-                    let bad = || ColaError::BadHex { field, token: quote(token.as_bytes()) };
-                    let value = if hex { u32::from_str_radix(token, 16).map_err(|_| bad())? } else { Err(bad())? };
-                    if value > max {
-                        return Err(ColaError::OutOfRange { field, value, max });
-                    }
-                    Ok(value as u16)
-                })
-                .collect::<Result<Vec<u16>, ColaError>>();
-            prop_assert_eq!(&got, &expected);
-            if got.is_ok() {
-                let rest: Vec<&str> = plain.collect();
-                prop_assert_eq!(run.remaining(), rest.len());
-                prop_assert_eq!(run.next_token().map(|t| t.to_vec()), rest.first().map(|t| t.as_bytes().to_vec()));
-            }
+            check_hex_run(&tokens, &gaps, count, max)?;
+        }
+
+        /// Runs of no-echo beams (`0`, read four at a time) among tokens that
+        /// start or continue like one (`00`, `0A`, `0G`) and spacing that
+        /// breaks a run: read as token by token.
+        #[test]
+        fn no_echo_runs_read_as_token_by_token(
+            tokens in proptest::collection::vec(
+                prop_oneof![12 => Just("0"), 1 => Just("00"), 1 => Just("0A"), 1 => Just("0G"), 1 => Just("1"), 1 => Just("")],
+                0..40),
+            gaps in proptest::collection::vec(prop_oneof![8 => Just(1usize), 1 => Just(2)], 40),
+            count in 0usize..44,
+            max in prop_oneof![Just(0xFFu32), Just(0xFFFFu32)],
+        ) {
+            let tokens: Vec<String> = tokens.into_iter().map(str::to_owned).collect();
+            check_hex_run(&tokens, &gaps, count, max)?;
         }
 
         /// The word-at-a-time count of token starts is the plain pairwise one.
@@ -1811,7 +1951,8 @@ mod tests {
         fn hex_writer_matches_the_formatter(
             value in any::<u32>(),
             small in 0u32..0x100,
-            beams in proptest::collection::vec(any::<u16>(), 0..40),
+            // Half no echo: runs of four are written as one word.
+            beams in proptest::collection::vec(prop_oneof![any::<u16>(), Just(0u16)], 0..40),
         ) {
             for v in [value, small] {
                 let mut out = Vec::new();
