@@ -285,7 +285,9 @@ fn an_auto_pose_stop_waits_for_the_estimate_and_is_claimed() {
 /// doubt is not driven again: a differential vehicle stops on the point
 /// 1 m away, turns on the spot onto the heading, which stirs the position
 /// estimate up (the bench's seed 103: truth 8.5 mm, estimate 15 mm, σ
-/// 10.5 mm; here, seed 126: truth 9.2 mm, estimate 10.5 mm), and retrying
+/// 10.5 mm; here, seed 125: truth 9.0 mm, estimate 11.0 mm; seed 126,
+/// which this took before a stop was judged where it comes to rest, now
+/// ends in tolerance), and retrying
 /// that "miss" turned it to face a point 15 mm away, crept there and
 /// turned back (16 s more, no nearer). Now it says it did not reach the
 /// goal and why, with no retry and no claim. (Seed 103 here ended in
@@ -294,7 +296,7 @@ fn an_auto_pose_stop_waits_for_the_estimate_and_is_claimed() {
 #[test]
 fn a_miss_within_the_estimates_doubt_is_not_driven_again() {
     let (north, east) = (-std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2);
-    let mut h = guided(ModelKind::Differential, 126);
+    let mut h = guided(ModelKind::Differential, 125);
     h.sim.core_mut().params_mut().set_by_name("MNV_PIVOT", 1.0).unwrap();
     h.sim.core_mut().params_mut().set_by_name("MNV_WP_YAW", 1.0).unwrap();
     let target = gcs::local_pose_target(&h.sim, north, east, 0.0);

@@ -41,6 +41,17 @@ const CLEARLY_SHORT_FACTOR: f64 = 1.6;
 /// by ±10–20 mm/s at a crawl: with a factor of 1 a vehicle already resting
 /// on the point went on being nudged for up to a second.
 const DONE_SPEED_FACTOR: f64 = 3.0;
+/// Once the demand drops to zero the vehicle still rolls for about this
+/// long at its speed (the speed loop's and the drive's lag): a pose goal's
+/// stop is done when where it will come to rest, not where it is, is
+/// within half the tolerance. Judged where it was, an Ackermann creep at
+/// 13 mm/s rolled 4–7 mm on past the point and back again (manoeuvre
+/// bench, walk 1 mm, seed 114 RTL: three re-approaches across the point).
+/// Only a pose goal's: a mission's other stops and their obstacle stops
+/// are judged where the vehicle is (with the rule for every stop, a
+/// randomized obstacle run, seed 3202, came to rest 0.253 m from a
+/// standing person instead of 0.386 m, under the 0.3 m it must keep).
+const COAST_S: f64 = 0.3;
 /// At rest, the estimate keeps averaging fixes; when it then finds the stop
 /// short or past by more than half the tolerance, the vehicle creeps again,
 /// up to this many times.
@@ -136,8 +147,16 @@ pub struct NavConfig {
     /// Most changes between forward and reverse on the way to the goal
     /// (`MNV_DIR_MAX`, counted since [`Navigator::count_directions_afresh`]):
     /// a stop past its point creeps back only while one is left. None: no
-    /// limit.
+    /// limit, and not on the way to a pose goal.
     pub direction_changes_max: Option<usize>,
+}
+
+impl NavConfig {
+    /// On the way to a pose goal (GUIDED, RTL, an AUTO stop with a
+    /// heading): the only legs whose changes of direction are limited.
+    pub fn to_pose_goal(&self) -> bool {
+        self.direction_changes_max.is_some()
+    }
 }
 
 /// A leg to drive: from `from` to `point`.
@@ -935,7 +954,8 @@ impl Navigator {
             if remaining.abs() < APPROACH_ZONE_M {
                 self.approach_s += dt_s;
             }
-            (remaining.abs() <= half_tol
+            let coast_s = if config.to_pose_goal() { COAST_S } else { 0.0 };
+            ((remaining - self.travel_speed_mps * coast_s).abs() <= half_tol
                 && self.travel_speed_mps.abs() <= DONE_SPEED_FACTOR * config.speed.approach_gain_per_s * half_tol)
                 || self.approach_s > APPROACH_TIMEOUT_S
         } else if exit_rest.is_some() {
@@ -1577,6 +1597,50 @@ mod tests {
         panic!("never stopped: {:?}", car.est);
     }
 
+    /// How far short of the end of a 5 m stop leg the stop is judged
+    /// done, for a vehicle that creeps on towards it from `short_m` short
+    /// at `speed_mps` whatever it is told, on the way to a pose goal or
+    /// not.
+    fn done_at_creeping(short_m: f64, speed_mps: f64, to_pose_goal: bool) -> f64 {
+        let cfg = NavConfig {
+            direction_changes_max: to_pose_goal.then_some(3),
+            ..config()
+        };
+        let mut nav = Navigator::default();
+        let mut car = Bicycle::new(5.0 - short_m, 0.0, 0.0);
+        car.est.speed_mps = speed_mps;
+        nav.set_target(Ned::new(0.0, 0.0), NavTarget::stop_at(Ned::new(5.0, 0.0)));
+        let dt = 0.02;
+        while car.est.position.north_m < 5.0 {
+            nav.update(&car.est, &cfg, dt);
+            if nav.settling.is_some() {
+                return 5.0 - car.est.position.north_m;
+            }
+            car.est.position.north_m += speed_mps * dt;
+        }
+        panic!("never judged done");
+    }
+
+    #[test]
+    fn a_creeping_stop_is_done_where_it_will_come_to_rest() {
+        let half_tol = 0.5 * config().stop.position_m;
+        // At 8 mm/s it rolls on 2.4 mm after the demand drops: done that
+        // much before half the tolerance, so it comes to rest within it.
+        let remaining = done_at_creeping(0.06, 0.008, true);
+        assert!(remaining > half_tol + 0.002, "{remaining}");
+        assert!(remaining - 0.008 * COAST_S <= half_tol, "{remaining}");
+        // Barely moving: done on reaching half the tolerance, near enough.
+        let remaining = done_at_creeping(0.008, 0.0005, true);
+        assert!((remaining - half_tol).abs() < 0.0003, "{remaining}");
+    }
+
+    #[test]
+    fn a_stop_of_no_pose_goal_is_done_where_the_vehicle_is() {
+        let half_tol = 0.5 * config().stop.position_m;
+        let remaining = done_at_creeping(0.06, 0.008, false);
+        assert!(remaining <= half_tol && remaining > half_tol - 0.0005, "{remaining}");
+    }
+
     #[test]
     fn a_stop_past_its_point_creeps_back_only_with_a_change_of_direction_left() {
         // 30 mm past: creeping back is the leg's first change of direction.
@@ -1585,8 +1649,10 @@ mod tests {
         assert!(slowest < -DIRECTION_SPEED_MPS, "{slowest}");
         assert_eq!(nav.driven().changes, 1);
         // None left: the stop is reported as it is (the retry's to mend).
+        // (Moved 30 mm on from where the stop was judged done: a few mm
+        // short of the point, where it was still rolling.)
         let (report, nav, slowest, _) = settle_after_a_shift((0.03, 0.0), Some(0));
-        assert!(!report.within_tolerance && report.along_m < -0.025, "{report:?}");
+        assert!(!report.within_tolerance && report.along_m < -0.02, "{report:?}");
         assert!(slowest >= 0.0, "{slowest}");
         assert_eq!(
             nav.driven(),
