@@ -160,7 +160,7 @@ fn serve<S: Session>(rx: &mpsc::Receiver<Message<S>>) {
         wait = pass_all(&mut sessions);
     }
     for (id, mut session) in std::mem::take(&mut sessions) {
-        guarded(id, "close", || session.close());
+        guarded(id, "close", move || session.close());
     }
 }
 
@@ -173,12 +173,13 @@ fn dispatch<S: Session>(sessions: &mut BTreeMap<u64, S>, message: Message<S>) {
             if let Some(session) = sessions.get_mut(&id)
                 && !guarded(id, "job", || session.handle(job))
             {
-                sessions.remove(&id);
+                drop_failed(sessions, id);
             }
         }
         Message::Close(id, ack) => {
             if let Some(mut session) = sessions.remove(&id) {
-                guarded(id, "close", || session.close());
+                // Dropped inside too: a panicking Drop is the session's alone.
+                guarded(id, "close", move || session.close());
             }
             let _ = ack.send(());
         }
@@ -198,9 +199,16 @@ fn pass_all<S: Session>(sessions: &mut BTreeMap<u64, S>) -> Option<Duration> {
         }
     }
     for id in failed {
-        sessions.remove(&id);
+        drop_failed(sessions, id);
     }
     soonest
+}
+
+/// Drops a session that panicked (its own Drop may panic too).
+fn drop_failed<S: Session>(sessions: &mut BTreeMap<u64, S>, id: u64) {
+    if let Some(session) = sessions.remove(&id) {
+        guarded(id, "drop", move || drop(session));
+    }
 }
 
 /// Runs one session call; false (logged) when it panicked.

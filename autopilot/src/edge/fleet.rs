@@ -169,8 +169,9 @@ fn round<F: FleetPlatform>(fleet: &mut F, edges: &mut [Edge], timer: &mut Instan
     for (edge, vehicle) in edges.iter_mut().zip(fleet.vehicles_mut()) {
         edge.gather(vehicle);
     }
-    let mut released_at = edges[0].wall();
-    fleet.before_ticks(released_at);
+    let round_start = edges[0].wall();
+    fleet.before_ticks(round_start);
+    let mut released_at = round_start;
     let mut held_from = 0;
     for index in 0..edges.len() {
         let wall = edges[index].wall();

@@ -164,13 +164,14 @@ impl Outline {
 
     /// Largest distance of a corner from the centre: the `hypot` of the
     /// corners whose squared length is within 1e-9 of the largest only
-    /// (the same value, as in [`least_length`]; every prediction asks it of
-    /// every track's outline).
+    /// (the same value, as in [`least_length`], squares rounded to
+    /// sub-normals included; every prediction asks it of every track's
+    /// outline).
     pub fn radius_m(&self) -> f64 {
         let squared = |v: &(f64, f64)| v.0 * v.0 + v.1 * v.1;
         let vertices = self.vertices();
         let most_sq = vertices.iter().map(squared).fold(0.0, f64::max);
-        let near_sq = most_sq * (1.0 - 1e-9);
+        let near_sq = most_sq * (1.0 - 1e-9) - f64::MIN_POSITIVE;
         vertices
             .iter()
             // A NaN length is kept, as the plain fold would see it.

@@ -578,8 +578,7 @@ impl ObstacleTracker {
         births
     }
 
-    /// Counts the tentative and confirmed tracks and finds the confirmed one
-    /// whose edge is nearest `sensor`.
+    /// Counts the tentative and confirmed tracks.
     fn count_tracks(&self, status: &mut TrackingStatus) {
         status.tentative = self
             .tracks
@@ -590,8 +589,9 @@ impl ObstacleTracker {
     }
 
     /// The confirmed or coasting track whose edge (centre distance minus
-    /// its radius, at least 0) is nearest `sensor`: (id, metres). Asked
-    /// for, not worked out at every update: the core never needs it.
+    /// its radius, at least 0) is nearest `sensor`: (id, metres). Only the
+    /// tests ask for it: the core never needs it.
+    #[cfg(test)]
     pub fn nearest_edge(&self, sensor: Ned) -> Option<(u32, f64)> {
         let mut nearest: Option<(u32, f64)> = None;
         for track in self.tracks.iter().filter(|t| t.status != TrackStatus::Tentative) {
