@@ -476,7 +476,10 @@ fn enclosing_circle(points: &[[f64; 2]]) -> ([f64; 2], f64) {
         points.iter().map(|p| p[0]).sum::<f64>() / n,
         points.iter().map(|p| p[1]).sum::<f64>() / n,
     ];
-    let radius_m = points.iter().map(|&p| distance(p, center)).fold(0.0, f64::max);
+    // One square root for the farthest point, not a hypot per point: a
+    // scanner asks this of every obstacle in every scan.
+    let squared_m2 = |p: &[f64; 2]| (p[0] - center[0]).powi(2) + (p[1] - center[1]).powi(2);
+    let radius_m = points.iter().map(squared_m2).fold(0.0, f64::max).sqrt();
     (center, radius_m)
 }
 

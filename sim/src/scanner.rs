@@ -275,8 +275,9 @@ pub fn render_scan_into(
 
 /// The true range of each beam to the nearest obstacle (left infinite where
 /// none is in reach). Obstacles whose bounding circle is out of range or
-/// outside the field of view are skipped whole; of the rest, only the beams
-/// between a part's extreme bearings are cast.
+/// outside the field of view are skipped whole, and so are those hidden
+/// behind what the beams toward them already met; of the rest, only the
+/// beams between a part's extreme bearings are cast.
 fn cast_beams(
     config: &SimScannerConfig,
     obstacles: &ObstacleWorld,
@@ -299,18 +300,22 @@ fn cast_beams(
         if center_m - radius_m > max_range_m {
             return;
         }
+        // No hit on the shape is nearer than its bounding circle: a beam
+        // that already met something nearer keeps its range.
+        let nearest_m = center_m - radius_m - OCCLUSION_SLACK_M;
         if center_m > radius_m {
-            // Wholly outside the field of view: no beam can reach it.
             let half_rad = (radius_m / center_m).asin();
             let mid_rad = relative_rad(center);
-            if beam_windows(mid_rad - half_rad - 1e-9, mid_rad + half_rad + 1e-9, step_rad, beams)
-                .next()
-                .is_none()
-            {
+            let mut windows = beam_windows(mid_rad - half_rad - 1e-9, mid_rad + half_rad + 1e-9, step_rad, beams);
+            // Wholly outside the field of view, or wholly hidden: no beam
+            // can reach it, or none would keep what it reads.
+            if windows.all(|(from, to)| true_range_m[from..to].iter().all(|&range_m| range_m <= nearest_m)) {
                 return;
             }
         }
-        if outline.contains(origin) {
+        // Only a scanner within the bounding circle can be inside (the
+        // slack covers a scanner on a corner, the circle's own rounding).
+        if center_m <= radius_m + OCCLUSION_SLACK_M && outline.contains(origin) {
             // Inside an obstacle every beam is blocked at once.
             true_range_m.fill(0.0);
             return;
@@ -318,20 +323,17 @@ fn cast_beams(
         // Only the beams between a part's extreme bearings can hit it: a
         // person 5 m away spans a handful of the 541 beams, a wall's face
         // only the beams that reach it.
-        let mut cast = |lo_rad: f64, hi_rad: f64, hit: &dyn Fn([f64; 2]) -> Option<f64>| {
-            for (from, to) in beam_windows(lo_rad - 1e-9, hi_rad + 1e-9, step_rad, beams) {
-                for (range_m, dir) in true_range_m[from..to].iter_mut().zip(directions.get(from, to)) {
-                    if let Some(hit_m) = hit(*dir) {
-                        *range_m = range_m.min(hit_m);
-                    }
-                }
-            }
+        let mut part = Part {
+            true_range_m: &mut *true_range_m,
+            directions: &mut *directions,
+            step_rad,
+            nearest_m,
         };
         match outline.facing(origin) {
             FacingOutline::Circle { center, radius_m } => {
                 let half_rad = (radius_m / distance(center, origin)).asin();
                 let mid_rad = relative_rad(center);
-                cast(mid_rad - half_rad, mid_rad + half_rad, &|dir| {
+                part.cast(mid_rad - half_rad, mid_rad + half_rad, |dir| {
                     ray_circle_m(origin, dir, center, radius_m)
                 });
             }
@@ -343,13 +345,56 @@ fn cast_beams(
                     // The edge subtends less than π (the origin is off its line).
                     let from_rad = relative_rad(a);
                     let span_rad = wrap_pi(relative_rad(b) - from_rad);
-                    cast(from_rad + span_rad.min(0.0), from_rad + span_rad.max(0.0), &|dir| {
+                    part.cast(from_rad + span_rad.min(0.0), from_rad + span_rad.max(0.0), |dir| {
                         ray_segment_m(origin, dir, a, b)
                     });
                 }
             }
         }
     });
+}
+
+/// How far (m) a hit, or the outline itself, may fall outside its shape's
+/// bounding circle by the rounding of the circle, the ray and the unit
+/// directions (~1e-14 m at the scanner's ranges): a beam is passed over
+/// only if what it already met is nearer than the circle by this much.
+const OCCLUSION_SLACK_M: f64 = 1e-6;
+
+/// One part of an obstacle (a circle or a facing edge) being cast.
+struct Part<'a> {
+    true_range_m: &'a mut [f64],
+    directions: &'a mut BeamDirections,
+    step_rad: f64,
+    /// Nothing of the obstacle is nearer than this (m).
+    nearest_m: f64,
+}
+
+impl Part<'_> {
+    /// Casts the beams between `lo_rad` and `hi_rad` (from the first beam)
+    /// at the part, keeping each beam's nearer range. A beam that already
+    /// met something nearer than the obstacle is passed over: its range
+    /// could not change.
+    fn cast(&mut self, lo_rad: f64, hi_rad: f64, hit: impl Fn([f64; 2]) -> Option<f64>) {
+        let beams = self.true_range_m.len();
+        for (from, to) in beam_windows(lo_rad - 1e-9, hi_rad + 1e-9, self.step_rad, beams) {
+            // Directions are worked out only as far as beams are open.
+            let open = |range_m: &f64| *range_m > self.nearest_m;
+            let Some(first) = self.true_range_m[from..to].iter().position(open) else {
+                continue;
+            };
+            let last = self.true_range_m[from..to].iter().rposition(open).unwrap_or(first);
+            let (from, to) = (from + first, from + last + 1);
+            let ranges_m = &mut self.true_range_m[from..to];
+            for (range_m, dir) in ranges_m.iter_mut().zip(self.directions.get(from, to)) {
+                if *range_m <= self.nearest_m {
+                    continue;
+                }
+                if let Some(hit_m) = hit(*dir) {
+                    *range_m = range_m.min(hit_m);
+                }
+            }
+        }
+    }
 }
 
 /// Beams per block of [`BeamDirections`]: one sin_cos, then rotations (the
@@ -606,22 +651,8 @@ mod tests {
                 ..VehicleTruth::default()
             };
             let t = Duration::from_millis(1_700 * k as u64);
-            let scan = render_scan(&config, &world, &truth, t, 0, 1);
-            assert_eq!(scan.ranges_m.len(), 541);
-            let (origin, forward_rad) = config.scanner_pose(&truth);
-            let mut hits = 0;
-            for (beam, &range_m) in scan.ranges_m.iter().enumerate() {
-                let bearing = forward_rad + scan.angle_rad(beam);
-                let expected = world.raycast(origin, bearing, config.max_range_m, t.as_secs_f64());
-                match expected {
-                    Some(e) => {
-                        hits += 1;
-                        assert!((f64::from(range_m) - e).abs() < 1e-5, "{yaw_deg} beam {beam}")
-                    }
-                    None => assert!(range_m.is_nan(), "{yaw_deg} beam {beam}: {range_m}"),
-                }
-            }
-            assert!(hits > 100, "{hits}");
+            let hits = assert_every_beam_as_cast_alone(&config, &world, &truth, t);
+            assert!(hits > 100, "{yaw_deg}: {hits}");
         }
         // Inside an obstacle every beam reads 0.
         let crate_around = ObstacleWorld::new(
@@ -642,6 +673,89 @@ mod tests {
             1,
         );
         assert!(scan.ranges_m.iter().all(|&r| r == 0.0));
+    }
+
+    /// Checks each beam of a scan against a ray cast at every obstacle
+    /// alone; returns the beams with an echo.
+    fn assert_every_beam_as_cast_alone(
+        config: &SimScannerConfig,
+        world: &ObstacleWorld,
+        truth: &VehicleTruth,
+        t: Duration,
+    ) -> usize {
+        let scan = render_scan(config, world, truth, t, 0, 1);
+        assert_eq!(scan.ranges_m.len(), config.beam_count());
+        let (origin, forward_rad) = config.scanner_pose(truth);
+        let mut hits = 0;
+        for (beam, &range_m) in scan.ranges_m.iter().enumerate() {
+            let bearing = forward_rad + scan.angle_rad(beam);
+            match world.raycast(origin, bearing, config.max_range_m, t.as_secs_f64()) {
+                Some(expected_m) => {
+                    hits += 1;
+                    assert!((f64::from(range_m) - expected_m).abs() < 1e-5, "beam {beam}")
+                }
+                None => assert!(range_m.is_nan(), "beam {beam}: {range_m}"),
+            }
+        }
+        hits
+    }
+
+    /// A fleet side by side: the nearest vehicles hide most of the farther
+    /// ones, which are passed over where hidden, in either order; and what
+    /// is met first but stands behind is not taken for what hides.
+    #[test]
+    fn vehicles_hidden_behind_others_read_as_casting_every_beam() {
+        let outline = super::super::obstacles::VehicleOutline::default();
+        // Staggered, a hand's breadth apart: the farther ones peek out.
+        let row: Vec<Shape> = (-6..=6)
+            .filter(|&k| k != 0)
+            .map(|k| {
+                let k = f64::from(k);
+                outline
+                    .rectangle(0.9 * k, 2.15 * k + 1.2f64.copysign(k), 0.05 * k)
+                    .to_shape()
+            })
+            .collect();
+        for (nearest_first, yaw_deg) in [(true, 0.0), (false, 0.0), (true, 180.0), (false, 33.0)] {
+            let mut vehicles = row.clone();
+            let from_own = |shape: &Shape| shape.bounding_circle().0[1].abs();
+            vehicles.sort_by(|a, b| from_own(a).total_cmp(&from_own(b)));
+            if !nearest_first {
+                vehicles.reverse();
+            }
+            // A person a tenth of a millimetre in front of a crate's face,
+            // met after it: the crate's ranges there are beyond the
+            // person's bounding circle by less than that.
+            let statics = vec![
+                Shape::Box {
+                    center: [9.0, 0.0],
+                    length_m: 2.0,
+                    width_m: 2.0,
+                    yaw_rad: 0.0,
+                },
+                Shape::Circle {
+                    center: [8.0 + 0.25 - 1e-4, 0.0],
+                    radius_m: 0.25,
+                },
+            ];
+            let world = ObstacleWorld {
+                statics,
+                vehicles,
+                ..ObstacleWorld::default()
+            };
+            let truth = VehicleTruth {
+                yaw_rad: f64::to_radians(yaw_deg),
+                ..VehicleTruth::default()
+            };
+            for mount_yaw_rad in [0.0, PI] {
+                let config = SimScannerConfig {
+                    mount_yaw_rad,
+                    ..noiseless()
+                };
+                let hits = assert_every_beam_as_cast_alone(&config, &world, &truth, Duration::ZERO);
+                assert!(hits > 100, "{yaw_deg}: {hits}");
+            }
+        }
     }
 
     #[test]

@@ -10,7 +10,7 @@ use super::geo::LocalFrame;
 use super::gnss_sim::GnssSim;
 use super::imu_sim::{ImuSim, ImuSimConfig};
 use super::magnetic::MagneticTape;
-use super::obstacles::{ObstacleWorld, Rectangle, VehicleOutline};
+use super::obstacles::{ObstacleWorld, Rectangle, Shape, VehicleOutline};
 use super::scanner::{SimScanner, SimScannerConfig, scanner_seed};
 use super::vehicle::{self, VehicleTruth, wrap_pi};
 use super::{ActuatorDemand, BatterySample, GeoPoint, GnssSimConfig, MagneticSensorConfig, VehicleModel, WorldConfig};
@@ -341,10 +341,18 @@ impl World {
     /// The outlines of the other vehicles sharing this world, where they
     /// are now: the scanners see them and [`Self::clearance_m`] counts them.
     /// Their buffer is reused, so moving them every step allocates nothing.
+    /// They are kept nearest first: a scanner then meets the near ones
+    /// first and passes over what they hide.
     pub fn set_other_vehicles(&mut self, outlines: impl Iterator<Item = Rectangle>) {
+        let own = [self.truth.north_m, self.truth.east_m];
         let vehicles = &mut self.obstacles.get_or_insert_default().vehicles;
         vehicles.clear();
         vehicles.extend(outlines.map(|r| r.to_shape()));
+        let squared_distance_m2 = |shape: &Shape| match shape {
+            Shape::Box { center, .. } => (center[0] - own[0]).powi(2) + (center[1] - own[1]).powi(2),
+            _ => f64::INFINITY,
+        };
+        vehicles.sort_unstable_by(|a, b| squared_distance_m2(a).total_cmp(&squared_distance_m2(b)));
     }
 
     /// Puts the vehicle at (`north_m`, `east_m`) about home, heading
