@@ -34,3 +34,21 @@ fn a_vehicle_settling_on_its_last_stop_is_not_held_for_someone_beyond_it() {
 fn a_vehicle_crawling_onto_its_last_stop_is_not_held_by_a_cruise_speed_resume() {
     completes_without_a_stall(448);
 }
+
+/// Seed 1943: the mission's last stop missed by 7.5 mm (out of its 5 mm),
+/// the retry planned was 8 m forwards and back, the first of two ways of
+/// one length; forwards it passes 0.2 m from a person standing 0.7 m
+/// ahead of the bumper, and the vehicle stopped for them at the start and
+/// waited (stall). The way back first, which meets nobody, is taken now.
+#[test]
+fn a_retry_onto_a_missed_stop_takes_the_way_nobody_stands_on() {
+    completes_without_a_stall(1943);
+}
+
+/// Seed 563: a 1.55 m miss of the last stop after a corner too sharp to
+/// round; the retry's first stroke ran straight through a person standing
+/// 4.7 m ahead, who held it there. Another way onto the stop is free.
+#[test]
+fn a_retry_after_a_wide_miss_goes_round_someone_standing_on_its_first_stroke() {
+    completes_without_a_stall(563);
+}

@@ -254,6 +254,19 @@ pub fn candidates(start: &Pose, goal: &Pose, config: &ManoeuvreConfig) -> Vec<Ma
 /// The cheapest manoeuvre to `goal` (with heading `yaw_rad`, or any) that
 /// fits the limits.
 pub fn plan(start: &Pose, goal: Ned, yaw_rad: Option<f64>, config: &ManoeuvreConfig) -> Result<Manoeuvre, Refusal> {
+    plan_preferring(start, goal, yaw_rad, config, |_| true)
+}
+
+/// [`plan`], with the cheapest manoeuvre `preferred` accepts among those
+/// that fit the limits, if any does (asked in order of cost, until one
+/// does); else the cheapest that fits, as [`plan`].
+pub fn plan_preferring(
+    start: &Pose,
+    goal: Ned,
+    yaw_rad: Option<f64>,
+    config: &ManoeuvreConfig,
+    preferred: impl Fn(&Manoeuvre) -> bool,
+) -> Result<Manoeuvre, Refusal> {
     let finite = [
         start.position.north_m,
         start.position.east_m,
@@ -287,12 +300,16 @@ pub fn plan(start: &Pose, goal: Ned, yaw_rad: Option<f64>, config: &ManoeuvreCon
     let changes = |m: &Manoeuvre| m.direction_changes_after(config.arriving);
     let fitting_changes = all.iter().filter(|m| changes(m) <= config.max_direction_changes);
     let cost = |m: &Manoeuvre| m.cost_m(start.yaw_rad, config.arriving);
-    let best = fitting_changes
+    let mut fitting: Vec<(f64, &Manoeuvre)> = fitting_changes
         .clone()
         .filter(|m| m.length_m() <= config.max_length_m)
-        .min_by(|a, b| cost(a).total_cmp(&cost(b)));
-    if let Some(best) = best {
-        return Ok(best.clone());
+        .map(|m| (cost(m), m))
+        .collect();
+    // Stable: of equal costs the first candidate, as `min_by` took it.
+    fitting.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let best = fitting.iter().find(|(_, m)| preferred(m)).or(fitting.first());
+    if let Some((_, best)) = best {
+        return Ok((*best).clone());
     }
     match fitting_changes.map(Manoeuvre::length_m).min_by(f64::total_cmp) {
         Some(shortest_m) => Err(Refusal::TooLong { shortest_m }),
@@ -370,6 +387,30 @@ mod tests {
         assert_eq!(m.strokes.len(), 1, "{m:?}");
         assert_eq!(m.strokes[0].direction, Direction::Reverse);
         assert!((m.length_m() - 4.0).abs() < 1e-9);
+    }
+
+    /// A centimetre beside the goal the vehicle may go out forwards and
+    /// back, or back and forwards: a preference for the first stroke the
+    /// cheapest plan does not take gets a plan that takes it, and a
+    /// preference nothing meets leaves the plan as it was.
+    #[test]
+    fn a_preferred_manoeuvre_is_the_cheapest_the_preference_accepts() {
+        let goal = Ned::new(0.0, 0.01);
+        let cheapest = plan(&start(), goal, Some(0.0), &config()).unwrap();
+        let first_way = cheapest.strokes[0].direction;
+        let other_way = if first_way == Direction::Forward {
+            Direction::Reverse
+        } else {
+            Direction::Forward
+        };
+        let other = plan_preferring(&start(), goal, Some(0.0), &config(), |m| {
+            m.strokes[0].direction == other_way
+        })
+        .unwrap();
+        check_shape(&other, &start(), &config()).unwrap();
+        assert_eq!(other.strokes[0].direction, other_way, "{other:?}");
+        let none = plan_preferring(&start(), goal, Some(0.0), &config(), |_| false).unwrap();
+        assert_eq!(none, cheapest);
     }
 
     #[test]

@@ -13,8 +13,10 @@ use mavlink::dialects::ardupilotmega::{MavDistanceSensor, MavFrame, MavSeverity,
 use super::{Core, ScanInput};
 use crate::estimation::Estimate;
 use crate::geo::{Ned, wrap_pi};
+use crate::guidance::manoeuvre::Manoeuvre;
 use crate::guidance::navigator::NavTarget;
 use crate::guidance::path::LegPath;
+use crate::guidance::reeds_shepp::Stroke;
 use crate::guidance::rejoin::{RejoinSpeed, max_curvature};
 use crate::guidance::tracker::{Direction, VehiclePose};
 use crate::modes::Mode;
@@ -1085,6 +1087,57 @@ impl Core {
         }
     }
 
+    /// Whether the outline driven along `manoeuvre`'s strokes (planned
+    /// with turning radius `radius_m`) keeps `OA_MARGIN` from all that
+    /// stands: tracks that do not move, standing people remembered out of
+    /// view, returns of structure. A retry from rest has two ways of one
+    /// length (out forwards and back, or back and forwards), and the one
+    /// the planner came to first could run into someone standing beside
+    /// the goal, who held it there (bench seeds 563, 1943). True with
+    /// avoidance off.
+    pub(super) fn manoeuvre_clear(&self, manoeuvre: &Manoeuvre, radius_m: f64) -> bool {
+        if !self.obstacles_enabled() {
+            return true;
+        }
+        let footprint = self.footprint();
+        let margin_m = f64::from(self.p.obstacles.avoidance.margin_m.get(&self.params));
+        let curvature_max = if radius_m > 0.0 { 1.0 / radius_m } else { 0.0 };
+        let mut swept = SweptPath::default();
+        manoeuvre.strokes.iter().all(|stroke| {
+            let ds_m = SweptPath::pose_spacing_m(&footprint, curvature_max, stroke.length_m());
+            swept.build_from_poses(stroke_poses(stroke, ds_m), ds_m, curvature_max, &footprint);
+            !self.standing_on(&swept, margin_m)
+        })
+    }
+
+    /// Whether anything standing comes within `margin_m` of `swept`.
+    fn standing_on(&self, swept: &SweptPath, margin_m: f64) -> bool {
+        let obs = &self.obstacles;
+        // Driven to its end: a standing shape is met, if at all, by then.
+        let meets = |shape: &Shape| {
+            swept
+                .first_contact(shape, (0.0, 0.0), 1.0, margin_m, f64::INFINITY)
+                .is_some()
+        };
+        let track = obs
+            .tracker
+            .tracks()
+            .iter()
+            .filter(|t| t.status != TrackStatus::Tentative && !moving(t))
+            .any(|t| meets(&track_shape(t, false)));
+        let hidden = obs.hidden.iter().filter(|h| h.standing).any(|h| {
+            meets(&Shape::Disc {
+                centre: h.position,
+                radius_m: h.radius_m,
+            })
+        });
+        let structure = obs.views.iter().any(|v| {
+            (v.local_points.iter().zip(&v.structure))
+                .any(|(p, is_structure)| *is_structure && swept.point_entry_m(*p, margin_m, f64::INFINITY).is_some())
+        });
+        track || hidden || structure
+    }
+
     /// The deliberate resume after an obstacle stop held for the GCS
     /// (MAV_CMD_DO_PAUSE_CONTINUE with param1 = 1).
     pub(super) fn obstacle_continue(&mut self) -> bool {
@@ -1512,6 +1565,37 @@ impl ViewChange {
 /// is the width across their motion or their depth, the larger for a
 /// person); anything else keeps the outline fitted to its returns (faces,
 /// not a disc of half its extent).
+/// Poses every `ds_m` along a stroke's pieces, its end included: the
+/// reference point on the path, the body along the travel (turned round
+/// in reverse).
+fn stroke_poses(stroke: &Stroke, ds_m: f64) -> impl Iterator<Item = Pose> + '_ {
+    let length_m = stroke.length_m();
+    let flip = if stroke.direction == Direction::Reverse {
+        std::f64::consts::PI
+    } else {
+        0.0
+    };
+    let count = if ds_m > 0.0 && length_m.is_finite() {
+        (length_m / ds_m).ceil() as usize
+    } else {
+        0
+    };
+    (0..=count).filter_map(move |i| {
+        let mut along_m = (i as f64 * ds_m).min(length_m);
+        let last = stroke.pieces.len().checked_sub(1)?;
+        for (k, piece) in stroke.pieces.iter().enumerate() {
+            if along_m <= piece.length_m() || k == last {
+                return Some(Pose {
+                    position: piece.point_at(along_m),
+                    yaw_rad: wrap_pi(piece.heading_at(along_m) + flip),
+                });
+            }
+            along_m -= piece.length_m();
+        }
+        None
+    })
+}
+
 /// Marks the returns of structure clusters (cleared by the caller, one
 /// flag per return the clusters were grouped from).
 fn mark_structure(clusters: &[Cluster], structure: &mut [bool]) {

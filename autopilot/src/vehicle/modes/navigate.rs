@@ -4,7 +4,7 @@
 
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
-use crate::guidance::manoeuvre::plan;
+use crate::guidance::manoeuvre::plan_preferring;
 use crate::guidance::navigator::StopReport;
 use crate::guidance::reeds_shepp::Pose;
 use crate::modes::Mode;
@@ -77,12 +77,11 @@ impl Core {
             yaw_rad: estimate.yaw_rad,
         };
         let goal = report.goal;
-        match plan(
-            &start,
-            goal.position,
-            Some(goal.yaw_rad),
-            &self.manoeuvre_config_on_the_way(),
-        ) {
+        let config = self.manoeuvre_config_on_the_way();
+        // Of the ways onto the stop, one that meets nothing standing.
+        match plan_preferring(&start, goal.position, Some(goal.yaw_rad), &config, |m| {
+            self.manoeuvre_clear(m, config.radius_m)
+        }) {
             Ok(manoeuvre) => {
                 self.send_text(
                     MavSeverity::MAV_SEVERITY_WARNING,
