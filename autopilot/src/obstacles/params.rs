@@ -144,7 +144,7 @@ declare_params! {
         },
         velocity_gate_mps: f32 = "OA_TRK_VEL_SD" => {
             default: 0.5, range: 0.01, 10.0, unit: "m/s",
-            desc: "A track's velocity is used for collision prediction once its 1-sigma is below this (before: taken as standing)",
+            desc: "A track's velocity is used for collision prediction once its 1-sigma is below this, or after 1 s tracked, seen in the latest scan and 10 since it last coasted, while its speed is over twice that sigma (before: taken as standing)",
         },
         range_sigma_m: f32 = "OA_TRK_RNG_SD" => {
             default: 0.02, range: 0.001, 1.0, unit: "m",
