@@ -1588,11 +1588,6 @@ impl ViewChange {
     }
 }
 
-/// A track's shape for collision prediction: a walking object is a disc of
-/// its radius (half the width the scanner sees, which for someone walking
-/// is the width across their motion or their depth, the larger for a
-/// person); anything else keeps the outline fitted to its returns (faces,
-/// not a disc of half its extent).
 /// Poses every `ds_m` along a stroke's pieces, its end included: the
 /// reference point on the path, the body along the travel (turned round
 /// in reverse).
@@ -1635,6 +1630,11 @@ fn mark_structure(clusters: &[Cluster], structure: &mut [bool]) {
     }
 }
 
+/// A track's shape for collision prediction: a walking object is a disc of
+/// its radius (half the width the scanner sees, which for someone walking
+/// is the width across their motion or their depth, the larger for a
+/// person); anything else keeps the outline fitted to its returns (faces,
+/// not a disc of half its extent).
 fn track_shape(track: &Track, walking: bool) -> Shape<'_> {
     match &track.outline {
         Some(outline) if !walking => Shape::Polygon {
