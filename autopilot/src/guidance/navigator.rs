@@ -1439,6 +1439,20 @@ mod tests {
         drive_manoeuvre_with(car, goal, yaw_deg, false).0
     }
 
+    /// The manoeuvre limits these tests plan with, with or without turns on
+    /// the spot.
+    fn test_manoeuvre_config(pivots: bool) -> crate::guidance::manoeuvre::ManoeuvreConfig {
+        crate::guidance::manoeuvre::ManoeuvreConfig {
+            radius_m: 6.0,
+            // This test's tracker gains settle slower than the defaults.
+            approach_m: 12.0,
+            max_length_m: 60.0,
+            max_direction_changes: 3,
+            pivots,
+            arriving: None,
+        }
+    }
+
     /// As [`drive_manoeuvre`], planned with or without turns on the spot;
     /// also the manoeuvre driven.
     fn drive_manoeuvre_with(
@@ -1447,21 +1461,13 @@ mod tests {
         yaw_deg: Option<f64>,
         pivots: bool,
     ) -> ((StopReport, usize), Manoeuvre) {
-        use crate::guidance::manoeuvre::{ManoeuvreConfig, plan};
+        use crate::guidance::manoeuvre::plan;
         let cfg = config();
         let start = Pose {
             position: car.est.position,
             yaw_rad: car.est.yaw_rad,
         };
-        let mc = ManoeuvreConfig {
-            radius_m: 6.0,
-            // This test's tracker gains settle slower than the defaults.
-            approach_m: 12.0,
-            max_length_m: 60.0,
-            max_direction_changes: 3,
-            pivots,
-            arriving: None,
-        };
+        let mc = test_manoeuvre_config(pivots);
         let m = plan(&start, goal, yaw_deg.map(f64::to_radians), &mc).expect("a manoeuvre");
         let mut nav = Navigator::default();
         nav.set_manoeuvre(m.clone(), None, Some(7));
@@ -1540,7 +1546,7 @@ mod tests {
     /// 0.78° past its heading with the turn rate alone.
     #[test]
     fn a_turn_on_the_spot_does_not_swing_past_its_heading() {
-        use crate::guidance::manoeuvre::{ManoeuvreConfig, plan};
+        use crate::guidance::manoeuvre::plan;
         let cfg = config();
         for yaw_deg in [90.0, -135.0, 20.0, 1.0] {
             let mut car = Bicycle::new(0.0, 0.0, 0.0);
@@ -1548,14 +1554,7 @@ mod tests {
                 position: car.est.position,
                 yaw_rad: 0.0,
             };
-            let mc = ManoeuvreConfig {
-                radius_m: 6.0,
-                approach_m: 12.0,
-                max_length_m: 60.0,
-                max_direction_changes: 3,
-                pivots: true,
-                arriving: None,
-            };
+            let mc = test_manoeuvre_config(true);
             let goal_yaw = f64::to_radians(yaw_deg);
             let m = plan(&start, Ned::new(0.0, 0.0), Some(goal_yaw), &mc).expect("a turn");
             assert!(m.strokes.is_empty(), "{m:?}");
@@ -1581,21 +1580,14 @@ mod tests {
     /// rested before it, is reported at once: with no turn in it.
     #[test]
     fn a_final_turn_not_needed_is_reported_at_once() {
-        use crate::guidance::manoeuvre::{ManoeuvreConfig, plan};
+        use crate::guidance::manoeuvre::plan;
         let cfg = config();
         let mut car = Bicycle::new(0.0, 0.0, 0.01);
         let start = Pose {
             position: car.est.position,
             yaw_rad: car.est.yaw_rad,
         };
-        let mc = ManoeuvreConfig {
-            radius_m: 6.0,
-            approach_m: 12.0,
-            max_length_m: 60.0,
-            max_direction_changes: 3,
-            pivots: true,
-            arriving: None,
-        };
+        let mc = test_manoeuvre_config(true);
         let m = plan(&start, Ned::new(0.0, 0.0), Some(0.0), &mc).expect("a turn");
         let mut nav = Navigator::default();
         nav.set_manoeuvre(m, None, Some(7));
